@@ -1,0 +1,109 @@
+"""In-memory scene model: what the loader (`scene.py`) produces and the tracer (`tracer.py`) consumes.
+
+All geometry is in world space, float64 numpy arrays of shape (3,). Boxes are expanded by the loader
+into six quads with outward normals, so the tracer only knows spheres and quads.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+MATERIAL_KINDS = ("diffuse", "glossy", "mirror", "dielectric", "glossy_dielectric", "emitter")
+SHAPE_KINDS = ("sphere", "quad")
+INTEGRATORS = ("whitted", "drt", "path")
+
+
+@dataclass
+class Camera:
+    position: np.ndarray
+    look_at: np.ndarray
+    up: np.ndarray
+    vfov_deg: float                     # full vertical field of view
+    aperture_radius: float = 0.0        # 0 -> pinhole
+    focus_distance: float = 1.0         # distance along the view axis of the plane in focus
+    shutter: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def has_lens(self) -> bool:
+        return self.aperture_radius > 0.0
+
+
+@dataclass
+class Material:
+    name: str
+    kind: str                                   # one of MATERIAL_KINDS
+    albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
+    albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy only)
+    checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters
+    exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric)
+    ior: float = 1.5                            # dielectric, glossy_dielectric (outside is vacuum)
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))  # emitted radiance
+
+    @property
+    def emissive(self) -> bool:
+        return bool(np.any(self.emission > 0.0))
+
+
+@dataclass
+class Shape:
+    kind: str                                   # "sphere" | "quad"
+    material: int                               # index into Scene.materials
+    name: str = ""
+    center: np.ndarray | None = None            # sphere
+    radius: float = 0.0                         # sphere
+    origin: np.ndarray | None = None            # quad: corner
+    edge_u: np.ndarray | None = None            # quad: first edge; normal = normalize(edge_u x edge_v)
+    edge_v: np.ndarray | None = None            # quad: second edge
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))  # world units per unit time
+
+    def area(self) -> float:
+        if self.kind == "sphere":
+            return 4.0 * np.pi * self.radius ** 2
+        return float(np.linalg.norm(np.cross(self.edge_u, self.edge_v)))
+
+
+@dataclass
+class PointLight:
+    position: np.ndarray
+    intensity: np.ndarray                       # W/sr per channel
+
+
+@dataclass
+class DirectionalLight:
+    direction: np.ndarray                       # unit vector the light travels along
+    irradiance: np.ndarray                      # on a surface facing the light
+
+
+@dataclass
+class Scene:
+    name: str
+    description: str
+    width: int
+    height: int
+    spp: int
+    integrator: str                             # default integrator, one of INTEGRATORS
+    max_depth: int                              # Mitsuba 3 convention: 1 = emitters seen directly only
+    rr_depth: int                               # Russian roulette starts at this depth (path only)
+    russian_roulette: bool
+    background: np.ndarray                      # radiance of escaping rays
+    camera: Camera
+    materials: list[Material]
+    shapes: list[Shape]
+    point_lights: list[PointLight] = field(default_factory=list)
+    directional_lights: list[DirectionalLight] = field(default_factory=list)
+    source: str = ""                            # built-in name or file path
+    text: str = ""                              # the TOML text the scene came from
+
+    def content_hash(self) -> str:
+        """Hash of what determines the image (the TOML text); overrides are hashed by the caller."""
+        return hashlib.sha256(self.text.encode()).hexdigest()[:16]
+
+    @property
+    def has_motion(self) -> bool:
+        return self.camera.shutter[1] > self.camera.shutter[0] and any(
+            np.any(s.velocity != 0.0) for s in self.shapes)
+
+    def emitter_shapes(self) -> list[int]:
+        return [i for i, s in enumerate(self.shapes) if self.materials[s.material].emissive]
