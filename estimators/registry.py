@@ -1,0 +1,65 @@
+"""Registry of point sets, strategies and presets; `parse_sampler` accepts a preset or POINTS+STRATEGY.
+
+Adding a point set: one file in `pointsets/` defining POINTSET, and one entry in `_POINTSET_MODULES`.
+"""
+from dataclasses import dataclass
+
+from drtlab.estimators.integrators import INTEGRATORS, Integrator
+from drtlab.estimators.pointsets import independent, stratified
+from drtlab.estimators.pointsets.base import PointSet
+from drtlab.estimators.strategies import STRATEGIES, Strategy
+from drtlab.kernels.errors import InputError
+
+_POINTSET_MODULES = (independent, stratified)
+POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
+
+# preset name -> (point set, strategy)
+PRESETS: dict[str, tuple[str, str]] = {
+    "uniform": ("independent", "uniform"),
+    "stratified": ("stratified", "uniform"),
+    "importance": ("independent", "importance"),
+}
+
+
+@dataclass(frozen=True)
+class SamplerSpec:
+    pointset: PointSet
+    strategy: Strategy
+
+    @property
+    def name(self) -> str:
+        """Canonical name: the preset name when one matches, else POINTS+STRATEGY."""
+        for preset, pair in PRESETS.items():
+            if pair == (self.pointset.name, self.strategy.name):
+                return preset
+        return f"{self.pointset.name}+{self.strategy.name}"
+
+
+def _allowed() -> str:
+    return (f"a preset ({', '.join(PRESETS)}) or POINTS+STRATEGY with POINTS in "
+            f"{{{', '.join(POINTSETS)}}} and STRATEGY in {{{', '.join(STRATEGIES)}}}")
+
+
+def parse_sampler(name: str, field: str = "sampler") -> SamplerSpec:
+    if not isinstance(name, str):
+        raise InputError(field, f"must be a string: {_allowed()}, got {name!r}")
+    if name in PRESETS:
+        points, strategy = PRESETS[name]
+    elif name.count("+") == 1:
+        points, strategy = name.split("+")
+    else:
+        raise InputError(field, f"unknown sampler '{name}'; expected {_allowed()}")
+    if points not in POINTSETS or strategy not in STRATEGIES:
+        raise InputError(field, f"unknown sampler '{name}'; expected {_allowed()}")
+    return SamplerSpec(POINTSETS[points], STRATEGIES[strategy])
+
+
+def parse_integrator(name: str, field: str = "integrator") -> Integrator:
+    if name not in INTEGRATORS:
+        raise InputError(field, f"unknown integrator '{name}'; allowed: {', '.join(INTEGRATORS)}")
+    return INTEGRATORS[name]
+
+
+def all_sampler_names() -> list[str]:
+    """Every point set x strategy combination, canonical names (presets where they apply)."""
+    return [SamplerSpec(p, s).name for p in POINTSETS.values() for s in STRATEGIES.values()]
