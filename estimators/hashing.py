@@ -55,8 +55,8 @@ def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
     # bijection of [0, n); fewer than two rounds are needed on average.
     x = i
     k2 = mix32(key)
-    done = False
-    while not done:
+    done = int(0)
+    while done == 0:
         x = x ^ key
         x = (x * _M1) & mask
         x = x ^ ((x & mask) >> wp.uint32(3))
@@ -67,5 +67,5 @@ def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
         x = x ^ ((x & mask) >> wp.uint32(7))
         x = x & mask
         if x < n:
-            done = True
+            done = 1
     return x

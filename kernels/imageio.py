@@ -1,0 +1,67 @@
+"""Image output: float32 EXR with metadata (OpenImageIO) and an sRGB PNG preview (colour-science)."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+
+def to_srgb8(image: np.ndarray) -> np.ndarray:
+    """Linear radiance -> 8-bit sRGB (clipped to [0, 1], IEC 61966-2-1 transfer function)."""
+    import colour
+    encoded = colour.cctf_encoding(np.clip(np.asarray(image, dtype=np.float64), 0.0, 1.0),
+                                   function="sRGB")
+    return np.clip(np.round(encoded * 255.0), 0, 255).astype(np.uint8)
+
+
+def _write(path: Path, pixels: np.ndarray, fmt, metadata: dict | None) -> None:
+    import OpenImageIO as oiio
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Write beside the target and rename, so a crash never leaves a half-written image.
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    h, w, c = pixels.shape
+    spec = oiio.ImageSpec(w, h, c, fmt)
+    for key, value in (metadata or {}).items():
+        if isinstance(value, bool):
+            value = str(value).lower()
+        if isinstance(value, (int, np.integer)):
+            spec.attribute(f"drtlab:{key}", int(value))
+        elif isinstance(value, (float, np.floating)):
+            spec.attribute(f"drtlab:{key}", float(value))
+        else:
+            spec.attribute(f"drtlab:{key}", str(value))
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None or not out.open(str(tmp), spec):
+        raise OSError(f"cannot write {path}: {oiio.geterror()}")
+    ok = out.write_image(pixels)
+    out.close()
+    if not ok:
+        tmp.unlink(missing_ok=True)
+        raise OSError(f"cannot write {path}: {oiio.geterror()}")
+    os.replace(tmp, path)
+
+
+def write_exr(path, image: np.ndarray, metadata: dict | None = None) -> None:
+    import OpenImageIO as oiio
+    _write(Path(path), np.ascontiguousarray(image, dtype=np.float32), oiio.FLOAT, metadata)
+
+
+def write_png(path, image: np.ndarray, metadata: dict | None = None) -> None:
+    import OpenImageIO as oiio
+    _write(Path(path), np.ascontiguousarray(to_srgb8(image)), oiio.UINT8, metadata)
+
+
+def read_exr(path) -> tuple[np.ndarray, dict]:
+    """(pixels as float32 (H, W, C), drtlab metadata) of an image written by write_exr."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        raise OSError(f"cannot read {path}: {oiio.geterror()}")
+    spec = inp.spec()
+    pixels = inp.read_image(oiio.FLOAT)
+    meta = {a.name[len("drtlab:"):]: a.value for a in spec.extra_attribs
+            if a.name.startswith("drtlab:")}
+    inp.close()
+    return np.asarray(pixels), meta

@@ -1,0 +1,834 @@
+"""Kernel factory: one compiled render kernel per scene feature set.
+
+`build_kernel(features, pointset, strategy)` returns a Warp kernel in which everything the scene does
+not use (lens, motion, material kinds, light kinds, shape kinds, roulette, the other integrators) is
+removed at code generation by `wp.static`, so a scene without motion blur pays nothing for it.
+
+The kernel renders `count` samples (indices index0 ... index0 + count - 1) of every pixel of one tile
+and adds their float64 sum to `accum`. A sample's random numbers come only from the point set keyed by
+(seed, pixel, sample index, dimension), so tiles, threads and launch order cannot change the image.
+Tracers are loops with a throughput weight (Warp kernels cannot recurse); radiance is traced in
+float32 and summed per pixel in float64.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import warp as wp
+
+from drtlab.estimators import dimensions as dims
+from drtlab.estimators.pointsets.base import PointSet
+from drtlab.estimators.strategies import Strategy
+from drtlab.estimators.warps import (INV_4PI, INV_PI, PI, cone_pdf, cosine_hemisphere_pdf,
+                                     frame_to_world, phong_lobe_pdf, square_to_cone,
+                                     square_to_cosine_hemisphere, square_to_disk,
+                                     square_to_phong_lobe, square_to_uniform_hemisphere,
+                                     square_to_uniform_sphere)
+from drtlab.kernels.geometry import (Hit, hit_quad, hit_sphere, luminance, offset_origin,
+                                     quad_params)
+
+# Material kinds, in the order of scene_model.MATERIAL_KINDS.
+DIFFUSE = wp.constant(0)
+GLOSSY = wp.constant(1)
+MIRROR = wp.constant(2)
+DIELECTRIC = wp.constant(3)
+GLOSSY_DIELECTRIC = wp.constant(4)
+EMITTER = wp.constant(5)
+
+SPHERE = wp.constant(0)
+QUAD = wp.constant(1)
+
+# Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
+WHITTED_SPLITS = 4
+# Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
+DEPTH_CAP = 512
+
+
+@wp.struct
+class SceneData:
+    sph_center: wp.array(dtype=wp.vec3)
+    sph_radius: wp.array(dtype=float)
+    sph_velocity: wp.array(dtype=wp.vec3)
+    sph_material: wp.array(dtype=int)
+    sph_light: wp.array(dtype=int)
+    n_spheres: int
+    quad_origin: wp.array(dtype=wp.vec3)
+    quad_u: wp.array(dtype=wp.vec3)
+    quad_v: wp.array(dtype=wp.vec3)
+    quad_normal: wp.array(dtype=wp.vec3)
+    quad_area: wp.array(dtype=float)
+    quad_velocity: wp.array(dtype=wp.vec3)
+    quad_material: wp.array(dtype=int)
+    quad_light: wp.array(dtype=int)
+    n_quads: int
+    mat_kind: wp.array(dtype=int)
+    mat_albedo: wp.array(dtype=wp.vec3)
+    mat_albedo2: wp.array(dtype=wp.vec3)
+    mat_checker: wp.array(dtype=wp.vec2)
+    mat_exponent: wp.array(dtype=float)
+    mat_ior: wp.array(dtype=float)
+    mat_emission: wp.array(dtype=wp.vec3)
+    light_shape_kind: wp.array(dtype=int)
+    light_shape: wp.array(dtype=int)
+    light_pmf: wp.array(dtype=float)
+    light_cdf: wp.array(dtype=float)
+    n_lights: int
+    pl_position: wp.array(dtype=wp.vec3)
+    pl_intensity: wp.array(dtype=wp.vec3)
+    n_point_lights: int
+    dl_direction: wp.array(dtype=wp.vec3)
+    dl_irradiance: wp.array(dtype=wp.vec3)
+    n_dir_lights: int
+    background: wp.vec3
+    eps: float
+    cam_position: wp.vec3
+    cam_right: wp.vec3
+    cam_up: wp.vec3
+    cam_forward: wp.vec3
+    half_width: float
+    half_height: float
+    aperture: float
+    focus_distance: float
+    shutter_open: float
+    shutter_close: float
+    width: int
+    height: int
+    max_depth: int
+    rr_depth: int
+    whitted_codes: int
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene uses; one compiled kernel per distinct value (with the sampler)."""
+    integrator: str
+    lens: bool
+    motion: bool
+    spheres: bool
+    quads: bool
+    kinds: frozenset
+    checker: bool
+    area_lights: bool
+    point_lights: bool
+    dir_lights: bool
+    roulette: bool
+    background: bool
+
+    def key(self) -> str:
+        flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
+                             "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
+        return f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
+
+
+@wp.struct
+class Scatter:
+    wi: wp.vec3
+    weight: wp.vec3     # f * |cos| / pdf, or the delta lobe's weight
+    pdf: float          # solid-angle pdf; 0 for delta lobes
+    delta: int
+    valid: int
+
+
+@wp.struct
+class LightSample:
+    wi: wp.vec3
+    dist: float
+    radiance: wp.vec3
+    pdf: float          # solid-angle pdf, including the light choice
+    valid: int
+
+
+def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
+    get1d = pointset.get1d
+    get2d = pointset.get2d
+    WHITTED = f.integrator == "whitted"
+    DRT = f.integrator == "drt"
+    LENS = f.lens
+    MOTION = f.motion
+    HAS_SPH = f.spheres
+    HAS_QUAD = f.quads
+    K_DIFFUSE = "diffuse" in f.kinds
+    K_GLOSSY = "glossy" in f.kinds
+    K_MIRROR = "mirror" in f.kinds
+    K_DIEL = "dielectric" in f.kinds
+    K_GDIEL = "glossy_dielectric" in f.kinds
+    CHECKER = f.checker
+    AREA = f.area_lights and not WHITTED
+    AREA_CENTRES = f.area_lights and WHITTED
+    POINTS = f.point_lights
+    DIRS = f.dir_lights
+    RR = f.roulette and f.integrator == "path"
+    LOBE = strategy.direction == "lobe"
+    SOLID_ANGLE = strategy.light == "solid_angle"
+    POWER_PICK = strategy.light_pick == "power"
+    NEE = strategy.combine in ("nee", "mis") and strategy.light is not None
+    COUNT_HITS = strategy.combine in ("bsdf", "mis")
+    MIS = strategy.combine == "mis"
+    SPLITS = WHITTED_SPLITS if (WHITTED and (K_DIEL or K_GDIEL)) else 0
+
+    # ------------------------------------------------------------------ geometry
+    @wp.func
+    def intersect(sd: SceneData, o: wp.vec3, d: wp.vec3, tmax: float, dt: float) -> Hit:
+        h = Hit()
+        h.t = tmax
+        h.kind = -1
+        h.index = -1
+        if wp.static(HAS_SPH):
+            for i in range(sd.n_spheres):
+                c = sd.sph_center[i]
+                if wp.static(MOTION):
+                    c = c + sd.sph_velocity[i] * dt
+                t = hit_sphere(o, d, c, sd.sph_radius[i], h.t)
+                if t < h.t:
+                    h.t = t
+                    h.kind = SPHERE
+                    h.index = i
+        if wp.static(HAS_QUAD):
+            for i in range(sd.n_quads):
+                q0 = sd.quad_origin[i]
+                if wp.static(MOTION):
+                    q0 = q0 + sd.quad_velocity[i] * dt
+                t = hit_quad(o, d, q0, sd.quad_u[i], sd.quad_v[i], h.t)
+                if t < h.t:
+                    h.t = t
+                    h.kind = QUAD
+                    h.index = i
+        if h.index >= 0:
+            p = o + d * h.t
+            h.p = p
+            if wp.static(HAS_SPH):
+                if h.kind == SPHERE:
+                    c = sd.sph_center[h.index]
+                    if wp.static(MOTION):
+                        c = c + sd.sph_velocity[h.index] * dt
+                    n = wp.normalize(p - c)
+                    h.n = n
+                    h.uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
+                                   wp.acos(wp.clamp(n[1], -1.0, 1.0)) * INV_PI)
+                    h.material = sd.sph_material[h.index]
+                    h.light = sd.sph_light[h.index]
+            if wp.static(HAS_QUAD):
+                if h.kind == QUAD:
+                    q0 = sd.quad_origin[h.index]
+                    if wp.static(MOTION):
+                        q0 = q0 + sd.quad_velocity[h.index] * dt
+                    h.n = sd.quad_normal[h.index]
+                    h.uv = quad_params(p - q0, sd.quad_u[h.index], sd.quad_v[h.index])
+                    h.material = sd.quad_material[h.index]
+                    h.light = sd.quad_light[h.index]
+        return h
+
+    @wp.func
+    def visible(sd: SceneData, o: wp.vec3, d: wp.vec3, dist: float, dt: float,
+                target_kind: int, target_index: int) -> int:
+        # A light point is visible when nothing is hit before it, or the first hit is the light's
+        # own shape (robust against the shadow ray stopping a hair short of or past the point).
+        if target_index < 0:
+            h = intersect(sd, o, d, dist * (1.0 - 1.0e-4), dt)
+            if h.index < 0:
+                return 1
+            return 0
+        h = intersect(sd, o, d, dist * (1.0 + 1.0e-3) + sd.eps, dt)
+        if h.index < 0:
+            return 1
+        if h.kind == target_kind and h.index == target_index:
+            return 1
+        return 0
+
+    # ------------------------------------------------------------------ materials
+    @wp.func
+    def surface_albedo(sd: SceneData, m: int, uv: wp.vec2) -> wp.vec3:
+        a = sd.mat_albedo[m]
+        if wp.static(CHECKER):
+            c = sd.mat_checker[m]
+            if c[0] > 0.0:
+                iu = int(wp.floor(uv[0] * c[0]))
+                iv = int(wp.floor(uv[1] * c[1]))
+                if (iu + iv) % 2 != 0:
+                    a = sd.mat_albedo2[m]
+        return a
+
+    @wp.func
+    def fresnel(cos_i: float, eta: float) -> float:
+        # Unpolarised Fresnel reflectance; eta = n_transmitted / n_incident; 1 on total reflection.
+        sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+        if sin2_t >= 1.0:
+            return 1.0
+        cos_t = wp.sqrt(1.0 - sin2_t)
+        rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+        rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+        return 0.5 * (rs * rs + rp * rp)
+
+    @wp.func
+    def refract_dir(wo: wp.vec3, nf: wp.vec3, cos_o: float, eta: float) -> wp.vec3:
+        sin2_t = (1.0 - cos_o * cos_o) / (eta * eta)
+        cos_t = wp.sqrt(wp.max(0.0, 1.0 - sin2_t))
+        return wp.normalize(-wo / eta + (cos_o / eta - cos_t) * nf)
+
+    @wp.func
+    def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                               wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+        # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
+        # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
+        cos_o = wp.dot(n, wo)
+        nf = n
+        eta = ior
+        if cos_o < 0.0:
+            nf = -n
+            eta = 1.0 / ior
+        co = wp.abs(cos_o)
+        F = fresnel(co, eta)
+        ci = wp.dot(nf, wi)
+        r = wp.vec3(0.0)
+        if ci > 0.0:
+            refl = 2.0 * co * nf - wo
+            r = wp.vec3(F * phong_lobe_pdf(wp.dot(refl, wi), exponent))
+        elif ci < 0.0 and F < 1.0:
+            tdir = refract_dir(wo, nf, co, eta)
+            r = albedo * ((1.0 - F) / (eta * eta) * phong_lobe_pdf(wp.dot(tdir, wi), exponent))
+        return r
+
+    @wp.func
+    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                  wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+        """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
+        r = wp.vec3(0.0)
+        cos_o = wp.dot(n, wo)
+        cos_i = wp.dot(n, wi)
+        if wp.static(K_DIFFUSE):
+            if kind == DIFFUSE:
+                if cos_o * cos_i > 0.0:
+                    r = albedo * (wp.abs(cos_i) * INV_PI)
+        if wp.static(K_GLOSSY):
+            if kind == GLOSSY:
+                if cos_o * cos_i > 0.0:
+                    refl = 2.0 * cos_o * n - wo
+                    ca = wp.dot(refl, wi)
+                    if ca > 0.0:
+                        r = albedo * ((exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
+                                      * wp.abs(cos_i))
+        if wp.static(K_GDIEL):
+            if kind == GLOSSY_DIELECTRIC:
+                r = eval_glossy_dielectric(albedo, exponent, ior, n, wo, wi)
+        return r
+
+    @wp.func
+    def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
+                 wi: wp.vec3) -> float:
+        """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
+        cos_o = wp.dot(n, wo)
+        cos_i = wp.dot(n, wi)
+        p = float(0.0)
+        if wp.static(not LOBE):
+            if kind == GLOSSY_DIELECTRIC:
+                p = INV_4PI
+            elif cos_o * cos_i > 0.0:
+                p = 0.5 * INV_PI
+        if wp.static(LOBE):
+            if wp.static(K_DIFFUSE):
+                if kind == DIFFUSE:
+                    if cos_o * cos_i > 0.0:
+                        p = wp.abs(cos_i) * INV_PI
+            if wp.static(K_GLOSSY):
+                if kind == GLOSSY:
+                    if cos_o * cos_i > 0.0:
+                        nf = n
+                        if cos_o < 0.0:
+                            nf = -n
+                        refl = 2.0 * wp.abs(cos_o) * nf - wo
+                        p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
+            if wp.static(K_GDIEL):
+                if kind == GLOSSY_DIELECTRIC:
+                    nf = n
+                    eta = ior
+                    if cos_o < 0.0:
+                        nf = -n
+                        eta = 1.0 / ior
+                    co = wp.abs(cos_o)
+                    F = fresnel(co, eta)
+                    ci = wp.dot(nf, wi)
+                    if ci > 0.0:
+                        refl = 2.0 * co * nf - wo
+                        p = F * phong_lobe_pdf(wp.dot(refl, wi), exponent)
+                    elif ci < 0.0:
+                        tdir = refract_dir(wo, nf, co, eta)
+                        p = (1.0 - F) * phong_lobe_pdf(wp.dot(tdir, wi), exponent)
+        return p
+
+    @wp.func
+    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                    wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+        s = Scatter()
+        s.valid = 0
+        s.delta = 0
+        cos_o = wp.dot(n, wo)
+        nf = n
+        if cos_o < 0.0:
+            nf = -n
+        co = wp.abs(cos_o)
+        if wp.static(K_MIRROR):
+            if kind == MIRROR:
+                s.wi = 2.0 * co * nf - wo
+                s.weight = albedo
+                s.delta = 1
+                s.valid = 1
+                return s
+        if wp.static(K_DIEL):
+            if kind == DIELECTRIC:
+                eta = ior
+                if cos_o < 0.0:
+                    eta = 1.0 / ior
+                F = fresnel(co, eta)
+                p_reflect = F
+                if wp.static(not LOBE):
+                    p_reflect = 0.5
+                if F >= 1.0:
+                    p_reflect = 1.0
+                s.delta = 1
+                s.valid = 1
+                if u_lobe < p_reflect:
+                    s.wi = 2.0 * co * nf - wo
+                    s.weight = wp.vec3(F / p_reflect)
+                else:
+                    s.wi = refract_dir(wo, nf, co, eta)
+                    s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
+                return s
+        if kind == EMITTER:
+            return s
+        # Non-delta kinds: propose a direction, then weight = f|cos| / pdf evaluated separately.
+        wi = wp.vec3(0.0)
+        if wp.static(not LOBE):
+            if kind == GLOSSY_DIELECTRIC:
+                wi = square_to_uniform_sphere(u)
+            else:
+                wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
+        if wp.static(LOBE):
+            if wp.static(K_DIFFUSE):
+                if kind == DIFFUSE:
+                    wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
+            if wp.static(K_GLOSSY):
+                if kind == GLOSSY:
+                    wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
+            if wp.static(K_GDIEL):
+                if kind == GLOSSY_DIELECTRIC:
+                    eta = ior
+                    if cos_o < 0.0:
+                        eta = 1.0 / ior
+                    F = fresnel(co, eta)
+                    axis = 2.0 * co * nf - wo
+                    if u_lobe >= F:
+                        axis = refract_dir(wo, nf, co, eta)
+                    wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
+        pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
+        if pdf > 0.0:
+            fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+            if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                s.wi = wi
+                s.pdf = pdf
+                s.weight = fc / pdf
+                s.valid = 1
+        return s
+
+    # ------------------------------------------------------------------ lights
+    @wp.func
+    def light_pick_pmf(sd: SceneData, li: int) -> float:
+        if wp.static(POWER_PICK):
+            return sd.light_pmf[li]
+        return 1.0 / float(sd.n_lights)
+
+    @wp.func
+    def pick_light(sd: SceneData, u: float) -> int:
+        li = int(0)
+        if wp.static(POWER_PICK):
+            # Few lights: a linear scan of the cdf is cheaper than a search.
+            li = sd.n_lights - 1
+            for i in range(sd.n_lights - 1):
+                if u < sd.light_cdf[i]:
+                    li = i
+                    break
+        else:
+            li = wp.min(int(u * float(sd.n_lights)), sd.n_lights - 1)
+        return li
+
+    @wp.func
+    def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
+        """(1 - cos theta_max, distance to centre); first component <= 0 when x is inside."""
+        dc = wp.length(c - x)
+        if dc <= r * (1.0 + 1.0e-4):
+            return wp.vec2(-1.0, dc)
+        sin2 = (r / dc) * (r / dc)
+        cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
+        return wp.vec2(sin2 / (1.0 + cos_max), dc)
+
+    @wp.func
+    def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, dt: float) -> float:
+        """Solid-angle density (light choice included) of light sampling producing point y from x."""
+        k = sd.light_shape_kind[li]
+        s = sd.light_shape[li]
+        d = y - x
+        dist2 = wp.dot(d, d)
+        cos_l = wp.abs(wp.dot(ny, d)) / wp.sqrt(dist2)
+        pdf = float(0.0)
+        if k == SPHERE:
+            c = sd.sph_center[s]
+            if wp.static(MOTION):
+                c = c + sd.sph_velocity[s] * dt
+            r = sd.sph_radius[s]
+            cone = wp.vec2(-1.0, 0.0)
+            if wp.static(SOLID_ANGLE):
+                cone = sphere_cone(sd, c, r, x)
+            if cone[0] > 0.0:
+                pdf = cone_pdf(cone[0])
+            elif cos_l > 0.0:
+                pdf = dist2 / (cos_l * 4.0 * PI * r * r)
+        else:
+            if cos_l > 0.0:
+                pdf = dist2 / (cos_l * sd.quad_area[s])
+        return pdf * light_pick_pmf(sd, li)
+
+    @wp.func
+    def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, dt: float) -> LightSample:
+        ls = LightSample()
+        ls.valid = 0
+        k = sd.light_shape_kind[li]
+        s = sd.light_shape[li]
+        y = wp.vec3(0.0)
+        ny = wp.vec3(0.0)
+        m = int(0)
+        pdf = float(0.0)
+        if k == SPHERE:
+            c = sd.sph_center[s]
+            if wp.static(MOTION):
+                c = c + sd.sph_velocity[s] * dt
+            r = sd.sph_radius[s]
+            m = sd.sph_material[s]
+            cone = wp.vec2(-1.0, 0.0)
+            if wp.static(SOLID_ANGLE):
+                cone = sphere_cone(sd, c, r, x)
+            if cone[0] > 0.0:
+                axis = (c - x) / cone[1]
+                w = frame_to_world(square_to_cone(u, cone[0]), axis)
+                # Nearest intersection of the cone direction with the sphere.
+                b = wp.dot(c - x, w)
+                perp = (c - x) - w * b
+                disc = r * r - wp.dot(perp, perp)
+                t = b - wp.sqrt(wp.max(0.0, disc))
+                y = x + w * t
+                ny = wp.normalize(y - c)
+                pdf = cone_pdf(cone[0])
+                ls.wi = w
+                ls.dist = t
+            else:
+                ny = square_to_uniform_sphere(u)
+                y = c + ny * r
+        else:
+            m = sd.quad_material[s]
+            q0 = sd.quad_origin[s]
+            if wp.static(MOTION):
+                q0 = q0 + sd.quad_velocity[s] * dt
+            y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
+            ny = sd.quad_normal[s]
+        if pdf == 0.0:
+            d = y - x
+            dist = wp.length(d)
+            if dist <= 0.0:
+                return ls
+            wi = d / dist
+            cos_l = -wp.dot(ny, wi)
+            if cos_l <= 0.0:
+                return ls
+            area = float(0.0)
+            if k == SPHERE:
+                area = 4.0 * PI * sd.sph_radius[s] * sd.sph_radius[s]
+            else:
+                area = sd.quad_area[s]
+            pdf = dist * dist / (cos_l * area)
+            ls.wi = wi
+            ls.dist = dist
+        else:
+            if wp.dot(ny, ls.wi) >= 0.0:
+                return ls
+        ls.radiance = sd.mat_emission[m]
+        ls.pdf = pdf * light_pick_pmf(sd, li)
+        ls.valid = 1
+        return ls
+
+    @wp.func
+    def direct_delta_lights(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float,
+                            ior: float, p: wp.vec3, n: wp.vec3, wo: wp.vec3, dt: float) -> wp.vec3:
+        L = wp.vec3(0.0)
+        if wp.static(POINTS):
+            for i in range(sd.n_point_lights):
+                d = sd.pl_position[i] - p
+                dist = wp.length(d)
+                wi = d / dist
+                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                    o = offset_origin(p, n, wi, sd.eps)
+                    if visible(sd, o, wi, wp.length(sd.pl_position[i] - o), dt, -1, -1) == 1:
+                        L += wp.cw_mul(fc, sd.pl_intensity[i]) / (dist * dist)
+        if wp.static(DIRS):
+            for i in range(sd.n_dir_lights):
+                wi = -sd.dl_direction[i]
+                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                    o = offset_origin(p, n, wi, sd.eps)
+                    if visible(sd, o, wi, 1.0e30, dt, -1, -1) == 1:
+                        L += wp.cw_mul(fc, sd.dl_irradiance[i])
+        return L
+
+    @wp.func
+    def light_centres(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float, ior: float,
+                      p: wp.vec3, n: wp.vec3, wo: wp.vec3) -> wp.vec3:
+        # Whitted's shadow rays to area-light centres: each light acts as a point source with its
+        # radiant intensity towards p (sphere: Le * pi r^2; one-sided quad: Le * A * cos).
+        L = wp.vec3(0.0)
+        for li in range(sd.n_lights):
+            k = sd.light_shape_kind[li]
+            s = sd.light_shape[li]
+            c = wp.vec3(0.0)
+            intensity = float(0.0)
+            m = int(0)
+            if k == SPHERE:
+                c = sd.sph_center[s]
+                intensity = PI * sd.sph_radius[s] * sd.sph_radius[s]
+                m = sd.sph_material[s]
+            else:
+                c = sd.quad_origin[s] + 0.5 * (sd.quad_u[s] + sd.quad_v[s])
+                m = sd.quad_material[s]
+            d = c - p
+            dist = wp.length(d)
+            wi = d / dist
+            if k == QUAD:
+                intensity = sd.quad_area[s] * wp.max(0.0, -wp.dot(sd.quad_normal[s], wi))
+            if intensity > 0.0:
+                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                    o = offset_origin(p, n, wi, sd.eps)
+                    if visible(sd, o, wi, wp.length(c - o), 0.0, k, s) == 1:
+                        L += wp.cw_mul(fc, sd.mat_emission[m]) * (intensity / (dist * dist))
+        return L
+
+    # ------------------------------------------------------------------ integrators
+    @wp.func
+    def camera_ray_dir(sd: SceneData, px: int, py: int, u: wp.vec2, lens: wp.vec2) -> wp.vec3:
+        sx = (2.0 * (float(px) + u[0]) / float(sd.width) - 1.0) * sd.half_width
+        sy = (1.0 - 2.0 * (float(py) + u[1]) / float(sd.height)) * sd.half_height
+        # Thin lens: aim from the lens point at the point the pinhole ray meets the focal plane;
+        # written as (x, y, 1) - lens / focus so that a zero aperture reproduces the pinhole exactly.
+        cx = sx - lens[0] / sd.focus_distance
+        cy = sy - lens[1] / sd.focus_distance
+        return wp.normalize(sd.cam_right * cx + sd.cam_up * cy + sd.cam_forward)
+
+    @wp.func
+    def emitted(sd: SceneData, h: Hit, wo: wp.vec3) -> wp.vec3:
+        # Emitters radiate on the side their normal faces (spheres outward, quads edge_u x edge_v).
+        if wp.dot(h.n, wo) > 0.0:
+            return sd.mat_emission[h.material]
+        return wp.vec3(0.0)
+
+    @wp.func
+    def trace_whitted(sd: SceneData, o0: wp.vec3, d0: wp.vec3) -> wp.vec3:
+        total = wp.vec3(0.0)
+        # A dynamic bound: Warp would unroll a constant one 2**SPLITS times and compile for long.
+        for code in range(sd.whitted_codes):
+            L = wp.vec3(0.0)
+            beta = wp.vec3(1.0)
+            o = o0
+            d = d0
+            used = int(0)
+            depth = int(0)
+            while True:
+                h = intersect(sd, o, d, 1.0e30, 0.0)
+                if h.index < 0:
+                    L += wp.cw_mul(beta, sd.background)
+                    break
+                wo = -d
+                L += wp.cw_mul(beta, emitted(sd, h, wo))
+                if sd.max_depth >= 0 and depth + 1 >= sd.max_depth:
+                    break
+                m = h.material
+                kind = sd.mat_kind[m]
+                if kind == EMITTER:
+                    break
+                albedo = surface_albedo(sd, m, h.uv)
+                cos_o = wp.dot(h.n, wo)
+                nf = h.n
+                if cos_o < 0.0:
+                    nf = -h.n
+                co = wp.abs(cos_o)
+                if kind == DIFFUSE or kind == GLOSSY:
+                    direct = wp.vec3(0.0)
+                    if wp.static(AREA_CENTRES):
+                        direct += light_centres(sd, kind, albedo, sd.mat_exponent[m],
+                                                sd.mat_ior[m], h.p, h.n, wo)
+                    if wp.static(POINTS or DIRS):
+                        direct += direct_delta_lights(sd, kind, albedo, sd.mat_exponent[m],
+                                                      sd.mat_ior[m], h.p, h.n, wo, 0.0)
+                    L += wp.cw_mul(beta, direct)
+                    break
+                wi = 2.0 * co * nf - wo
+                if kind == MIRROR:
+                    beta = wp.cw_mul(beta, albedo)
+                if wp.static(SPLITS > 0):
+                    if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC:
+                        eta = sd.mat_ior[m]
+                        if cos_o < 0.0:
+                            eta = 1.0 / eta
+                        F = fresnel(co, eta)
+                        if F < 1.0:
+                            if used >= wp.static(SPLITS):
+                                break
+                            if ((code >> used) & 1) == 1:
+                                wi = refract_dir(wo, nf, co, eta)
+                                beta = wp.cw_mul(beta, albedo) * ((1.0 - F) / (eta * eta))
+                            else:
+                                beta = beta * F
+                            used += 1
+                o = offset_origin(h.p, h.n, wi, sd.eps)
+                d = wi
+                depth += 1
+            # A path that used fewer splits than the code encodes is counted by the code whose
+            # unused bits are zero only.
+            if (code >> used) == 0:
+                total += L
+        return total
+
+    @wp.func
+    def trace(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32, spp: wp.uint32,
+              o0: wp.vec3, d0: wp.vec3, dt: float) -> wp.vec3:
+        L = wp.vec3(0.0)
+        beta = wp.vec3(1.0)
+        o = o0
+        d = d0
+        depth = int(0)
+        prev_delta = int(1)      # camera rays and delta bounces see emitters at full weight
+        prev_pdf = float(0.0)
+        prev_p = o0
+        last_segment = int(0)    # drt: after a diffuse scatter only the emission hit counts
+        while True:
+            h = intersect(sd, o, d, 1.0e30, dt)
+            if h.index < 0:
+                L += wp.cw_mul(beta, sd.background)
+                break
+            wo = -d
+            m = h.material
+            if wp.static(f.area_lights):
+                if h.light >= 0:
+                    Le = emitted(sd, h, wo)
+                    w = float(1.0)
+                    if prev_delta == 0:
+                        if wp.static(MIS):
+                            pl = light_pdf(sd, h.light, prev_p, h.p, h.n, dt)
+                            w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
+                        elif wp.static(not COUNT_HITS):
+                            w = 0.0
+                    L += wp.cw_mul(beta, Le) * w
+            if last_segment == 1:
+                break
+            if sd.max_depth >= 0 and depth + 1 >= sd.max_depth:
+                break
+            if depth >= wp.static(DEPTH_CAP):
+                break
+            kind = sd.mat_kind[m]
+            if kind == EMITTER:
+                break
+            base = wp.uint32(wp.static(dims.BOUNCE_BASE)) + wp.uint32(
+                wp.static(dims.PER_BOUNCE)) * wp.uint32(depth)
+            if wp.static(RR):
+                if depth >= sd.rr_depth:
+                    q = wp.min(wp.max(beta[0], wp.max(beta[1], beta[2])), 0.95)
+                    if get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.ROULETTE)),
+                             spp) >= q:
+                        break
+                    beta = beta / q
+            albedo = surface_albedo(sd, m, h.uv)
+            exponent = sd.mat_exponent[m]
+            ior = sd.mat_ior[m]
+            is_delta = kind == MIRROR or kind == DIELECTRIC
+            if not is_delta:
+                if wp.static(AREA and NEE):
+                    ul = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_CHOICE)), spp)
+                    li = pick_light(sd, ul)
+                    up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
+                               spp)
+                    ls = sample_light(sd, li, h.p, up, dt)
+                    if ls.valid == 1:
+                        fc = eval_bsdf(kind, albedo, exponent, ior, h.n, wo, ls.wi)
+                        if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                            so = offset_origin(h.p, h.n, ls.wi, sd.eps)
+                            lk = sd.light_shape_kind[li]
+                            if visible(sd, so, ls.wi, ls.dist, dt, lk, sd.light_shape[li]) == 1:
+                                w = float(1.0)
+                                if wp.static(MIS):
+                                    pb = pdf_bsdf(kind, exponent, ior, h.n, wo, ls.wi)
+                                    w = ls.pdf * ls.pdf / (ls.pdf * ls.pdf + pb * pb)
+                                L += wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
+                if wp.static(POINTS or DIRS):
+                    L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior,
+                                                             h.p, h.n, wo, dt))
+            u_lobe = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LOBE_CHOICE)), spp)
+            u_dir = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.DIRECTION)), spp)
+            s = sample_bsdf(kind, albedo, exponent, ior, h.n, wo, u_lobe, u_dir)
+            if s.valid == 0:
+                break
+            beta = wp.cw_mul(beta, s.weight)
+            if wp.static(DRT):
+                if kind == DIFFUSE:
+                    last_segment = 1
+                    if wp.static(not (COUNT_HITS or f.background)):
+                        break
+            prev_delta = s.delta
+            prev_pdf = s.pdf
+            prev_p = h.p
+            o = offset_origin(h.p, h.n, s.wi, sd.eps)
+            d = s.wi
+            depth += 1
+        return L
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def render_tile(sd: SceneData, seed: wp.uint32, index0: int, count: int, spp: int,
+                    x0: int, y0: int, tile_w: int, tile_h: int, accum: wp.array(dtype=wp.vec3d)):
+        tid = wp.tid()
+        px = x0 + tid % tile_w
+        py = y0 + tid / tile_w
+        if px >= sd.width or py >= sd.height:
+            return
+        pixel = py * sd.width + px
+        pix = wp.uint32(pixel)
+        uspp = wp.uint32(spp)
+        total = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
+        nx = int(1)
+        if wp.static(WHITTED):
+            nx = int(wp.floor(wp.sqrt(float(spp)) + 0.5))
+            while nx * nx > spp:
+                nx -= 1
+            while spp % nx != 0:
+                nx -= 1
+        for k in range(count):
+            idx = wp.uint32(index0 + k)
+            if wp.static(WHITTED):
+                # Regular sub-pixel grid at stratum centres, lens centre, shutter-open time.
+                sub = (index0 + k) % spp
+                ny = spp / nx
+                u = wp.vec2((float(sub % nx) + 0.5) / float(nx), (float(sub / nx) + 0.5) / float(ny))
+                d = camera_ray_dir(sd, px, py, u, wp.vec2(0.0, 0.0))
+                Ls = trace_whitted(sd, sd.cam_position, d)
+            else:
+                u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), uspp)
+                lens = wp.vec2(0.0, 0.0)
+                o = sd.cam_position
+                if wp.static(LENS):
+                    lens = square_to_disk(get2d(seed, pix, idx, wp.uint32(wp.static(dims.LENS)),
+                                                uspp)) * sd.aperture
+                    o = o + sd.cam_right * lens[0] + sd.cam_up * lens[1]
+                d = camera_ray_dir(sd, px, py, u, lens)
+                dt = float(0.0)
+                if wp.static(MOTION):
+                    dt = (sd.shutter_close - sd.shutter_open) * get1d(
+                        seed, pix, idx, wp.uint32(wp.static(dims.TIME)), uspp)
+                Ls = trace(sd, seed, pix, idx, uspp, o, d, dt)
+            total += wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
+        accum[pixel] = accum[pixel] + total
+
+    return render_tile
