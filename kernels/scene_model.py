@@ -97,8 +97,12 @@ class Scene:
     text: str = ""                              # the TOML text the scene came from
 
     def content_hash(self) -> str:
-        """Hash of what determines the image (the TOML text); overrides are hashed by the caller."""
-        return hashlib.sha256(self.text.encode()).hexdigest()[:16]
+        """Hash of what determines the image: the TOML text (with its overrides, which the loader
+        appends) and the fields code may replace afterwards (resolution, depth, roulette)."""
+        h = hashlib.sha256(self.text.encode())
+        h.update(repr((self.width, self.height, self.integrator, self.max_depth, self.rr_depth,
+                       self.russian_roulette)).encode())
+        return h.hexdigest()[:16]
 
     @property
     def has_motion(self) -> bool:
