@@ -12,130 +12,22 @@ float32 and summed per pixel in float64.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import warp as wp
 
 from drtlab.estimators import dimensions as dims
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import Strategy
-from drtlab.estimators.warps import (INV_4PI, INV_PI, PI, cone_pdf, cosine_hemisphere_pdf,
-                                     frame_to_world, phong_lobe_pdf, square_to_cone,
-                                     square_to_cosine_hemisphere, square_to_disk,
-                                     square_to_phong_lobe, square_to_uniform_hemisphere,
-                                     square_to_uniform_sphere)
-from drtlab.kernels.geometry import (Hit, hit_quad, hit_sphere, luminance, offset_origin,
-                                     quad_params)
-
-# Material kinds, in the order of scene_model.MATERIAL_KINDS.
-DIFFUSE = wp.constant(0)
-GLOSSY = wp.constant(1)
-MIRROR = wp.constant(2)
-DIELECTRIC = wp.constant(3)
-GLOSSY_DIELECTRIC = wp.constant(4)
-EMITTER = wp.constant(5)
-
-SPHERE = wp.constant(0)
-QUAD = wp.constant(1)
+from drtlab.estimators.warps import INV_PI, PI, square_to_disk
+from drtlab.kernels.geometry import Hit, hit_quad, hit_sphere, offset_origin, quad_params
+from drtlab.kernels.lights import make_lights
+from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
+                                      MIRROR, make_bsdf)
+from drtlab.kernels.scene_data import QUAD, SPHERE, Features, SceneData
 
 # Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
 WHITTED_SPLITS = 4
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
-
-
-@wp.struct
-class SceneData:
-    sph_center: wp.array(dtype=wp.vec3)
-    sph_radius: wp.array(dtype=float)
-    sph_velocity: wp.array(dtype=wp.vec3)
-    sph_material: wp.array(dtype=int)
-    sph_light: wp.array(dtype=int)
-    n_spheres: int
-    quad_origin: wp.array(dtype=wp.vec3)
-    quad_u: wp.array(dtype=wp.vec3)
-    quad_v: wp.array(dtype=wp.vec3)
-    quad_normal: wp.array(dtype=wp.vec3)
-    quad_area: wp.array(dtype=float)
-    quad_velocity: wp.array(dtype=wp.vec3)
-    quad_material: wp.array(dtype=int)
-    quad_light: wp.array(dtype=int)
-    n_quads: int
-    mat_kind: wp.array(dtype=int)
-    mat_albedo: wp.array(dtype=wp.vec3)
-    mat_albedo2: wp.array(dtype=wp.vec3)
-    mat_checker: wp.array(dtype=wp.vec2)
-    mat_exponent: wp.array(dtype=float)
-    mat_ior: wp.array(dtype=float)
-    mat_emission: wp.array(dtype=wp.vec3)
-    light_shape_kind: wp.array(dtype=int)
-    light_shape: wp.array(dtype=int)
-    light_pmf: wp.array(dtype=float)
-    light_cdf: wp.array(dtype=float)
-    n_lights: int
-    pl_position: wp.array(dtype=wp.vec3)
-    pl_intensity: wp.array(dtype=wp.vec3)
-    n_point_lights: int
-    dl_direction: wp.array(dtype=wp.vec3)
-    dl_irradiance: wp.array(dtype=wp.vec3)
-    n_dir_lights: int
-    background: wp.vec3
-    eps: float
-    cam_position: wp.vec3
-    cam_right: wp.vec3
-    cam_up: wp.vec3
-    cam_forward: wp.vec3
-    half_width: float
-    half_height: float
-    aperture: float
-    focus_distance: float
-    shutter_open: float
-    shutter_close: float
-    width: int
-    height: int
-    max_depth: int
-    rr_depth: int
-    whitted_codes: int
-
-
-@dataclass(frozen=True)
-class Features:
-    """What a scene uses; one compiled kernel per distinct value (with the sampler)."""
-    integrator: str
-    lens: bool
-    motion: bool
-    spheres: bool
-    quads: bool
-    kinds: frozenset
-    checker: bool
-    area_lights: bool
-    point_lights: bool
-    dir_lights: bool
-    roulette: bool
-    background: bool
-
-    def key(self) -> str:
-        flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
-                             "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
-        return f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
-
-
-@wp.struct
-class Scatter:
-    wi: wp.vec3
-    weight: wp.vec3     # f * |cos| / pdf, or the delta lobe's weight
-    pdf: float          # solid-angle pdf; 0 for delta lobes
-    delta: int
-    valid: int
-
-
-@wp.struct
-class LightSample:
-    wi: wp.vec3
-    dist: float
-    radiance: wp.vec3
-    pdf: float          # solid-angle pdf, including the light choice
-    valid: int
 
 
 def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
@@ -147,9 +39,6 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     MOTION = f.motion
     HAS_SPH = f.spheres
     HAS_QUAD = f.quads
-    K_DIFFUSE = "diffuse" in f.kinds
-    K_GLOSSY = "glossy" in f.kinds
-    K_MIRROR = "mirror" in f.kinds
     K_DIEL = "dielectric" in f.kinds
     K_GDIEL = "glossy_dielectric" in f.kinds
     CHECKER = f.checker
@@ -248,310 +137,18 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                     a = sd.mat_albedo2[m]
         return a
 
-    @wp.func
-    def fresnel(cos_i: float, eta: float) -> float:
-        # Unpolarised Fresnel reflectance; eta = n_transmitted / n_incident; 1 on total reflection.
-        sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-        if sin2_t >= 1.0:
-            return 1.0
-        cos_t = wp.sqrt(1.0 - sin2_t)
-        rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
-        rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
-        return 0.5 * (rs * rs + rp * rp)
-
-    @wp.func
-    def refract_dir(wo: wp.vec3, nf: wp.vec3, cos_o: float, eta: float) -> wp.vec3:
-        sin2_t = (1.0 - cos_o * cos_o) / (eta * eta)
-        cos_t = wp.sqrt(wp.max(0.0, 1.0 - sin2_t))
-        return wp.normalize(-wo / eta + (cos_o / eta - cos_t) * nf)
-
-    @wp.func
-    def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                               wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-        # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
-        # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
-        cos_o = wp.dot(n, wo)
-        nf = n
-        eta = ior
-        if cos_o < 0.0:
-            nf = -n
-            eta = 1.0 / ior
-        co = wp.abs(cos_o)
-        F = fresnel(co, eta)
-        ci = wp.dot(nf, wi)
-        r = wp.vec3(0.0)
-        if ci > 0.0:
-            refl = 2.0 * co * nf - wo
-            r = wp.vec3(F * phong_lobe_pdf(wp.dot(refl, wi), exponent))
-        elif ci < 0.0 and F < 1.0:
-            tdir = refract_dir(wo, nf, co, eta)
-            r = albedo * ((1.0 - F) / (eta * eta) * phong_lobe_pdf(wp.dot(tdir, wi), exponent))
-        return r
-
-    @wp.func
-    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                  wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-        """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
-        r = wp.vec3(0.0)
-        cos_o = wp.dot(n, wo)
-        cos_i = wp.dot(n, wi)
-        if wp.static(K_DIFFUSE):
-            if kind == DIFFUSE:
-                if cos_o * cos_i > 0.0:
-                    r = albedo * (wp.abs(cos_i) * INV_PI)
-        if wp.static(K_GLOSSY):
-            if kind == GLOSSY:
-                if cos_o * cos_i > 0.0:
-                    refl = 2.0 * cos_o * n - wo
-                    ca = wp.dot(refl, wi)
-                    if ca > 0.0:
-                        r = albedo * ((exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
-                                      * wp.abs(cos_i))
-        if wp.static(K_GDIEL):
-            if kind == GLOSSY_DIELECTRIC:
-                r = eval_glossy_dielectric(albedo, exponent, ior, n, wo, wi)
-        return r
-
-    @wp.func
-    def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
-                 wi: wp.vec3) -> float:
-        """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
-        cos_o = wp.dot(n, wo)
-        cos_i = wp.dot(n, wi)
-        p = float(0.0)
-        if wp.static(not LOBE):
-            if kind == GLOSSY_DIELECTRIC:
-                p = INV_4PI
-            elif cos_o * cos_i > 0.0:
-                p = 0.5 * INV_PI
-        if wp.static(LOBE):
-            if wp.static(K_DIFFUSE):
-                if kind == DIFFUSE:
-                    if cos_o * cos_i > 0.0:
-                        p = wp.abs(cos_i) * INV_PI
-            if wp.static(K_GLOSSY):
-                if kind == GLOSSY:
-                    if cos_o * cos_i > 0.0:
-                        nf = n
-                        if cos_o < 0.0:
-                            nf = -n
-                        refl = 2.0 * wp.abs(cos_o) * nf - wo
-                        p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
-            if wp.static(K_GDIEL):
-                if kind == GLOSSY_DIELECTRIC:
-                    nf = n
-                    eta = ior
-                    if cos_o < 0.0:
-                        nf = -n
-                        eta = 1.0 / ior
-                    co = wp.abs(cos_o)
-                    F = fresnel(co, eta)
-                    ci = wp.dot(nf, wi)
-                    if ci > 0.0:
-                        refl = 2.0 * co * nf - wo
-                        p = F * phong_lobe_pdf(wp.dot(refl, wi), exponent)
-                    elif ci < 0.0:
-                        tdir = refract_dir(wo, nf, co, eta)
-                        p = (1.0 - F) * phong_lobe_pdf(wp.dot(tdir, wi), exponent)
-        return p
-
-    @wp.func
-    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                    wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
-        s = Scatter()
-        s.valid = 0
-        s.delta = 0
-        cos_o = wp.dot(n, wo)
-        nf = n
-        if cos_o < 0.0:
-            nf = -n
-        co = wp.abs(cos_o)
-        if wp.static(K_MIRROR):
-            if kind == MIRROR:
-                s.wi = 2.0 * co * nf - wo
-                s.weight = albedo
-                s.delta = 1
-                s.valid = 1
-                return s
-        if wp.static(K_DIEL):
-            if kind == DIELECTRIC:
-                eta = ior
-                if cos_o < 0.0:
-                    eta = 1.0 / ior
-                F = fresnel(co, eta)
-                p_reflect = F
-                if wp.static(not LOBE):
-                    p_reflect = 0.5
-                if F >= 1.0:
-                    p_reflect = 1.0
-                s.delta = 1
-                s.valid = 1
-                if u_lobe < p_reflect:
-                    s.wi = 2.0 * co * nf - wo
-                    s.weight = wp.vec3(F / p_reflect)
-                else:
-                    s.wi = refract_dir(wo, nf, co, eta)
-                    s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
-                return s
-        if kind == EMITTER:
-            return s
-        # Non-delta kinds: propose a direction, then weight = f|cos| / pdf evaluated separately.
-        wi = wp.vec3(0.0)
-        if wp.static(not LOBE):
-            if kind == GLOSSY_DIELECTRIC:
-                wi = square_to_uniform_sphere(u)
-            else:
-                wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
-        if wp.static(LOBE):
-            if wp.static(K_DIFFUSE):
-                if kind == DIFFUSE:
-                    wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
-            if wp.static(K_GLOSSY):
-                if kind == GLOSSY:
-                    wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
-            if wp.static(K_GDIEL):
-                if kind == GLOSSY_DIELECTRIC:
-                    eta = ior
-                    if cos_o < 0.0:
-                        eta = 1.0 / ior
-                    F = fresnel(co, eta)
-                    axis = 2.0 * co * nf - wo
-                    if u_lobe >= F:
-                        axis = refract_dir(wo, nf, co, eta)
-                    wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
-        pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
-        if pdf > 0.0:
-            fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
-            if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
-                s.wi = wi
-                s.pdf = pdf
-                s.weight = fc / pdf
-                s.valid = 1
-        return s
+    bsdf = make_bsdf(f.kinds, LOBE)
+    fresnel = bsdf.fresnel
+    refract_dir = bsdf.refract_dir
+    eval_bsdf = bsdf.eval_bsdf
+    pdf_bsdf = bsdf.pdf_bsdf
+    sample_bsdf = bsdf.sample_bsdf
 
     # ------------------------------------------------------------------ lights
-    @wp.func
-    def light_pick_pmf(sd: SceneData, li: int) -> float:
-        if wp.static(POWER_PICK):
-            return sd.light_pmf[li]
-        return 1.0 / float(sd.n_lights)
-
-    @wp.func
-    def pick_light(sd: SceneData, u: float) -> int:
-        li = int(0)
-        if wp.static(POWER_PICK):
-            # Few lights: a linear scan of the cdf is cheaper than a search.
-            li = sd.n_lights - 1
-            for i in range(sd.n_lights - 1):
-                if u < sd.light_cdf[i]:
-                    li = i
-                    break
-        else:
-            li = wp.min(int(u * float(sd.n_lights)), sd.n_lights - 1)
-        return li
-
-    @wp.func
-    def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
-        """(1 - cos theta_max, distance to centre); first component <= 0 when x is inside."""
-        dc = wp.length(c - x)
-        if dc <= r * (1.0 + 1.0e-4):
-            return wp.vec2(-1.0, dc)
-        sin2 = (r / dc) * (r / dc)
-        cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
-        return wp.vec2(sin2 / (1.0 + cos_max), dc)
-
-    @wp.func
-    def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, dt: float) -> float:
-        """Solid-angle density (light choice included) of light sampling producing point y from x."""
-        k = sd.light_shape_kind[li]
-        s = sd.light_shape[li]
-        d = y - x
-        dist2 = wp.dot(d, d)
-        cos_l = wp.abs(wp.dot(ny, d)) / wp.sqrt(dist2)
-        pdf = float(0.0)
-        if k == SPHERE:
-            c = sd.sph_center[s]
-            if wp.static(MOTION):
-                c = c + sd.sph_velocity[s] * dt
-            r = sd.sph_radius[s]
-            cone = wp.vec2(-1.0, 0.0)
-            if wp.static(SOLID_ANGLE):
-                cone = sphere_cone(sd, c, r, x)
-            if cone[0] > 0.0:
-                pdf = cone_pdf(cone[0])
-            elif cos_l > 0.0:
-                pdf = dist2 / (cos_l * 4.0 * PI * r * r)
-        else:
-            if cos_l > 0.0:
-                pdf = dist2 / (cos_l * sd.quad_area[s])
-        return pdf * light_pick_pmf(sd, li)
-
-    @wp.func
-    def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, dt: float) -> LightSample:
-        ls = LightSample()
-        ls.valid = 0
-        k = sd.light_shape_kind[li]
-        s = sd.light_shape[li]
-        y = wp.vec3(0.0)
-        ny = wp.vec3(0.0)
-        m = int(0)
-        pdf = float(0.0)
-        if k == SPHERE:
-            c = sd.sph_center[s]
-            if wp.static(MOTION):
-                c = c + sd.sph_velocity[s] * dt
-            r = sd.sph_radius[s]
-            m = sd.sph_material[s]
-            cone = wp.vec2(-1.0, 0.0)
-            if wp.static(SOLID_ANGLE):
-                cone = sphere_cone(sd, c, r, x)
-            if cone[0] > 0.0:
-                axis = (c - x) / cone[1]
-                w = frame_to_world(square_to_cone(u, cone[0]), axis)
-                # Nearest intersection of the cone direction with the sphere.
-                b = wp.dot(c - x, w)
-                perp = (c - x) - w * b
-                disc = r * r - wp.dot(perp, perp)
-                t = b - wp.sqrt(wp.max(0.0, disc))
-                y = x + w * t
-                ny = wp.normalize(y - c)
-                pdf = cone_pdf(cone[0])
-                ls.wi = w
-                ls.dist = t
-            else:
-                ny = square_to_uniform_sphere(u)
-                y = c + ny * r
-        else:
-            m = sd.quad_material[s]
-            q0 = sd.quad_origin[s]
-            if wp.static(MOTION):
-                q0 = q0 + sd.quad_velocity[s] * dt
-            y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
-            ny = sd.quad_normal[s]
-        if pdf == 0.0:
-            d = y - x
-            dist = wp.length(d)
-            if dist <= 0.0:
-                return ls
-            wi = d / dist
-            cos_l = -wp.dot(ny, wi)
-            if cos_l <= 0.0:
-                return ls
-            area = float(0.0)
-            if k == SPHERE:
-                area = 4.0 * PI * sd.sph_radius[s] * sd.sph_radius[s]
-            else:
-                area = sd.quad_area[s]
-            pdf = dist * dist / (cos_l * area)
-            ls.wi = wi
-            ls.dist = dist
-        else:
-            if wp.dot(ny, ls.wi) >= 0.0:
-                return ls
-        ls.radiance = sd.mat_emission[m]
-        ls.pdf = pdf * light_pick_pmf(sd, li)
-        ls.valid = 1
-        return ls
+    lights = make_lights(MOTION, SOLID_ANGLE, POWER_PICK)
+    pick_light = lights.pick_light
+    light_pdf = lights.light_pdf
+    sample_light = lights.sample_light
 
     @wp.func
     def direct_delta_lights(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float,

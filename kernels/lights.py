@@ -1,0 +1,159 @@
+"""Area-light sampling, built per kernel variant.
+
+`make_lights(motion, solid_angle, power_pick)` returns Warp functions callable on their own:
+    pick_light(sd, u) -> light index;  light_pick_pmf(sd, li) -> its probability
+    sample_light(sd, li, x, u, dt) -> LightSample (direction, distance, radiance, solid-angle pdf
+        including the light choice)
+    light_pdf(sd, li, x, y, ny, dt) -> the density sample_light has of proposing point y from x
+`solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it);
+rectangles are always area-sampled. `power_pick` picks lights proportionally to emitted power.
+"""
+from types import SimpleNamespace
+
+import warp as wp
+
+from drtlab.estimators.warps import (PI, cone_pdf, frame_to_world, square_to_cone,
+                                     square_to_uniform_sphere)
+from drtlab.kernels.scene_data import SPHERE, SceneData
+
+
+@wp.struct
+class LightSample:
+    wi: wp.vec3
+    dist: float
+    radiance: wp.vec3
+    pdf: float          # solid-angle pdf, including the light choice
+    valid: int
+
+
+
+def make_lights(motion: bool, solid_angle: bool, power_pick: bool) -> SimpleNamespace:
+    MOTION = motion
+    SOLID_ANGLE = solid_angle
+    POWER_PICK = power_pick
+
+    @wp.func
+    def light_pick_pmf(sd: SceneData, li: int) -> float:
+        if wp.static(POWER_PICK):
+            return sd.light_pmf[li]
+        return 1.0 / float(sd.n_lights)
+
+    @wp.func
+    def pick_light(sd: SceneData, u: float) -> int:
+        li = int(0)
+        if wp.static(POWER_PICK):
+            # Few lights: a linear scan of the cdf is cheaper than a search.
+            li = sd.n_lights - 1
+            for i in range(sd.n_lights - 1):
+                if u < sd.light_cdf[i]:
+                    li = i
+                    break
+        else:
+            li = wp.min(int(u * float(sd.n_lights)), sd.n_lights - 1)
+        return li
+
+    @wp.func
+    def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
+        """(1 - cos theta_max, distance to centre); first component <= 0 when x is inside."""
+        dc = wp.length(c - x)
+        if dc <= r * (1.0 + 1.0e-4):
+            return wp.vec2(-1.0, dc)
+        sin2 = (r / dc) * (r / dc)
+        cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
+        return wp.vec2(sin2 / (1.0 + cos_max), dc)
+
+    @wp.func
+    def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, dt: float) -> float:
+        """Solid-angle density (light choice included) of light sampling producing point y from x."""
+        k = sd.light_shape_kind[li]
+        s = sd.light_shape[li]
+        d = y - x
+        dist2 = wp.dot(d, d)
+        cos_l = wp.abs(wp.dot(ny, d)) / wp.sqrt(dist2)
+        pdf = float(0.0)
+        if k == SPHERE:
+            c = sd.sph_center[s]
+            if wp.static(MOTION):
+                c = c + sd.sph_velocity[s] * dt
+            r = sd.sph_radius[s]
+            cone = wp.vec2(-1.0, 0.0)
+            if wp.static(SOLID_ANGLE):
+                cone = sphere_cone(sd, c, r, x)
+            if cone[0] > 0.0:
+                pdf = cone_pdf(cone[0])
+            elif cos_l > 0.0:
+                pdf = dist2 / (cos_l * 4.0 * PI * r * r)
+        else:
+            if cos_l > 0.0:
+                pdf = dist2 / (cos_l * sd.quad_area[s])
+        return pdf * light_pick_pmf(sd, li)
+
+    @wp.func
+    def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, dt: float) -> LightSample:
+        ls = LightSample()
+        ls.valid = 0
+        k = sd.light_shape_kind[li]
+        s = sd.light_shape[li]
+        y = wp.vec3(0.0)
+        ny = wp.vec3(0.0)
+        m = int(0)
+        pdf = float(0.0)
+        if k == SPHERE:
+            c = sd.sph_center[s]
+            if wp.static(MOTION):
+                c = c + sd.sph_velocity[s] * dt
+            r = sd.sph_radius[s]
+            m = sd.sph_material[s]
+            cone = wp.vec2(-1.0, 0.0)
+            if wp.static(SOLID_ANGLE):
+                cone = sphere_cone(sd, c, r, x)
+            if cone[0] > 0.0:
+                axis = (c - x) / cone[1]
+                w = frame_to_world(square_to_cone(u, cone[0]), axis)
+                # Nearest intersection of the cone direction with the sphere.
+                b = wp.dot(c - x, w)
+                perp = (c - x) - w * b
+                disc = r * r - wp.dot(perp, perp)
+                t = b - wp.sqrt(wp.max(0.0, disc))
+                y = x + w * t
+                ny = wp.normalize(y - c)
+                pdf = cone_pdf(cone[0])
+                ls.wi = w
+                ls.dist = t
+            else:
+                ny = square_to_uniform_sphere(u)
+                y = c + ny * r
+        else:
+            m = sd.quad_material[s]
+            q0 = sd.quad_origin[s]
+            if wp.static(MOTION):
+                q0 = q0 + sd.quad_velocity[s] * dt
+            y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
+            ny = sd.quad_normal[s]
+        if pdf == 0.0:
+            d = y - x
+            dist = wp.length(d)
+            if dist <= 0.0:
+                return ls
+            wi = d / dist
+            cos_l = -wp.dot(ny, wi)
+            if cos_l <= 0.0:
+                return ls
+            area = float(0.0)
+            if k == SPHERE:
+                area = 4.0 * PI * sd.sph_radius[s] * sd.sph_radius[s]
+            else:
+                area = sd.quad_area[s]
+            pdf = dist * dist / (cos_l * area)
+            ls.wi = wi
+            ls.dist = dist
+        else:
+            if wp.dot(ny, ls.wi) >= 0.0:
+                return ls
+        ls.radiance = sd.mat_emission[m]
+        ls.pdf = pdf * light_pick_pmf(sd, li)
+        ls.valid = 1
+        return ls
+
+    return SimpleNamespace(light_pick_pmf=light_pick_pmf, pick_light=pick_light,
+                           sphere_cone=sphere_cone, light_pdf=light_pdf, sample_light=sample_light)

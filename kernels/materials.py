@@ -1,0 +1,228 @@
+"""BSDFs of the material kinds, built per kernel variant so absent kinds are compiled out.
+
+`make_bsdf(kinds, lobe)` returns Warp functions that can be called on their own (the tracer, MIS and
+the chi-square tests use the same ones):
+    eval_bsdf(kind, albedo, exponent, ior, n, wo, wi) -> f(wo, wi) |cos theta_i|  (non-delta kinds)
+    pdf_bsdf(kind, exponent, ior, n, wo, wi)          -> solid-angle density of sample_bsdf
+    sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter (weight = f|cos|/pdf)
+`lobe` selects the strategy: True samples cosine / Phong lobes / Fresnel, False samples uniform
+hemisphere (sphere for glossy transmission) and picks reflect/refract with probability 1/2.
+"""
+from types import SimpleNamespace
+
+import warp as wp
+
+from drtlab.estimators.warps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
+                                     square_to_cosine_hemisphere, square_to_phong_lobe,
+                                     square_to_uniform_hemisphere, square_to_uniform_sphere)
+
+# Material kinds, in the order of scene_model.MATERIAL_KINDS.
+DIFFUSE = wp.constant(0)
+GLOSSY = wp.constant(1)
+MIRROR = wp.constant(2)
+DIELECTRIC = wp.constant(3)
+GLOSSY_DIELECTRIC = wp.constant(4)
+EMITTER = wp.constant(5)
+
+
+@wp.struct
+class Scatter:
+    wi: wp.vec3
+    weight: wp.vec3     # f * |cos| / pdf, or the delta lobe's weight
+    pdf: float          # solid-angle pdf; 0 for delta lobes
+    delta: int
+    valid: int
+
+
+
+def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
+    K_DIFFUSE = "diffuse" in kinds
+    K_GLOSSY = "glossy" in kinds
+    K_MIRROR = "mirror" in kinds
+    K_DIEL = "dielectric" in kinds
+    K_GDIEL = "glossy_dielectric" in kinds
+    LOBE = lobe
+
+    @wp.func
+    def fresnel(cos_i: float, eta: float) -> float:
+        # Unpolarised Fresnel reflectance; eta = n_transmitted / n_incident; 1 on total reflection.
+        sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+        if sin2_t >= 1.0:
+            return 1.0
+        cos_t = wp.sqrt(1.0 - sin2_t)
+        rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+        rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+        return 0.5 * (rs * rs + rp * rp)
+
+    @wp.func
+    def refract_dir(wo: wp.vec3, nf: wp.vec3, cos_o: float, eta: float) -> wp.vec3:
+        sin2_t = (1.0 - cos_o * cos_o) / (eta * eta)
+        cos_t = wp.sqrt(wp.max(0.0, 1.0 - sin2_t))
+        return wp.normalize(-wo / eta + (cos_o / eta - cos_t) * nf)
+
+    @wp.func
+    def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                               wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+        # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
+        # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
+        cos_o = wp.dot(n, wo)
+        nf = n
+        eta = ior
+        if cos_o < 0.0:
+            nf = -n
+            eta = 1.0 / ior
+        co = wp.abs(cos_o)
+        F = fresnel(co, eta)
+        ci = wp.dot(nf, wi)
+        r = wp.vec3(0.0)
+        if ci > 0.0:
+            refl = 2.0 * co * nf - wo
+            r = wp.vec3(F * phong_lobe_pdf(wp.dot(refl, wi), exponent))
+        elif ci < 0.0 and F < 1.0:
+            tdir = refract_dir(wo, nf, co, eta)
+            r = albedo * ((1.0 - F) / (eta * eta) * phong_lobe_pdf(wp.dot(tdir, wi), exponent))
+        return r
+
+    @wp.func
+    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                  wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+        """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
+        r = wp.vec3(0.0)
+        cos_o = wp.dot(n, wo)
+        cos_i = wp.dot(n, wi)
+        if wp.static(K_DIFFUSE):
+            if kind == DIFFUSE:
+                if cos_o * cos_i > 0.0:
+                    r = albedo * (wp.abs(cos_i) * INV_PI)
+        if wp.static(K_GLOSSY):
+            if kind == GLOSSY:
+                if cos_o * cos_i > 0.0:
+                    refl = 2.0 * cos_o * n - wo
+                    ca = wp.dot(refl, wi)
+                    if ca > 0.0:
+                        r = albedo * ((exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
+                                      * wp.abs(cos_i))
+        if wp.static(K_GDIEL):
+            if kind == GLOSSY_DIELECTRIC:
+                r = eval_glossy_dielectric(albedo, exponent, ior, n, wo, wi)
+        return r
+
+    @wp.func
+    def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
+                 wi: wp.vec3) -> float:
+        """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
+        cos_o = wp.dot(n, wo)
+        cos_i = wp.dot(n, wi)
+        p = float(0.0)
+        if wp.static(not LOBE):
+            if kind == GLOSSY_DIELECTRIC:
+                p = INV_4PI
+            elif cos_o * cos_i > 0.0:
+                p = 0.5 * INV_PI
+        if wp.static(LOBE):
+            if wp.static(K_DIFFUSE):
+                if kind == DIFFUSE:
+                    if cos_o * cos_i > 0.0:
+                        p = wp.abs(cos_i) * INV_PI
+            if wp.static(K_GLOSSY):
+                if kind == GLOSSY:
+                    if cos_o * cos_i > 0.0:
+                        nf = n
+                        if cos_o < 0.0:
+                            nf = -n
+                        refl = 2.0 * wp.abs(cos_o) * nf - wo
+                        p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
+            if wp.static(K_GDIEL):
+                if kind == GLOSSY_DIELECTRIC:
+                    nf = n
+                    eta = ior
+                    if cos_o < 0.0:
+                        nf = -n
+                        eta = 1.0 / ior
+                    co = wp.abs(cos_o)
+                    F = fresnel(co, eta)
+                    ci = wp.dot(nf, wi)
+                    if ci > 0.0:
+                        refl = 2.0 * co * nf - wo
+                        p = F * phong_lobe_pdf(wp.dot(refl, wi), exponent)
+                    elif ci < 0.0:
+                        tdir = refract_dir(wo, nf, co, eta)
+                        p = (1.0 - F) * phong_lobe_pdf(wp.dot(tdir, wi), exponent)
+        return p
+
+    @wp.func
+    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                    wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+        s = Scatter()
+        s.valid = 0
+        s.delta = 0
+        cos_o = wp.dot(n, wo)
+        nf = n
+        if cos_o < 0.0:
+            nf = -n
+        co = wp.abs(cos_o)
+        if wp.static(K_MIRROR):
+            if kind == MIRROR:
+                s.wi = 2.0 * co * nf - wo
+                s.weight = albedo
+                s.delta = 1
+                s.valid = 1
+                return s
+        if wp.static(K_DIEL):
+            if kind == DIELECTRIC:
+                eta = ior
+                if cos_o < 0.0:
+                    eta = 1.0 / ior
+                F = fresnel(co, eta)
+                p_reflect = F
+                if wp.static(not LOBE):
+                    p_reflect = 0.5
+                if F >= 1.0:
+                    p_reflect = 1.0
+                s.delta = 1
+                s.valid = 1
+                if u_lobe < p_reflect:
+                    s.wi = 2.0 * co * nf - wo
+                    s.weight = wp.vec3(F / p_reflect)
+                else:
+                    s.wi = refract_dir(wo, nf, co, eta)
+                    s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
+                return s
+        if kind == EMITTER:
+            return s
+        # Non-delta kinds: propose a direction, then weight = f|cos| / pdf evaluated separately.
+        wi = wp.vec3(0.0)
+        if wp.static(not LOBE):
+            if kind == GLOSSY_DIELECTRIC:
+                wi = square_to_uniform_sphere(u)
+            else:
+                wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
+        if wp.static(LOBE):
+            if wp.static(K_DIFFUSE):
+                if kind == DIFFUSE:
+                    wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
+            if wp.static(K_GLOSSY):
+                if kind == GLOSSY:
+                    wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
+            if wp.static(K_GDIEL):
+                if kind == GLOSSY_DIELECTRIC:
+                    eta = ior
+                    if cos_o < 0.0:
+                        eta = 1.0 / ior
+                    F = fresnel(co, eta)
+                    axis = 2.0 * co * nf - wo
+                    if u_lobe >= F:
+                        axis = refract_dir(wo, nf, co, eta)
+                    wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
+        pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
+        if pdf > 0.0:
+            fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+            if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                s.wi = wi
+                s.pdf = pdf
+                s.weight = fc / pdf
+                s.valid = 1
+        return s
+
+    return SimpleNamespace(fresnel=fresnel, refract_dir=refract_dir, eval_bsdf=eval_bsdf,
+                           pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)

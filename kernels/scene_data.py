@@ -1,0 +1,84 @@
+"""The scene as the kernels see it (SceneData, uploaded by render.upload) and the feature set that
+selects a kernel variant."""
+from dataclasses import dataclass
+
+import warp as wp
+
+SPHERE = wp.constant(0)
+QUAD = wp.constant(1)
+
+
+@wp.struct
+class SceneData:
+    sph_center: wp.array(dtype=wp.vec3)
+    sph_radius: wp.array(dtype=float)
+    sph_velocity: wp.array(dtype=wp.vec3)
+    sph_material: wp.array(dtype=int)
+    sph_light: wp.array(dtype=int)
+    n_spheres: int
+    quad_origin: wp.array(dtype=wp.vec3)
+    quad_u: wp.array(dtype=wp.vec3)
+    quad_v: wp.array(dtype=wp.vec3)
+    quad_normal: wp.array(dtype=wp.vec3)
+    quad_area: wp.array(dtype=float)
+    quad_velocity: wp.array(dtype=wp.vec3)
+    quad_material: wp.array(dtype=int)
+    quad_light: wp.array(dtype=int)
+    n_quads: int
+    mat_kind: wp.array(dtype=int)
+    mat_albedo: wp.array(dtype=wp.vec3)
+    mat_albedo2: wp.array(dtype=wp.vec3)
+    mat_checker: wp.array(dtype=wp.vec2)
+    mat_exponent: wp.array(dtype=float)
+    mat_ior: wp.array(dtype=float)
+    mat_emission: wp.array(dtype=wp.vec3)
+    light_shape_kind: wp.array(dtype=int)
+    light_shape: wp.array(dtype=int)
+    light_pmf: wp.array(dtype=float)
+    light_cdf: wp.array(dtype=float)
+    n_lights: int
+    pl_position: wp.array(dtype=wp.vec3)
+    pl_intensity: wp.array(dtype=wp.vec3)
+    n_point_lights: int
+    dl_direction: wp.array(dtype=wp.vec3)
+    dl_irradiance: wp.array(dtype=wp.vec3)
+    n_dir_lights: int
+    background: wp.vec3
+    eps: float
+    cam_position: wp.vec3
+    cam_right: wp.vec3
+    cam_up: wp.vec3
+    cam_forward: wp.vec3
+    half_width: float
+    half_height: float
+    aperture: float
+    focus_distance: float
+    shutter_open: float
+    shutter_close: float
+    width: int
+    height: int
+    max_depth: int
+    rr_depth: int
+    whitted_codes: int
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene uses; one compiled kernel per distinct value (with the sampler)."""
+    integrator: str
+    lens: bool
+    motion: bool
+    spheres: bool
+    quads: bool
+    kinds: frozenset
+    checker: bool
+    area_lights: bool
+    point_lights: bool
+    dir_lights: bool
+    roulette: bool
+    background: bool
+
+    def key(self) -> str:
+        flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
+                             "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
+        return f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
