@@ -1,0 +1,69 @@
+"""What the experiment code needs from the renderer, gathered in one injectable object.
+
+The runner, the ground-truth builder and the config validator take a `Backend`; the default one wraps
+the real Warp renderer. Tests inject a fake that returns ground truth plus noise of a known law.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+
+@dataclass
+class RenderResult:
+    """The fields the runner reads from `render_with_stats`."""
+    image: Any
+    render_seconds: float
+    compile_seconds: float = 0.0
+    samples_per_second: float = 0.0
+
+
+@dataclass
+class Backend:
+    # load_scene(name_or_path, overrides) -> Scene; raises InputError on bad input
+    load_scene: Callable[..., Any]
+    # render(scene, spp=, sampler=, integrator=, seed=, res=, threads=) -> RenderResult-like
+    render: Callable[..., Any]
+    # hash of the kernel + estimator sources: a change invalidates ground truth and runs
+    code_version: str
+    name: str = "warp-cpu"
+
+
+def source_hash() -> str:
+    """Hash of the .py sources under kernels/ and estimators/ (fallback when CODE_VERSION is absent)."""
+    import drtlab.estimators
+    import drtlab.kernels
+    h = hashlib.sha256()
+    for pkg in (drtlab.kernels, drtlab.estimators):
+        root = Path(pkg.__file__).parent
+        for p in sorted(root.rglob("*.py")):
+            h.update(str(p.relative_to(root)).encode())
+            h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def code_version() -> str:
+    try:
+        from drtlab.kernels import CODE_VERSION  # type: ignore[attr-defined]
+        return str(CODE_VERSION)
+    except ImportError:
+        return source_hash()
+
+
+def default_backend(device: str = "cpu") -> Backend:
+    from drtlab.kernels.render import render_with_stats
+    from drtlab.kernels.scene import load_scene
+
+    def render(scene, *, spp, sampler, integrator, seed, res, threads=None):
+        return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
+                                 res=res, threads=threads, device=device, progress=False)
+
+    return Backend(load_scene=load_scene, render=render, code_version=code_version(),
+                   name=f"warp-{device}")
+
+
+def default_scene_loader():
+    from drtlab.kernels.scene import load_scene
+    return load_scene

@@ -1,0 +1,102 @@
+"""`manifest.json`: what produced an experiment's results (code, packages, machine, seeds, time)."""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+
+from drtlab.experiments.imageio_util import atomic_write_json
+
+PACKAGES = ("drtlab", "warp-lang", "numpy", "scipy", "emcee", "matplotlib", "colour-science",
+            "OpenImageIO", "tqdm")
+
+
+def git_info(cwd: Path | None = None) -> dict:
+    cwd = cwd or Path(__file__).resolve().parent
+
+    def git(*args):
+        try:
+            return subprocess.run(["git", *args], cwd=cwd, capture_output=True, text=True,
+                                  timeout=10).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+    sha = git("rev-parse", "HEAD")
+    dirty = bool(git("status", "--porcelain", "--untracked-files=no")) if sha else None
+    return {"sha": sha or None, "dirty": dirty}
+
+
+def package_versions() -> dict:
+    out = {}
+    for p in PACKAGES:
+        try:
+            out[p] = metadata.version(p)
+        except metadata.PackageNotFoundError:
+            out[p] = None
+    return out
+
+
+def machine_info() -> dict:
+    cpu = platform.processor()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except AttributeError:
+        affinity = os.cpu_count()
+    mem = None
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal"):
+                mem = round(int(line.split()[1]) / 2 ** 20, 1)
+    except OSError:
+        pass
+    return {"hostname": platform.node(), "platform": platform.platform(), "python": sys.version.split()[0],
+            "cpu": cpu, "cpu_count": os.cpu_count(), "usable_cpus": affinity, "memory_gib": mem}
+
+
+def peak_rss_mib() -> float | None:
+    try:
+        import resource
+        return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1)
+    except (ImportError, OSError):
+        return None
+
+
+def write_manifest(out_dir: Path, exp, backend, plan, records: dict, gts: dict, stats: dict,
+                   wall_seconds: float, argv=None) -> dict:
+    recs = [records[r.run_id] for r in plan if r.run_id in records]
+    m = {
+        "experiment": exp.name, "profile": exp.profile, "file": exp.path,
+        "experiment_hash": exp.text_hash, "sources": exp.sources,
+        "command": argv if argv is not None else sys.argv,
+        "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "git": git_info(), "packages": package_versions(), "machine": machine_info(),
+        "backend": backend.name, "code_version": backend.code_version,
+        "seeds": {
+            "scheme": "run seed = blake2b(root, scene, sampler, integrator, resolution, spp, repetition) "
+                      "& 0x7fffffff; ground-truth batch seeds have the top bit set (disjoint)",
+            "roots": {st.name: st.seed for st in exp.studies},
+            "runs": "see runs.csv (column seed)",
+            "ground_truth": {info["dir"]: info.get("seeds") for info in gts.values()},
+        },
+        "runs": stats,
+        "wall_seconds": {
+            "this_invocation": wall_seconds,
+            "render_total": sum(r["render_seconds"] for r in recs),
+            "compile_total": sum(r["compile_seconds"] for r in recs),
+            "ground_truth_total": sum((info.get("wall_seconds") or 0.0) for info in gts.values()),
+        },
+        "peak_rss_mib": peak_rss_mib(),
+        "environment": {k: os.environ.get(k) for k in ("WARP_CACHE_PATH", "OMP_NUM_THREADS")},
+    }
+    atomic_write_json(Path(out_dir) / "manifest.json", m)
+    return m
