@@ -27,7 +27,8 @@ class LightSample:
 
 
 
-def make_lights(motion: bool, solid_angle: bool, power_pick: bool) -> SimpleNamespace:
+def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
+                wrong_jacobian: bool = False) -> SimpleNamespace:
     MOTION = motion
     SOLID_ANGLE = solid_angle
     POWER_PICK = power_pick
@@ -145,6 +146,8 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool) -> SimpleName
             else:
                 area = sd.quad_area[s]
             pdf = dist * dist / (cos_l * area)
+            if wp.static(wrong_jacobian):
+                pdf = dist * dist / area
             ls.wi = wi
             ls.dist = dist
         else:

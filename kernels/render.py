@@ -265,8 +265,13 @@ def _check_int(name: str, value, low: int, high: int | None = None) -> int:
 
 
 def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
-                      threads=None, tile=None, device="cpu", progress=None) -> RenderStats:
-    """Render `scene` (a Scene, a built-in name or a .toml path); see `render`."""
+                      threads=None, tile=None, device="cpu", progress=None,
+                      faults=()) -> RenderStats:
+    """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
+
+    `faults` (names from scene_data.FAULTS) compiles a deliberately wrong estimator: tests use it as
+    the negative control that a statistical test must reject. Never set it for real renders.
+    """
     spec = parse_sampler(sampler)
     scene = _resolve_scene(scene, res)
     integ = parse_integrator(integrator if integrator is not None else scene.integrator).name
@@ -284,6 +289,12 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
 
     wp = _wp()
     features = features_of(scene, integ)
+    if faults:
+        from drtlab.kernels.scene_data import FAULTS
+        unknown = sorted(set(faults) - set(FAULTS))
+        if unknown:
+            raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(FAULTS)}")
+        features = replace(features, faults=frozenset(faults))
     kernel, compile_s = get_kernel(features, spec, device)
     sd = upload(scene, device)
     W, H = scene.width, scene.height
@@ -335,11 +346,11 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
 
 
 def render(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
-           threads=None, tile=None, device="cpu", progress=None) -> np.ndarray:
+           threads=None, tile=None, device="cpu", progress=None, faults=()) -> np.ndarray:
     """Render and return (H, W, 3) float64 linear radiance, the per-pixel mean of `spp` samples.
 
     The same arguments give a bit-identical image whatever `threads`, `tile` or the process.
     """
     return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
                              res=res, threads=threads, tile=tile, device=device,
-                             progress=progress).image
+                             progress=progress, faults=faults).image

@@ -4,6 +4,13 @@ from dataclasses import dataclass
 
 import warp as wp
 
+# Faults a test may compile into a kernel to check that a statistical test rejects a wrong estimator:
+#   drop_cosine     diffuse/glossy f|cos| loses its cosine (light samples and scattered rays)
+#   pdf_high_10pct  scattered rays are weighted as if their pdf were 10% higher
+#   rr_no_reweight  Russian roulette kills paths without dividing survivors by their probability
+#   light_jacobian  area light samples convert to solid angle without the cosine at the light
+FAULTS = ("drop_cosine", "pdf_high_10pct", "rr_no_reweight", "light_jacobian")
+
 SPHERE = wp.constant(0)
 QUAD = wp.constant(1)
 
@@ -77,8 +84,11 @@ class Features:
     dir_lights: bool
     roulette: bool
     background: bool
+    # Deliberately wrong estimators, compiled in only for the tests' negative controls (see FAULTS).
+    faults: frozenset = frozenset()
 
     def key(self) -> str:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
-        return f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
+        key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
+        return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")

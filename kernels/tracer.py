@@ -145,7 +145,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     sample_bsdf = bsdf.sample_bsdf
 
     # ------------------------------------------------------------------ lights
-    lights = make_lights(MOTION, SOLID_ANGLE, POWER_PICK)
+    lights = make_lights(MOTION, SOLID_ANGLE, POWER_PICK, "light_jacobian" in f.faults)
     pick_light = lights.pick_light
     light_pdf = lights.light_pdf
     sample_light = lights.sample_light
@@ -338,7 +338,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                     if get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.ROULETTE)),
                              spp) >= q:
                         break
-                    beta = beta / q
+                    if wp.static("rr_no_reweight" not in f.faults):
+                        beta = beta / q
             albedo = surface_albedo(sd, m, h.uv)
             exponent = sd.mat_exponent[m]
             ior = sd.mat_ior[m]
@@ -352,6 +353,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                     ls = sample_light(sd, li, h.p, up, dt)
                     if ls.valid == 1:
                         fc = eval_bsdf(kind, albedo, exponent, ior, h.n, wo, ls.wi)
+                        if wp.static("drop_cosine" in f.faults):
+                            fc = fc / wp.abs(wp.dot(h.n, ls.wi))
                         if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                             so = offset_origin(h.p, h.n, ls.wi, sd.eps)
                             lk = sd.light_shape_kind[li]
@@ -370,6 +373,12 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             if s.valid == 0:
                 break
             beta = wp.cw_mul(beta, s.weight)
+            if wp.static("drop_cosine" in f.faults):
+                if s.delta == 0:
+                    beta = beta / wp.abs(wp.dot(h.n, s.wi))
+            if wp.static("pdf_high_10pct" in f.faults):
+                if s.delta == 0:
+                    beta = beta / 1.1
             if wp.static(DRT):
                 if kind == DIFFUSE:
                     last_segment = 1
