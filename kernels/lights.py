@@ -14,7 +14,7 @@ import warp as wp
 
 from drtlab.estimators.warps import (PI, cone_pdf, frame_to_world, square_to_cone,
                                      square_to_uniform_sphere)
-from drtlab.kernels.scene_data import SPHERE, SceneData
+from drtlab.kernels.scene_data import SPHERE, SceneData, make_motion
 
 
 @wp.struct
@@ -29,7 +29,9 @@ class LightSample:
 
 def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
                 wrong_jacobian: bool = False) -> SimpleNamespace:
-    MOTION = motion
+    motion_funcs = make_motion(motion)
+    sphere_center = motion_funcs.sphere_center
+    quad_origin = motion_funcs.quad_origin
     SOLID_ANGLE = solid_angle
     POWER_PICK = power_pick
 
@@ -73,9 +75,7 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
         cos_l = wp.abs(wp.dot(ny, d)) / wp.sqrt(dist2)
         pdf = float(0.0)
         if k == SPHERE:
-            c = sd.sph_center[s]
-            if wp.static(MOTION):
-                c = c + sd.sph_velocity[s] * dt
+            c = sphere_center(sd, s, dt)
             r = sd.sph_radius[s]
             cone = wp.vec2(-1.0, 0.0)
             if wp.static(SOLID_ANGLE):
@@ -100,9 +100,7 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
         m = int(0)
         pdf = float(0.0)
         if k == SPHERE:
-            c = sd.sph_center[s]
-            if wp.static(MOTION):
-                c = c + sd.sph_velocity[s] * dt
+            c = sphere_center(sd, s, dt)
             r = sd.sph_radius[s]
             m = sd.sph_material[s]
             cone = wp.vec2(-1.0, 0.0)
@@ -126,9 +124,7 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
                 y = c + ny * r
         else:
             m = sd.quad_material[s]
-            q0 = sd.quad_origin[s]
-            if wp.static(MOTION):
-                q0 = q0 + sd.quad_velocity[s] * dt
+            q0 = quad_origin(sd, s, dt)
             y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
             ny = sd.quad_normal[s]
         if pdf == 0.0:

@@ -35,6 +35,63 @@ class Scatter:
 
 
 
+@wp.struct
+class Interface:
+    """The side of a dielectric boundary a direction wo arrives from."""
+    nf: wp.vec3         # normal on wo's side
+    co: float           # |cos| of wo
+    eta: float          # n_transmitted / n_incident
+    F: float            # Fresnel reflectance (1 on total internal reflection)
+
+
+@wp.func
+def fresnel(cos_i: float, eta: float) -> float:
+    # Unpolarised Fresnel reflectance; eta = n_transmitted / n_incident; 1 on total reflection.
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    if sin2_t >= 1.0:
+        return 1.0
+    cos_t = wp.sqrt(1.0 - sin2_t)
+    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+@wp.func
+def refract_dir(wo: wp.vec3, nf: wp.vec3, cos_o: float, eta: float) -> wp.vec3:
+    sin2_t = (1.0 - cos_o * cos_o) / (eta * eta)
+    cos_t = wp.sqrt(wp.max(0.0, 1.0 - sin2_t))
+    return wp.normalize(-wo / eta + (cos_o / eta - cos_t) * nf)
+
+
+@wp.func
+def interface(n: wp.vec3, wo: wp.vec3, ior: float) -> Interface:
+    # n is the outward normal: wo below it means the ray leaves the medium.
+    it = Interface()
+    cos_o = wp.dot(n, wo)
+    it.nf = n
+    it.eta = ior
+    if cos_o < 0.0:
+        it.nf = -n
+        it.eta = 1.0 / ior
+    it.co = wp.abs(cos_o)
+    it.F = fresnel(it.co, it.eta)
+    return it
+
+
+@wp.func
+def glossy_dielectric_lobes(it: Interface, wo: wp.vec3, wi: wp.vec3, exponent: float) -> wp.vec2:
+    """Phong lobe densities at wi around the mirror (x) and refracted (y) directions; a lobe is zero
+    on the other side of the surface, the refracted one also under total internal reflection."""
+    ci = wp.dot(it.nf, wi)
+    r = wp.vec2(0.0, 0.0)
+    if ci > 0.0:
+        r = wp.vec2(phong_lobe_pdf(wp.dot(2.0 * it.co * it.nf - wo, wi), exponent), 0.0)
+    elif ci < 0.0 and it.F < 1.0:
+        tdir = refract_dir(wo, it.nf, it.co, it.eta)
+        r = wp.vec2(0.0, phong_lobe_pdf(wp.dot(tdir, wi), exponent))
+    return r
+
+
 def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
@@ -44,44 +101,13 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
     LOBE = lobe
 
     @wp.func
-    def fresnel(cos_i: float, eta: float) -> float:
-        # Unpolarised Fresnel reflectance; eta = n_transmitted / n_incident; 1 on total reflection.
-        sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
-        if sin2_t >= 1.0:
-            return 1.0
-        cos_t = wp.sqrt(1.0 - sin2_t)
-        rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
-        rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
-        return 0.5 * (rs * rs + rp * rp)
-
-    @wp.func
-    def refract_dir(wo: wp.vec3, nf: wp.vec3, cos_o: float, eta: float) -> wp.vec3:
-        sin2_t = (1.0 - cos_o * cos_o) / (eta * eta)
-        cos_t = wp.sqrt(wp.max(0.0, 1.0 - sin2_t))
-        return wp.normalize(-wo / eta + (cos_o / eta - cos_t) * nf)
-
-    @wp.func
     def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
                                wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
         # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
         # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
-        cos_o = wp.dot(n, wo)
-        nf = n
-        eta = ior
-        if cos_o < 0.0:
-            nf = -n
-            eta = 1.0 / ior
-        co = wp.abs(cos_o)
-        F = fresnel(co, eta)
-        ci = wp.dot(nf, wi)
-        r = wp.vec3(0.0)
-        if ci > 0.0:
-            refl = 2.0 * co * nf - wo
-            r = wp.vec3(F * phong_lobe_pdf(wp.dot(refl, wi), exponent))
-        elif ci < 0.0 and F < 1.0:
-            tdir = refract_dir(wo, nf, co, eta)
-            r = albedo * ((1.0 - F) / (eta * eta) * phong_lobe_pdf(wp.dot(tdir, wi), exponent))
-        return r
+        it = interface(n, wo, ior)
+        lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
+        return wp.vec3(it.F * lobes[0]) + albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -134,20 +160,9 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                         p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
             if wp.static(K_GDIEL):
                 if kind == GLOSSY_DIELECTRIC:
-                    nf = n
-                    eta = ior
-                    if cos_o < 0.0:
-                        nf = -n
-                        eta = 1.0 / ior
-                    co = wp.abs(cos_o)
-                    F = fresnel(co, eta)
-                    ci = wp.dot(nf, wi)
-                    if ci > 0.0:
-                        refl = 2.0 * co * nf - wo
-                        p = F * phong_lobe_pdf(wp.dot(refl, wi), exponent)
-                    elif ci < 0.0:
-                        tdir = refract_dir(wo, nf, co, eta)
-                        p = (1.0 - F) * phong_lobe_pdf(wp.dot(tdir, wi), exponent)
+                    it = interface(n, wo, ior)
+                    lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
+                    p = it.F * lobes[0] + (1.0 - it.F) * lobes[1]
         return p
 
     @wp.func
@@ -170,10 +185,9 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                 return s
         if wp.static(K_DIEL):
             if kind == DIELECTRIC:
-                eta = ior
-                if cos_o < 0.0:
-                    eta = 1.0 / ior
-                F = fresnel(co, eta)
+                it = interface(n, wo, ior)
+                eta = it.eta
+                F = it.F
                 p_reflect = F
                 if wp.static(not LOBE):
                     p_reflect = 0.5
@@ -206,13 +220,10 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                     wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
             if wp.static(K_GDIEL):
                 if kind == GLOSSY_DIELECTRIC:
-                    eta = ior
-                    if cos_o < 0.0:
-                        eta = 1.0 / ior
-                    F = fresnel(co, eta)
+                    it = interface(n, wo, ior)
                     axis = 2.0 * co * nf - wo
-                    if u_lobe >= F:
-                        axis = refract_dir(wo, nf, co, eta)
+                    if u_lobe >= it.F:
+                        axis = refract_dir(wo, nf, co, it.eta)
                     wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
         pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
         if pdf > 0.0:
@@ -224,5 +235,4 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                 s.valid = 1
         return s
 
-    return SimpleNamespace(fresnel=fresnel, refract_dir=refract_dir, eval_bsdf=eval_bsdf,
-                           pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+    return SimpleNamespace(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)

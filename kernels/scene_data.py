@@ -1,6 +1,7 @@
 """The scene as the kernels see it (SceneData, uploaded by render.upload) and the feature set that
 selects a kernel variant."""
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import warp as wp
 
@@ -92,3 +93,23 @@ class Features:
                              "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
+
+
+def make_motion(motion: bool) -> SimpleNamespace:
+    """Shape positions at shutter offset dt; without motion the velocity is never read."""
+
+    @wp.func
+    def sphere_center(sd: SceneData, i: int, dt: float) -> wp.vec3:
+        c = sd.sph_center[i]
+        if wp.static(motion):
+            c = c + sd.sph_velocity[i] * dt
+        return c
+
+    @wp.func
+    def quad_origin(sd: SceneData, i: int, dt: float) -> wp.vec3:
+        q0 = sd.quad_origin[i]
+        if wp.static(motion):
+            q0 = q0 + sd.quad_velocity[i] * dt
+        return q0
+
+    return SimpleNamespace(sphere_center=sphere_center, quad_origin=quad_origin)

@@ -21,8 +21,8 @@ from drtlab.estimators.warps import INV_PI, PI, square_to_disk
 from drtlab.kernels.geometry import Hit, hit_quad, hit_sphere, offset_origin, quad_params
 from drtlab.kernels.lights import make_lights
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
-                                      MIRROR, make_bsdf)
-from drtlab.kernels.scene_data import QUAD, SPHERE, Features, SceneData
+                                      MIRROR, interface, make_bsdf, refract_dir)
+from drtlab.kernels.scene_data import QUAD, SPHERE, Features, SceneData, make_motion
 
 # Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
 WHITTED_SPLITS = 4
@@ -56,6 +56,10 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     SPLITS = WHITTED_SPLITS if (WHITTED and (K_DIEL or K_GDIEL)) else 0
 
     # ------------------------------------------------------------------ geometry
+    motion_funcs = make_motion(MOTION)
+    sphere_center = motion_funcs.sphere_center
+    quad_origin = motion_funcs.quad_origin
+
     @wp.func
     def intersect(sd: SceneData, o: wp.vec3, d: wp.vec3, tmax: float, dt: float) -> Hit:
         h = Hit()
@@ -64,9 +68,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         h.index = -1
         if wp.static(HAS_SPH):
             for i in range(sd.n_spheres):
-                c = sd.sph_center[i]
-                if wp.static(MOTION):
-                    c = c + sd.sph_velocity[i] * dt
+                c = sphere_center(sd, i, dt)
                 t = hit_sphere(o, d, c, sd.sph_radius[i], h.t)
                 if t < h.t:
                     h.t = t
@@ -74,9 +76,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                     h.index = i
         if wp.static(HAS_QUAD):
             for i in range(sd.n_quads):
-                q0 = sd.quad_origin[i]
-                if wp.static(MOTION):
-                    q0 = q0 + sd.quad_velocity[i] * dt
+                q0 = quad_origin(sd, i, dt)
                 t = hit_quad(o, d, q0, sd.quad_u[i], sd.quad_v[i], h.t)
                 if t < h.t:
                     h.t = t
@@ -87,9 +87,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             h.p = p
             if wp.static(HAS_SPH):
                 if h.kind == SPHERE:
-                    c = sd.sph_center[h.index]
-                    if wp.static(MOTION):
-                        c = c + sd.sph_velocity[h.index] * dt
+                    c = sphere_center(sd, h.index, dt)
                     n = wp.normalize(p - c)
                     h.n = n
                     h.uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
@@ -98,9 +96,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                     h.light = sd.sph_light[h.index]
             if wp.static(HAS_QUAD):
                 if h.kind == QUAD:
-                    q0 = sd.quad_origin[h.index]
-                    if wp.static(MOTION):
-                        q0 = q0 + sd.quad_velocity[h.index] * dt
+                    q0 = quad_origin(sd, h.index, dt)
                     h.n = sd.quad_normal[h.index]
                     h.uv = quad_params(p - q0, sd.quad_u[h.index], sd.quad_v[h.index])
                     h.material = sd.quad_material[h.index]
@@ -138,8 +134,6 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         return a
 
     bsdf = make_bsdf(f.kinds, LOBE)
-    fresnel = bsdf.fresnel
-    refract_dir = bsdf.refract_dir
     eval_bsdf = bsdf.eval_bsdf
     pdf_bsdf = bsdf.pdf_bsdf
     sample_bsdf = bsdf.sample_bsdf
@@ -269,10 +263,9 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                     beta = wp.cw_mul(beta, albedo)
                 if wp.static(SPLITS > 0):
                     if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC:
-                        eta = sd.mat_ior[m]
-                        if cos_o < 0.0:
-                            eta = 1.0 / eta
-                        F = fresnel(co, eta)
+                        it = interface(h.n, wo, sd.mat_ior[m])
+                        eta = it.eta
+                        F = it.F
                         if F < 1.0:
                             if used >= wp.static(SPLITS):
                                 break
