@@ -1,8 +1,8 @@
 """Integer hashing shared by every point set: a sample value is a pure function of its key.
 
 `hash_key(seed, pixel, index, dim)` decorrelates all four coordinates; `permute` is a bijection of
-[0, n) keyed by a hash (cycle-walking over the next power of two), used to decorrelate strata between
-dimensions the way pbrt-v4 permutes per dimension.
+[0, n) keyed by a hash (cycle-walking over the next power of two, then a keyed rotation), used to
+decorrelate strata between dimensions the way pbrt-v4 permutes per dimension.
 """
 import warp as wp
 
@@ -68,4 +68,7 @@ def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
         x = x & mask
         if x < n:
             done = 1
-    return x
+    # The walk alone mixes few bits for small n, so sample i's stratum would not be uniform over keys
+    # (dimensions of one sample would correlate); a keyed rotation makes every position uniform and,
+    # with independent keys, the strata of two dimensions independent.
+    return (x + mix32(k2 ^ _GOLDEN) % n) % n

@@ -132,19 +132,7 @@ def test_pixels_and_dimensions_do_not_repeat(name):
         assert np.mean(base != other) > 0.9 and np.mean(np.any(base2 != other2, axis=1)) > 0.9
 
 
-# Permuting strata with `permute` is biased for counts that are not powers of two (see
-# test_permute_is_uniform_over_keys): the stratum of sample i is too often stratum i in every
-# dimension, so separate dimensions of one sample are positively correlated.
-PERMUTE_BIAS = ("estimators/hashing.py permute(): for n not a power of two, permute(i, n, key) over "
-                "keys is not uniform on [0, n) (for n = 3, 5 it returns i about half the time), so "
-                "`stratified` correlates dimensions and is biased: E[x_dim0 * x_dim5] = 0.2606 at "
-                "spp 5 instead of 0.25")
-
-
-@pytest.mark.parametrize("name,spp", [
-    pytest.param(name, spp, marks=pytest.mark.xfail(strict=True, reason=PERMUTE_BIAS)
-                 if name == "stratified" and spp & (spp - 1) else ())
-    for name in ALL for spp in (4, 16, 3, 5)])
+@pytest.mark.parametrize("name,spp", [(name, spp) for name in ALL for spp in (4, 16, 3, 5)])
 def test_dimensions_of_one_sample_are_independent(name, spp):
     # Unbiasedness across dimensions: averaged over pixels (independent keys), a pixel's estimate of
     # E[x * y] and P(x < 1/2, y < 1/2) over two separate dimensions is exactly 1/4.
@@ -368,7 +356,7 @@ def py_permute(i: int, n: int, key: int) -> int:
         x ^= (x & mask) >> 7
         x &= mask
         if x < n:
-            return x
+            return (x + py_mix32(k2 ^ _GOLDEN) % n) % n
 
 
 @wp.kernel(enable_backward=False)
@@ -420,8 +408,7 @@ def test_warp_permute_matches_reference_and_is_a_bijection():
 
 
 @pytest.mark.parametrize("n", [
-    pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=PERMUTE_BIAS) if n & (n - 1) else ())
-    for n in (2, 4, 8, 16, 64, 256, 3, 5, 12, 17, 100)])
+    n for n in (2, 4, 8, 16, 64, 256, 3, 5, 12, 17, 100)])
 def test_permute_is_uniform_over_keys(n):
     # For stratification to stay unbiased across dimensions, the stratum of sample i under a random
     # key must be uniform on [0, n) for every i (chi-square over hash-derived keys, as in use).
