@@ -15,6 +15,7 @@ import numpy as np
 from drtlab.experiments.groundtruth import load_ground_truth
 from drtlab.experiments.metrics import CellAccumulator, mean_ci
 from drtlab.experiments.seeds import short_hash
+from drtlab.experiments.parallel import pmap
 from drtlab.experiments.slopes import fit_slope
 
 NOISE_FLOOR_FRACTION = 0.01
@@ -77,8 +78,9 @@ def _group_name(g) -> str:
     return f"{sc.key}__{integ}__{res[0]}x{res[1]}"
 
 
-def analyze_group(g, runs, records, out_dir: Path, gt_dir, log) -> dict:
-    """Cells, slope fits and noise floor of one (scene, integrator, resolution)."""
+def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list) -> dict:
+    """Cells and noise floor of one (scene, integrator, resolution); its slope fits are appended to
+    `fits` as (group, sampler, call) to be run together (in parallel) by `analyze`."""
     from drtlab.experiments.runner import load_run_image
     gt = load_ground_truth(gt_dir)
     samplers = list(dict.fromkeys(r.sampler for r in runs))
@@ -105,8 +107,9 @@ def analyze_group(g, runs, records, out_dir: Path, gt_dir, log) -> dict:
             c["efficiency"] = 1.0 / (mse * t) if mse > 0 and t > 0 else float("nan")
             cells[(s, spp)] = c
         fit_seed = int(short_hash([g[0].key, g[1], s], 8), 16) & 0x7FFFFFFF
-        slopes[s] = fit_slope([r.spp for r in s_runs],
-                              [records[r.run_id]["rmse_corrected"] for r in s_runs], seed=fit_seed)
+        fits.append((g, s, (fit_slope, ([r.spp for r in s_runs],
+                                        [records[r.run_id]["rmse_corrected"] for r in s_runs]),
+                            {"seed": fit_seed})))
     mses = [c["mse"]["mean"] for c in cells.values() if math.isfinite(c["mse"]["mean"])]
     min_mse = min(mses) if mses else float("nan")
     floor = {
@@ -182,8 +185,11 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     groups: dict = {}
     for r in plan:
         groups.setdefault(r.group, []).append(r)
-    gres = {g: analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"], log)
+    fit_calls: list = []
+    gres = {g: analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"], log, fit_calls)
             for g, runs in groups.items()}
+    for (g, s, _), f in zip(fit_calls, pmap([c for *_, c in fit_calls])):
+        gres[g]["slopes"][s] = f
     studies = []
     for st in exp.studies:
         res_of = {}

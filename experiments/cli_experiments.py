@@ -79,7 +79,8 @@ def cmd_experiment(args) -> int:
     summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
                              threads=args.threads, fresh=args.fresh, progress=not args.no_progress,
                              argv=sys.argv)
-    out = args.out if args.out is not None else Path("results") / exp.name
+    from drtlab.experiments.runner import default_out_dir
+    out = args.out if args.out is not None else default_out_dir(exp)
     st = summary.get("_stats", {})
     print(f"{exp.name} ({exp.profile}): {st.get('runs_new', 0)} new runs, {st.get('runs_reused', 0)} reused, "
           f"{summary.get('_wall_seconds', 0):.1f} s")

@@ -340,6 +340,7 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
         raise InputError("profile", "must be a table of [profile.NAME] sections")
     for pname, ptab in profiles.items():
         _check_keys(ptab, SETTINGS_KEYS, f"profile.{pname}")
+        _settings(exp, ptab, pname)            # every profile is checked, not only the one asked for
     if profile in profiles:
         ptable = profiles[profile]
     elif profile == DEFAULT_PROFILE or not profiles:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from drtlab.experiments.imageio_util import atomic_write_text, linear_to_srgb
+from drtlab.experiments.parallel import pmap
 
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 LINESTYLES = ("-", "--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)), (0, (3, 1)))
@@ -90,8 +91,7 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
                 label = f"{s}: b={fit['slope']:.2f} [{fit['slope_lo']:.2f}, {fit['slope_hi']:.2f}]"
                 ln = fit["line"]
                 ax.plot(ln["n"], ln["median"], linestyle=st["linestyle"], color=st["color"], lw=1.2)
-                ax.fill_between(ln["n"], ln["lo"], ln["hi"], color=st["color"], alpha=0.12, lw=0,
-                                hatch=HATCHES[i % len(HATCHES)] or None)
+                ax.fill_between(ln["n"], ln["lo"], ln["hi"], color=st["color"], alpha=0.15, lw=0)
             _errbar(ax, [c["spp"] for c in cs], cs, "rmse_of_mean_mse", st, label)
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
@@ -244,18 +244,25 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, o
     plt.close(fig)
 
 
+def _strip_job(label, samplers, strip_spp, gt_dir, run_ids, out_dir, path):
+    from drtlab.experiments.groundtruth import load_ground_truth
+    image_strip(label, samplers, strip_spp, load_ground_truth(gt_dir).mean, run_ids, out_dir, path)
+    return path
+
+
 def _rel(p: Path, base: Path) -> str:
     return str(Path(p).relative_to(base)).replace("\\", "/")
 
 
 def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: dict) -> None:
-    from drtlab.experiments.groundtruth import load_ground_truth
     out_dir = Path(out_dir)
     plots_dir = out_dir / "plots"
     images_dir = out_dir / "images"
     plots_dir.mkdir(parents=True, exist_ok=True)
     images_dir.mkdir(parents=True, exist_ok=True)
 
+    # Figures are independent: render them in parallel (plots per study, one strip per scene).
+    calls: list = []
     # Image strips: one per scene (per study's sampler set), repetition 0.
     strips: dict = {}
     for st, sd in zip(exp.studies, summary["studies"]):
@@ -265,11 +272,16 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                 continue
             run_ids = {(r.sampler, r.spp): r.run_id for r in plan
                        if r.group == g and r.rep == 0 and r.run_id in records}
-            gt = load_ground_truth(gts[g]["dir"])
             name = f"{slug(st.name)}--{sc.label}.png" if len(exp.studies) > 1 else f"{sc.label}.png"
-            image_strip(f"{sc.label} ({st.name})", st.samplers, st.settings.strip_spp, gt.mean,
-                        run_ids, out_dir, images_dir / name)
+            calls.append((_strip_job, (f"{sc.label} ({st.name})", st.samplers, st.settings.strip_spp,
+                                       gts[g]["dir"], run_ids, out_dir, images_dir / name), {}))
             strips[(st.name, sc.label)] = images_dir / name
+    study_files = {}
+    for sd in summary["studies"]:
+        calls.append((plot_study, (sd, plots_dir), {}))
+    results = pmap(calls)
+    for sd, files in zip(summary["studies"], results[-len(summary["studies"]):]):
+        study_files[sd["name"]] = files
 
     lines: list[str] = []
     w = lines.append
@@ -285,7 +297,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
       "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
       "efficiency means the same quality in half the time.\n")
     for st, sd in zip(exp.studies, summary["studies"]):
-        files = plot_study(sd, plots_dir)
+        files = study_files[sd["name"]]
         base = sd["baseline"]
         w(f"## Study: {sd['name']}\n")
         if sd["description"]:

@@ -163,6 +163,14 @@ def load_run_image(out_dir: Path, run_id: str) -> np.ndarray:
         return z["image"].astype(np.float64)
 
 
+def _remove_orphaned_temps(out_dir: Path) -> None:
+    """Temp files of writes a kill interrupted (never read: the os.replace never happened)."""
+    for d in (out_dir, out_dir / "runs"):
+        for p in d.glob(".*"):
+            if p.is_file() and p.suffix in (".tmp", ".exr", ".npz", ".json", ".csv"):
+                p.unlink(missing_ok=True)
+
+
 def _clean_outputs(out_dir: Path) -> None:
     for name in OUTPUT_NAMES:
         p = out_dir / name
@@ -216,6 +224,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         _clean_outputs(out_dir)
     runs_dir = out_dir / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
+    _remove_orphaned_temps(out_dir)
     records = load_records(runs_dir)
 
     # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).

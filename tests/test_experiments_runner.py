@@ -1,0 +1,245 @@
+"""The experiment runner end to end: on the fake renderer (known error laws, deterministic), resume
+after an interruption or a `kill -9`, and once on the real renderer with a tiny scene."""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drtlab.experiments.config import load_experiment
+from drtlab.experiments.fakes import fake_backend
+from drtlab.experiments.runner import CSV_COLUMNS, plan_runs, run_experiment
+
+TINY = """
+[experiment]
+description = "tiny sweep on the fake renderer"
+seed = 11
+spp = [1, 4, 16, 64]
+repetitions = 3
+resolution = [16, 12]
+gt_spp = 8192
+gt_batch_spp = 1024
+
+[[study]]
+name = "strat"
+scenes = ["aa-edges", "glossy"]
+samplers = ["uniform", "stratified"]
+"""
+
+
+class Clock:
+    """Deterministic stand-in for time.perf_counter: every call advances by 0.5 s (exact in binary)."""
+
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        self.t += 0.5
+        return self.t
+
+
+def tiny_experiment(tmp_path, text=TINY):
+    p = tmp_path / "tiny.toml"
+    p.write_text(text)
+    _, fake = fake_backend()
+    return load_experiment(str(p), scene_loader=fake.load_scene)
+
+
+def run(exp, out, gt, fake_kw=None, analyze=False, **kw):
+    backend, fake = fake_backend(**(fake_kw or {}))
+    s = run_experiment(exp, out_dir=out, gt_root=gt, backend=backend, progress=False,
+                       clock=Clock(), log=lambda m: None, analyze=analyze, **kw)
+    return s, fake
+
+
+def test_end_to_end_on_fake_renderer(tmp_path):
+    exp = tiny_experiment(tmp_path)
+    out, gt = tmp_path / "out", tmp_path / "gt"
+    s, fake = run(exp, out, gt, analyze=True)
+    for name in ("runs.csv", "summary.json", "report.md", "manifest.json"):
+        assert (out / name).is_file(), name
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    assert len(rows) == 2 * 2 * 4 * 3 and tuple(rows[0]) == CSV_COLUMNS
+    assert len({r["run_id"] for r in rows}) == len(rows)
+    summary = json.loads((out / "summary.json").read_text())
+    for sc in summary["studies"][0]["scenes"]:
+        for sampler, truth in (("uniform", -0.5), ("stratified", -0.75)):
+            f = sc["slopes"][sampler]
+            assert f["ok"] and f["converged"]
+            assert f["slope_lo"] - 0.03 <= truth <= f["slope_hi"] + 0.03, (sc["scene"], sampler, f)
+        assert sc["speed"]["speedup_vs_baseline"]["stratified"] > 1.5
+        assert sc["efficiency"]["stratified"]["relative"] > 2
+        assert len(sc["cells"]) == 8
+        c = sc["cells"][0]
+        assert {"rmse", "relmse", "mae", "ciede2000", "bias", "pixel_variance", "efficiency"} <= set(c)
+        assert c["rmse"]["lo"] <= c["rmse"]["mean"] <= c["rmse"]["hi"]
+    assert summary["chains"]["converged"] == summary["chains"]["fits"] == 4
+    # The stratified runs at 64 spp are better than the 8192-spp reference's 1% rule allows.
+    assert summary["warnings"] and "ground-truth variance" in summary["warnings"][0]
+    plots = sorted(p.name for p in (out / "plots").iterdir())
+    assert plots == ["strat-efficiency.png", "strat-rmse-vs-seconds.png", "strat-rmse-vs-spp.png"]
+    assert sorted(p.name for p in (out / "images").iterdir()) == ["aa-edges.png", "glossy.png"]
+    report = (out / "report.md").read_text()
+    assert "![strat: RMSE vs samples per pixel](plots/strat-rmse-vs-spp.png)" in report
+    assert "images/aa-edges.png" in report and "noise floor" in report
+    m = json.loads((out / "manifest.json").read_text())
+    assert {"git", "packages", "machine", "seeds", "wall_seconds"} <= set(m)
+    assert m["packages"]["emcee"] and m["seeds"]["roots"] == {"strat": 11}
+    # Each run's seed reproduces its image alone.
+    r0 = rows[5]
+    img = fake.render(fake.load_scene(r0["scene"]), spp=int(r0["spp"]), sampler=r0["sampler"],
+                      integrator="drt", seed=int(r0["seed"]), res=(16, 12)).image
+    with np.load(out / "runs" / f"{r0['run_id']}.npz") as z:
+        assert np.array_equal(z["image"], img.astype(np.float32))
+
+    # A rerun renders nothing and rewrites the same runs.csv.
+    before = (out / "runs.csv").read_bytes()
+    s2, fake2 = run(exp, out, gt)
+    assert fake2.calls == 0
+    assert (out / "runs.csv").read_bytes() == before
+
+
+def test_resume_after_interruption_gives_the_same_runs_csv(tmp_path):
+    exp = tiny_experiment(tmp_path)
+    ref_out, gt = tmp_path / "ref", tmp_path / "gt"
+    run(exp, ref_out, gt)
+    reference = (ref_out / "runs.csv").read_bytes()
+
+    out = tmp_path / "out"
+    for stop in (5, 17, 12):                       # interrupted three times, at different points
+        with pytest.raises(KeyboardInterrupt):
+            run(exp, out, gt, fake_kw={"fail_after": stop})
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    assert len(rows) == 5 + 17 + 12 and len({r["run_id"] for r in rows}) == len(rows)
+    _, fake = run(exp, out, gt)
+    assert fake.calls == 48 - 34
+    assert (out / "runs.csv").read_bytes() == reference
+
+
+KILL_SCRIPT = textwrap.dedent("""
+    import sys, time
+    from drtlab.experiments.config import load_experiment
+    from drtlab.experiments.fakes import fake_backend
+    from drtlab.experiments.runner import run_experiment
+    backend, fake = fake_backend()
+    slow = fake.render
+    def render(*a, **k):
+        time.sleep(float(sys.argv[4]))
+        return slow(*a, **k)
+    backend.render = render
+    class Clock:
+        t = 0.0
+        def __call__(self):
+            self.t += 0.5
+            return self.t
+    exp = load_experiment(sys.argv[1], scene_loader=fake.load_scene)
+    run_experiment(exp, out_dir=sys.argv[2], gt_root=sys.argv[3], backend=backend, progress=False,
+                   clock=Clock(), log=lambda m: None, analyze=False)
+""")
+
+
+def test_kill_9_mid_sweep_then_resume(tmp_path):
+    exp_path = tmp_path / "tiny.toml"
+    exp_path.write_text(TINY)
+    exp = tiny_experiment(tmp_path)
+    ref, gt = tmp_path / "ref", tmp_path / "gt"
+    run(exp, ref, gt)                              # also makes the ground truth
+    script = tmp_path / "sweep.py"
+    script.write_text(KILL_SCRIPT)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, str(script), str(exp_path), str(out), str(gt), "0.02"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        n = len(list((out / "runs").glob("*.json"))) if (out / "runs").is_dir() else 0
+        if n >= 12:
+            break
+        assert proc.poll() is None, proc.stderr.read()
+        time.sleep(0.01)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    # Whatever is on disk parses: no torn JSON, no torn CSV, no duplicate rows.
+    for f in (out / "runs").glob("*.json"):
+        json.loads(f.read_text())
+    done = len(list((out / "runs").glob("*.json")))
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    # runs.csv lags the run records by at most the run being committed when the kill came.
+    assert len({r["run_id"] for r in rows}) == len(rows) and done - 1 <= len(rows) <= done < 48
+    _, fake = run(exp, out, gt)
+    assert fake.calls == 48 - done
+    assert (out / "runs.csv").read_bytes() == (ref / "runs.csv").read_bytes()
+    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+
+
+def test_fresh_starts_over_and_keeps_ground_truth(tmp_path):
+    exp = tiny_experiment(tmp_path)
+    out, gt = tmp_path / "out", tmp_path / "gt"
+    run(exp, out, gt)
+    _, fake = run(exp, out, gt, fresh=True)
+    assert fake.calls == 48                        # every run again, no ground-truth batch
+
+
+def test_plan_dedupes_runs_shared_between_studies(tmp_path):
+    text = TINY + '\n[[study]]\nname = "again"\nscenes = ["glossy"]\nsamplers = ["stratified"]\n'
+    exp = tiny_experiment(tmp_path, text)
+    backend, _ = fake_backend()
+    plan = plan_runs(exp, backend)
+    assert len(plan) == 48
+    shared = [r for r in plan if r.scene.label == "glossy" and r.sampler == "stratified"]
+    assert shared and all(r.studies == ("strat", "again") for r in shared)
+
+
+# --------------------------------------------------------------------------------------------
+def _real_renderer_available():
+    try:
+        import drtlab.kernels.render  # noqa: F401
+        import drtlab.kernels.scene  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+@pytest.mark.skipif(not _real_renderer_available(), reason="renderer not present")
+def test_real_renderer_tiny_scene_end_to_end(tmp_path):
+    p = tmp_path / "real.toml"
+    p.write_text(textwrap.dedent("""
+        [experiment]
+        description = "real renderer, tiny"
+        seed = 5
+        spp = [1, 4]
+        repetitions = 2
+        resolution = [16, 12]
+        gt_spp = 256
+        gt_batch_spp = 64
+
+        [[study]]
+        name = "real"
+        scenes = ["soft-shadows"]
+        samplers = ["uniform", "stratified"]
+    """))
+    exp = load_experiment(str(p))
+    out, gt = tmp_path / "out", tmp_path / "gt"
+    from drtlab.experiments.backend import default_backend
+    s = run_experiment(exp, out_dir=out, gt_root=gt, backend=default_backend(), threads=2,
+                       progress=False, log=lambda m: None)
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    assert len(rows) == 2 * 2 * 2
+    assert all(float(r["rmse"]) > 0 and np.isfinite(float(r["ciede2000"])) for r in rows)
+    assert all(float(r["render_seconds"]) > 0 for r in rows)
+    for name in ("summary.json", "report.md", "manifest.json", "images/soft-shadows.png"):
+        assert (out / name).is_file(), name
+    gt_dirs = list(gt.iterdir())
+    assert len(gt_dirs) == 1
+    man = json.loads((gt_dirs[0] / "manifest.json").read_text())
+    assert man["spp"] == 256 and man["estimator"]["sampler"] == "independent+importance"
+    assert (gt_dirs[0] / "mean.exr").is_file() and (gt_dirs[0] / "stderr.exr").is_file()
+    from drtlab.kernels import CODE_VERSION
+    assert man["code_version"] == CODE_VERSION
+    assert s["studies"][0]["scenes"][0]["cells"][0]["rmse"]["mean"] > 0
