@@ -22,7 +22,10 @@ class _Parser(argparse.ArgumentParser):
         m = re.match(r"the following arguments are required: (.*)", message)
         if m:
             raise InputError(m.group(1), "required")
-        raise InputError(self.prog, message)
+        m = re.match(r"unrecognized arguments: (.*)", message)
+        if m:
+            raise InputError(m.group(1).split()[0], f"unknown option; see `{self.prog} --help`")
+        raise InputError("arguments", message)
 
 
 def _int_at_least(low: int, high: int | None = None):
