@@ -2,7 +2,8 @@
 
 A cell is (scene, sampler, spp) over its repetitions. Error statistics use the noise-floor-corrected
 MSE (MSE - Var_GT); the RMSE of a cell is sqrt(mean corrected MSE), whose 95% CI is the square root
-of the Student-t interval of the corrected MSEs.
+of the Student-t interval of the corrected MSEs. The time of a cell is the median render time of its
+repetitions (compile excluded): robust to a run slowed down by other work on the machine.
 """
 from __future__ import annotations
 
@@ -103,7 +104,9 @@ def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list) -> d
             c["bias"]["significant"] = bool(math.isfinite(c["bias"]["lo"]) and
                                             (c["bias"]["lo"] > 0 or c["bias"]["hi"] < 0))
             c["pixel_variance"] = c["bias"]["pixel_variance"]
-            mse, t = c["mse_corrected"]["mean"], c["render_seconds"]["mean"]
+            # Time per cell: the median over repetitions, robust to a run slowed by other load.
+            c["seconds"] = float(np.median([rec["render_seconds"] for rec in recs]))
+            mse, t = c["mse_corrected"]["mean"], c["seconds"]
             c["efficiency"] = 1.0 / (mse * t) if mse > 0 and t > 0 else float("nan")
             cells[(s, spp)] = c
         fit_seed = int(short_hash([g[0].key, g[1], s], 8), 16) & 0x7FFFFFFF
@@ -146,7 +149,7 @@ def _study_scene(st, sc, gres: dict) -> dict:
     ttt = {}
     for s in samplers:
         cs = [gres["cells"][(s, n)] for n in ladder if (s, n) in gres["cells"]]
-        ttt[s] = time_to_target([c["render_seconds"]["mean"] for c in cs],
+        ttt[s] = time_to_target([c["seconds"] for c in cs],
                                 [c["rmse_of_mean_mse"]["mean"] for c in cs], target) \
             if math.isfinite(target) else {"seconds": float("nan"), "how": "no data"}
     base = st.baseline

@@ -118,7 +118,7 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
             cs = [c for c in sc["cells"] if c["sampler"] == s]
             if not cs:
                 continue
-            xs = [c["render_seconds"]["mean"] for c in cs]
+            xs = [c["seconds"] for c in cs]
             ax.plot(xs, [c["rmse_of_mean_mse"]["mean"] for c in cs], linestyle=st["linestyle"],
                     color=st["color"], lw=1.0)
             _errbar(ax, xs, cs, "rmse_of_mean_mse", st, s)
@@ -130,7 +130,7 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(sc["scene"])
-        ax.set_xlabel("render seconds (compile excluded)")
+        ax.set_xlabel("render seconds (median of repetitions, compile excluded)")
         ax.set_ylabel("RMSE")
         ax.grid(True, which="both", lw=0.3, color="0.8")
         ax.legend(loc="lower left", frameon=False)
@@ -357,8 +357,9 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                             f"(95% CI {fmt(r['lo'])}–{fmt(r['hi'])})" if r["ratio"] >= 1 else
                             f"; at N={sd['spp'][-1]} its MSE is {fmt(1 / r['ratio'])}× higher "
                             f"(95% CI {fmt(1 / r['hi'])}–{fmt(1 / r['lo'])})")
-                if math.isfinite(sp):
-                    txt += f", and it reaches the target error {fmt(sp)}× {'faster' if sp >= 1 else 'slower (in time)'}"
+                if math.isfinite(sp) and sp > 0:
+                    txt += (f", and it reaches the target error {fmt(sp)}× faster" if sp >= 1 else
+                            f", but it needs {fmt(1 / sp)}× more render time to reach the target error")
                 bits.append(txt)
             biased = [f"{c['sampler']}@{c['spp']}" for c in sc["cells"] if c["bias"]["significant"]]
             b_txt = (f" Bias screen: mean error differs from 0 at 95% in {', '.join(biased)} "
@@ -376,7 +377,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
         # Per-cell detail.
         w("<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n")
         w("| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
-          "Render s | Efficiency |")
+          "Render s (median) | Efficiency |")
         w("|---|---|---|---|---|---|---|---|---|---|---|")
         for sc in sd["scenes"]:
             for c in sc["cells"]:
@@ -387,7 +388,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                   f"{fmt_ci(c['mae']['mean'], c['mae']['lo'], c['mae']['hi'])} | "
                   f"{fmt_ci(c['ciede2000']['mean'], c['ciede2000']['lo'], c['ciede2000']['hi'])} | "
                   f"{fmt_ci(b['signed'], b['lo'], b['hi'])}{' ⚠' if b['significant'] else ''} | "
-                  f"{fmt(c['pixel_variance'])} | {fmt(c['render_seconds']['mean'])} | {fmt(c['efficiency'])} |")
+                  f"{fmt(c['pixel_variance'])} | {fmt(c['seconds'])} | {fmt(c['efficiency'])} |")
         w("\n</details>\n")
 
     w("## Ground truth and noise floor\n")
