@@ -20,6 +20,15 @@ from drtlab.experiments.parallel import pmap
 from drtlab.experiments.slopes import fit_slope
 
 NOISE_FLOOR_FRACTION = 0.01
+# The error a study ranks samplers by. "mse": RMSE over pixels and channels (noise floor removed).
+# "relmse": relative MSE (x - y)^2 / (y^2 + 0.01), for scenes whose RMSE is dominated by a few very
+# bright pixels (directly seen small lights), reported as its square root ("relative RMSE").
+METRICS = {
+    "mse": {"err": "rmse_of_mean_mse", "mse": "mse_corrected", "eff": "efficiency",
+            "run": "rmse_corrected", "label": "RMSE", "mse_label": "MSE"},
+    "relmse": {"err": "rrmse_of_mean_relmse", "mse": "relmse_corrected", "eff": "efficiency_relmse",
+               "run": "rrmse_corrected", "label": "relative RMSE (√relMSE)", "mse_label": "relMSE"},
+}
 CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
                 "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
 
@@ -79,14 +88,21 @@ def _group_name(g) -> str:
     return f"{sc.key}__{integ}__{res[0]}x{res[1]}"
 
 
-def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list) -> dict:
-    """Cells and noise floor of one (scene, integrator, resolution); its slope fits are appended to
-    `fits` as (group, sampler, call) to be run together (in parallel) by `analyze`."""
+def _run_error(rec: dict, metric: str) -> float:
+    if metric == "relmse":
+        v = rec["relmse_corrected"]
+        return math.sqrt(v) if v > 0 else float("nan")
+    return rec["rmse_corrected"]
+
+
+def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list, metrics=("mse",)) -> dict:
+    """Cells and noise floor of one (scene, integrator, resolution); its slope fits (one per sampler
+    and metric) are appended to `fits` as (group, metric, sampler, call), to be run together (in
+    parallel) by `analyze`."""
     from drtlab.experiments.runner import load_run_image
     gt = load_ground_truth(gt_dir)
     samplers = list(dict.fromkeys(r.sampler for r in runs))
     cells: dict = {}
-    slopes: dict = {}
     for s in samplers:
         s_runs = [r for r in runs if r.sampler == s and r.run_id in records]
         ladder = sorted({r.spp for r in s_runs})
@@ -100,19 +116,24 @@ def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list) -> d
             for m in CELL_METRICS:
                 c[m] = mean_ci([rec[m] for rec in recs])
             c["rmse_of_mean_mse"] = _sqrt_ci(c["mse_corrected"])
+            c["rrmse_of_mean_relmse"] = _sqrt_ci(c["relmse_corrected"])
             c["bias"] = acc.bias(gt.mean, gt.stderr, [rec["mean_error"] for rec in recs])
             c["bias"]["significant"] = bool(math.isfinite(c["bias"]["lo"]) and
                                             (c["bias"]["lo"] > 0 or c["bias"]["hi"] < 0))
             c["pixel_variance"] = c["bias"]["pixel_variance"]
             # Time per cell: the median over repetitions, robust to a run slowed by other load.
             c["seconds"] = float(np.median([rec["render_seconds"] for rec in recs]))
-            mse, t = c["mse_corrected"]["mean"], c["seconds"]
-            c["efficiency"] = 1.0 / (mse * t) if mse > 0 and t > 0 else float("nan")
+            t = c["seconds"]
+            for m in METRICS.values():
+                mse = c[m["mse"]]["mean"]
+                c[m["eff"]] = 1.0 / (mse * t) if mse > 0 and t > 0 else float("nan")
             cells[(s, spp)] = c
-        fit_seed = int(short_hash([g[0].key, g[1], s], 8), 16) & 0x7FFFFFFF
-        fits.append((g, s, (fit_slope, ([r.spp for r in s_runs],
-                                        [records[r.run_id]["rmse_corrected"] for r in s_runs]),
-                            {"seed": fit_seed})))
+        for metric in metrics:
+            fit_seed = int(short_hash([g[0].key, g[1], s] + ([metric] if metric != "mse" else []), 8),
+                           16) & 0x7FFFFFFF
+            fits.append((g, metric, s, (fit_slope, ([r.spp for r in s_runs],
+                                                    [_run_error(records[r.run_id], metric) for r in s_runs]),
+                                        {"seed": fit_seed})))
     mses = [c["mse"]["mean"] for c in cells.values() if math.isfinite(c["mse"]["mean"])]
     min_mse = min(mses) if mses else float("nan")
     floor = {
@@ -125,21 +146,29 @@ def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list) -> d
         log(f"warning: ground truth of {g[0].label} ({gt.spp} spp) contributes "
             f"{100 * floor['fraction_of_smallest_mse']:.1f}% of the smallest MSE measured "
             f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted, but raise gt_spp")
-    return {"cells": cells, "slopes": slopes, "noise_floor": floor}
+    return {"cells": cells, "slopes": {m: {} for m in metrics}, "noise_floor": floor}
 
 
 def _study_scene(st, sc, gres: dict) -> dict:
     samplers = list(st.samplers)
     ladder = st.settings.spp
-    cells = [gres["cells"][(s, n)] for s in samplers for n in ladder if (s, n) in gres["cells"]]
+    K = METRICS[st.metric]
+    # Study-level views of the group's cells: `err`, `err_mse` and `eff` are the study's metric.
+    view = {}
+    for key, c in gres["cells"].items():
+        if key[0] in samplers and key[1] in ladder:
+            view[key] = dict(c, err=c[K["err"]], err_mse=c[K["mse"]], eff=c[K["eff"]])
+    gres = dict(gres, cells=view)
+    cells = [view[(s, n)] for s in samplers for n in ladder if (s, n) in view]
+    slopes = gres["slopes"][st.metric]
     out = {"scene": sc.label, "scene_name": sc.name, "overrides": sc.overrides_dict,
-           "cells": cells, "slopes": {s: gres["slopes"][s] for s in samplers if s in gres["slopes"]},
+           "cells": cells, "slopes": {s: slopes[s] for s in samplers if s in slopes},
            "noise_floor": gres["noise_floor"]}
     # Speed against error.
     best = {}
     for s in samplers:
         cs = [gres["cells"][(s, n)] for n in ladder if (s, n) in gres["cells"]]
-        best[s] = min((c["rmse_of_mean_mse"]["mean"] for c in cs if c["rmse_of_mean_mse"]["mean"] > 0),
+        best[s] = min((c["err"]["mean"] for c in cs if c["err"]["mean"] > 0),
                       default=float("nan"))
     target = st.settings.target_rmse
     auto = target is None
@@ -150,7 +179,7 @@ def _study_scene(st, sc, gres: dict) -> dict:
     for s in samplers:
         cs = [gres["cells"][(s, n)] for n in ladder if (s, n) in gres["cells"]]
         ttt[s] = time_to_target([c["seconds"] for c in cs],
-                                [c["rmse_of_mean_mse"]["mean"] for c in cs], target) \
+                                [c["err"]["mean"] for c in cs], target) \
             if math.isfinite(target) else {"seconds": float("nan"), "how": "no data"}
     base = st.baseline
     tb = ttt.get(base, {}).get("seconds", float("nan"))
@@ -167,16 +196,16 @@ def _study_scene(st, sc, gres: dict) -> dict:
             if (s, n) in gres["cells"] and (base, n) in gres["cells"]:
                 c, b = gres["cells"][(s, n)], gres["cells"][(base, n)]
                 rows.append({"spp": n,
-                             "mse_ratio": _ratio_ci(b["mse_corrected"], c["mse_corrected"]),
-                             "efficiency_ratio": (c["efficiency"] / b["efficiency"])
-                             if b["efficiency"] and math.isfinite(b["efficiency"]) else float("nan")})
+                             "mse_ratio": _ratio_ci(b["err_mse"], c["err_mse"]),
+                             "efficiency_ratio": (c["eff"] / b["eff"])
+                             if b["eff"] and math.isfinite(b["eff"]) else float("nan")})
         comp[s] = rows
     out["vs_baseline"] = comp
     top = {}
     for s in samplers:
         n = max((n for n in ladder if (s, n) in gres["cells"]), default=None)
         if n is not None:
-            top[s] = {"spp": n, "efficiency": gres["cells"][(s, n)]["efficiency"]}
+            top[s] = {"spp": n, "efficiency": gres["cells"][(s, n)]["eff"]}
     be = top.get(base, {}).get("efficiency", float("nan"))
     for s in top:
         top[s]["relative"] = top[s]["efficiency"] / be if be and math.isfinite(be) else float("nan")
@@ -188,11 +217,17 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     groups: dict = {}
     for r in plan:
         groups.setdefault(r.group, []).append(r)
+    by_name = {st.name: st for st in exp.studies}
+    needed: dict = {}
+    for r in plan:
+        for name in r.studies:
+            needed.setdefault(r.group, {})[by_name[name].metric] = None
     fit_calls: list = []
-    gres = {g: analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"], log, fit_calls)
+    gres = {g: analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"], log, fit_calls,
+                             tuple(needed[g]))
             for g, runs in groups.items()}
-    for (g, s, _), f in zip(fit_calls, pmap([c for *_, c in fit_calls])):
-        gres[g]["slopes"][s] = f
+    for (g, metric, s, _), f in zip(fit_calls, pmap([c for *_, c in fit_calls])):
+        gres[g]["slopes"][metric][s] = f
     studies = []
     for st in exp.studies:
         res_of = {}
@@ -202,6 +237,8 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
         studies.append({
             "name": st.name, "description": st.description, "experiment": st.experiment,
             "integrator": st.integrator, "samplers": list(st.samplers), "baseline": st.baseline,
+            "metric": st.metric, "metric_label": METRICS[st.metric]["label"],
+            "mse_label": METRICS[st.metric]["mse_label"],
             "spp": list(st.settings.spp), "repetitions": st.settings.repetitions,
             "resolution": list(st.settings.resolution) if st.settings.resolution else None,
             "gt_spp": st.settings.gt_spp, "seed": st.seed,
@@ -211,7 +248,7 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     warnings = [f"{_group_name(g)}: ground-truth variance is {100 * v['noise_floor']['fraction_of_smallest_mse']:.1f}% "
                 f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)"
                 for g, v in gres.items() if v["noise_floor"]["warning"]]
-    fits = [(g, s, f) for g, v in gres.items() for s, f in v["slopes"].items()]
+    fits = [(g, s, f) for g, v in gres.items() for per in v["slopes"].values() for s, f in per.items()]
     chains = {
         "fits": len(fits),
         "converged": sum(1 for _, _, f in fits if f.get("converged")),

@@ -24,6 +24,7 @@ studies of other experiment files, each resolved with its own settings for the s
     samplers = ["uniform", "stratified"]      # presets or POINTS+STRATEGY
     baseline = "uniform"                      # default: the first sampler
     integrator = "drt"                        # default: [experiment].integrator
+    metric   = "mse"                          # mse (RMSE) | relmse (relative MSE, for bright emitters)
 
     [profile.quick]                           # any of the run-size keys above
     spp = [1, 4, 16]
@@ -45,7 +46,8 @@ DEFAULT_PROFILE = "quick"
 SETTINGS_KEYS = ("spp", "repetitions", "resolution", "gt_spp", "gt_batch_spp", "target_rmse",
                  "strip_spp")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
-STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator")
+STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
+STUDY_METRICS = ("mse", "relmse")
 SCENE_KEYS = ("name", "overrides", "label")
 DEFAULTS: dict[str, Any] = {
     "spp": (1, 4, 16, 64, 256),
@@ -99,6 +101,7 @@ class Study:
     baseline: str
     integrator: str
     settings: Settings
+    metric: str = "mse"             # the error samplers are ranked by: mse | relmse
 
 
 @dataclass(frozen=True)
@@ -312,8 +315,12 @@ def _study(t, i, exp_name, seed, default_integrator, settings) -> Study:
     desc = t.get("description", "")
     if not isinstance(desc, str):
         raise InputError(f"{fld}.description", f"must be a string, got {desc!r}")
+    metric = t.get("metric", "mse")
+    if metric not in STUDY_METRICS:
+        raise InputError(f"{fld}.metric", f"must be one of {', '.join(STUDY_METRICS)}, got {metric!r}")
     return Study(name=name, description=desc, experiment=exp_name, seed=seed, scenes=refs,
-                 samplers=canon, baseline=baseline, integrator=integrator, settings=settings)
+                 samplers=canon, baseline=baseline, integrator=integrator, settings=settings,
+                 metric=metric)
 
 
 def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[str, list[Study]]:

@@ -92,17 +92,18 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
                 ln = fit["line"]
                 ax.plot(ln["n"], ln["median"], linestyle=st["linestyle"], color=st["color"], lw=1.2)
                 ax.fill_between(ln["n"], ln["lo"], ln["hi"], color=st["color"], alpha=0.15, lw=0)
-            _errbar(ax, [c["spp"] for c in cs], cs, "rmse_of_mean_mse", st, label)
+            _errbar(ax, [c["spp"] for c in cs], cs, "err", st, label)
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
         ax.set_title(sc["scene"])
         ax.set_xlabel("samples per pixel N")
-        ax.set_ylabel("RMSE (GT noise removed)")
+        ax.set_ylabel(f"{study['metric_label']} (GT noise removed)")
         ax.grid(True, which="both", lw=0.3, color="0.8")
         ax.legend(loc="lower left", frameon=False)
     for k in range(len(scenes), rows * cols):
         axes[k // cols][k % cols].axis("off")
-    fig.suptitle(f"{study['name']}: RMSE vs samples (points: mean ± 95% CI; lines: fit ± 95% CrI)")
+    fig.suptitle(f"{study['name']}: {study['metric_label']} vs samples (points: mean ± 95% CI; "
+                 f"lines: fit ± 95% CrI)")
     fig.tight_layout()
     f = plots_dir / f"{sname}-rmse-vs-spp.png"
     fig.savefig(f)
@@ -119,9 +120,9 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
             if not cs:
                 continue
             xs = [c["seconds"] for c in cs]
-            ax.plot(xs, [c["rmse_of_mean_mse"]["mean"] for c in cs], linestyle=st["linestyle"],
+            ax.plot(xs, [c["err"]["mean"] for c in cs], linestyle=st["linestyle"],
                     color=st["color"], lw=1.0)
-            _errbar(ax, xs, cs, "rmse_of_mean_mse", st, s)
+            _errbar(ax, xs, cs, "err", st, s)
         tgt = sc["speed"]["target_rmse"]
         if tgt and math.isfinite(tgt):
             ax.axhline(tgt, color="0.4", lw=0.8, linestyle=(0, (2, 2)))
@@ -131,12 +132,12 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
         ax.set_yscale("log")
         ax.set_title(sc["scene"])
         ax.set_xlabel("render seconds (median of repetitions, compile excluded)")
-        ax.set_ylabel("RMSE")
+        ax.set_ylabel(study["metric_label"])
         ax.grid(True, which="both", lw=0.3, color="0.8")
         ax.legend(loc="lower left", frameon=False)
     for k in range(len(scenes), rows * cols):
         axes[k // cols][k % cols].axis("off")
-    fig.suptitle(f"{study['name']}: RMSE vs time")
+    fig.suptitle(f"{study['name']}: {study['metric_label']} vs time")
     fig.tight_layout()
     f = plots_dir / f"{sname}-rmse-vs-seconds.png"
     fig.savefig(f)
@@ -166,7 +167,8 @@ def plot_study(study: dict, plots_dir: Path) -> dict:
     ax.set_xticks(xs)
     ax.set_xticklabels([sc["scene"] for sc in scenes], rotation=20, ha="right")
     ax.set_ylabel(f"efficiency / {study['baseline']}'s")
-    ax.set_title(f"{study['name']}: efficiency 1/(MSE·s) at the largest spp (higher is better)")
+    ax.set_title(f"{study['name']}: efficiency 1/({study['mse_label']}·s) at the largest spp "
+                 f"(higher is better)")
     ax.legend(frameon=False)
     ax.grid(True, axis="y", which="both", lw=0.3, color="0.8")
     fig.tight_layout()
@@ -307,8 +309,14 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
           f"(baseline `{base}`); N ∈ {sd['spp']}; {sd['repetitions']} repetitions per cell; resolution "
           f"{res}; reference {sd['gt_spp']} spp (`independent+importance`, same integrator); root seed "
           f"{sd['seed']}.\n")
-        w(f"| Scene | Sampler | Slope b [95% CrI] | RMSE at N={sd['spp'][-1]} [95% CI] | "
-          f"MSE ÷ {base}'s at N={sd['spp'][-1]} | Time to target RMSE (s) | Speed-up vs {base} | "
+        E, M = sd["metric_label"], sd["mse_label"]
+        if sd["metric"] != "mse":
+            w(f"This study ranks samplers by the {E}: the relative MSE (x − y)² / (y² + 0.01) weighs "
+              f"every pixel alike, where the plain MSE would be dominated by a few very bright pixels "
+              f"(directly visible small lights, whose antialiasing noise no strategy changes). "
+              f"Slopes, speed-ups and efficiencies below use it; the cell table also lists the RMSE.\n")
+        w(f"| Scene | Sampler | Slope b [95% CrI] | {E} at N={sd['spp'][-1]} [95% CI] | "
+          f"{M} ÷ {base}'s at N={sd['spp'][-1]} | Time to target (s) | Speed-up vs {base} | "
           f"Efficiency vs {base} |")
         w("|---|---|---|---|---|---|---|---|")
         for sc in sd["scenes"]:
@@ -316,8 +324,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                 fit = sc["slopes"].get(s, {})
                 slope = fmt_ci(fit.get("slope"), fit.get("slope_lo"), fit.get("slope_hi")) if fit.get("ok") else "–"
                 top = [c for c in sc["cells"] if c["sampler"] == s and c["spp"] == sd["spp"][-1]]
-                rm = fmt_ci(top[0]["rmse_of_mean_mse"]["mean"], top[0]["rmse_of_mean_mse"]["lo"],
-                            top[0]["rmse_of_mean_mse"]["hi"]) if top else "–"
+                rm = fmt_ci(top[0]["err"]["mean"], top[0]["err"]["lo"], top[0]["err"]["hi"]) if top else "–"
                 vs = [x for x in sc["vs_baseline"].get(s, []) if x["spp"] == sd["spp"][-1]]
                 mr = vs[0]["mse_ratio"] if vs else None
                 mse_ratio = "1 (baseline)" if s == base else (
@@ -332,7 +339,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                 w(f"| {sc['scene']} | `{s}` | {slope} | {rm} | {mse_ratio} | {t_txt} | "
                   f"{fmt(sp)}× | {fmt(eff)}× |")
         w("")
-        w(f"Target RMSE per scene: " + "; ".join(
+        w(f"Target {E} per scene: " + "; ".join(
             f"{sc['scene']} {fmt(sc['speed']['target_rmse'])}" + (" (auto: the lowest error every sampler reached)"
                                                                    if sc['speed']['target_auto'] and i == 0 else "")
             for i, sc in enumerate(sd["scenes"])) + ".\n")
@@ -353,9 +360,9 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                             f"{fit['slope_hi']:.2f}) against N^{bfit['slope']:.2f} for `{base}`")
                 if vs and math.isfinite(vs[0]["mse_ratio"]["ratio"]):
                     r = vs[0]["mse_ratio"]
-                    txt += (f"; at N={sd['spp'][-1]} its MSE is {fmt(r['ratio'])}× lower "
+                    txt += (f"; at N={sd['spp'][-1]} its {M} is {fmt(r['ratio'])}× lower "
                             f"(95% CI {fmt(r['lo'])}–{fmt(r['hi'])})" if r["ratio"] >= 1 else
-                            f"; at N={sd['spp'][-1]} its MSE is {fmt(1 / r['ratio'])}× higher "
+                            f"; at N={sd['spp'][-1]} its {M} is {fmt(1 / r['ratio'])}× higher "
                             f"(95% CI {fmt(1 / r['hi'])}–{fmt(1 / r['lo'])})")
                 if math.isfinite(sp) and sp > 0:
                     txt += (f", and it reaches the target error {fmt(sp)}× faster" if sp >= 1 else
@@ -366,7 +373,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                      f"(expected in ~5% of cells by chance)." if biased else "")
             w(f"- **{sc['scene']}**: " + ("; ".join(bits) if bits else "baseline only") + "." + b_txt)
         w("")
-        for key, cap in (("rmse_vs_spp", "RMSE vs samples per pixel"), ("rmse_vs_seconds", "RMSE vs render time"),
+        for key, cap in (("rmse_vs_spp", f"{E} vs samples per pixel"), ("rmse_vs_seconds", f"{E} vs render time"),
                          ("efficiency", "Relative efficiency")):
             w(f"![{sd['name']}: {cap}]({_rel(files[key], out_dir)})\n")
         w("Image strips (repetition 0; the crop is marked on the reference):\n")
@@ -376,8 +383,8 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                 w(f"![{sc.label}]({_rel(p, out_dir)})\n")
         # Per-cell detail.
         w("<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n")
-        w("| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
-          "Render s (median) | Efficiency |")
+        w(f"| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
+          f"Render s (median) | Efficiency 1/({M}·s) |")
         w("|---|---|---|---|---|---|---|---|---|---|---|")
         for sc in sd["scenes"]:
             for c in sc["cells"]:
@@ -388,7 +395,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                   f"{fmt_ci(c['mae']['mean'], c['mae']['lo'], c['mae']['hi'])} | "
                   f"{fmt_ci(c['ciede2000']['mean'], c['ciede2000']['lo'], c['ciede2000']['hi'])} | "
                   f"{fmt_ci(b['signed'], b['lo'], b['hi'])}{' ⚠' if b['significant'] else ''} | "
-                  f"{fmt(c['pixel_variance'])} | {fmt(c['seconds'])} | {fmt(c['efficiency'])} |")
+                  f"{fmt(c['pixel_variance'])} | {fmt(c['seconds'])} | {fmt(c['eff'])} |")
         w("\n</details>\n")
 
     w("## Ground truth and noise floor\n")
@@ -413,16 +420,16 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
       f"times); acceptance fractions {fmt(ch['acceptance_fraction_range'][0])}–"
       f"{fmt(ch['acceptance_fraction_range'][1])}, largest autocorrelation time "
       f"{fmt(ch['max_autocorr_time'])} steps.\n")
-    w("| Scene | Sampler | b | σ | Acceptance | τ (a, b, log σ) | Converged | Points (dropped) |")
-    w("|---|---|---|---|---|---|---|---|")
+    w("| Scene | Sampler | Error | b | σ | Acceptance | τ (a, b, log σ) | Converged | Points (dropped) |")
+    w("|---|---|---|---|---|---|---|---|---|")
     seen = set()
     for sd in summary["studies"]:
         for sc in sd["scenes"]:
             for s, f in sc["slopes"].items():
-                if (sc["scene"], s) in seen or not f.get("ok"):
+                if (sc["scene"], s, sd["metric"]) in seen or not f.get("ok"):
                     continue
-                seen.add((sc["scene"], s))
-                w(f"| {sc['scene']} | `{s}` | {f['slope']:.3f} | {fmt(f['sigma'])} | {f['acceptance_fraction']:.2f} | "
+                seen.add((sc["scene"], s, sd["metric"]))
+                w(f"| {sc['scene']} | `{s}` | {sd['metric_label']} | {f['slope']:.3f} | {fmt(f['sigma'])} | {f['acceptance_fraction']:.2f} | "
                   f"{', '.join(f'{t:.1f}' for t in f['autocorr_time'])} | {'yes' if f['converged'] else 'NO'} | "
                   f"{f['n_points']} ({f['dropped']}) |")
     w("")

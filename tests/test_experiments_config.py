@@ -89,6 +89,7 @@ def test_profiles_override_experiment_settings(tmp_path):
     (('scenes = ["aa-edges", "glossy"]', 'scenes = ["aa-edges", "nope"]'), "study[0].scenes[1]"),
     (('name = "s"', 'name = "s"\nbaseline = "importance"'), "study[0].baseline"),
     (('name = "s"', 'name = "s"\nintegrator = "whitted"'), "study[0].integrator"),
+    (('name = "s"', 'name = "s"\nmetric = "psnr"'), "study[0].metric"),
     (('resolution = [16, 12]', 'resolution = [16]'), "experiment.resolution"),
     (('description = "tiny"', ''), "experiment.description"),
     (('[[study]]', '[study]'), "study"),

@@ -59,8 +59,17 @@ def run(exp, out, gt, fake_kw=None, analyze=False, **kw):
     return s, fake
 
 
+REL_STUDY = """
+[[study]]
+name = "rel"
+scenes = ["glossy"]
+samplers = ["uniform", "stratified"]
+metric = "relmse"
+"""
+
+
 def test_end_to_end_on_fake_renderer(tmp_path):
-    exp = tiny_experiment(tmp_path)
+    exp = tiny_experiment(tmp_path, TINY + REL_STUDY)        # the second study shares its runs
     out, gt = tmp_path / "out", tmp_path / "gt"
     s, fake = run(exp, out, gt, analyze=True)
     for name in ("runs.csv", "summary.json", "report.md", "manifest.json"):
@@ -80,18 +89,26 @@ def test_end_to_end_on_fake_renderer(tmp_path):
         c = sc["cells"][0]
         assert {"rmse", "relmse", "mae", "ciede2000", "bias", "pixel_variance", "efficiency"} <= set(c)
         assert c["rmse"]["lo"] <= c["rmse"]["mean"] <= c["rmse"]["hi"]
-    assert summary["chains"]["converged"] == summary["chains"]["fits"] == 4
+    rel = summary["studies"][1]
+    assert rel["metric"] == "relmse" and rel["scenes"][0]["cells"][0]["err"] == \
+        rel["scenes"][0]["cells"][0]["rrmse_of_mean_relmse"]
+    f = rel["scenes"][0]["slopes"]["stratified"]
+    assert f["slope_lo"] - 0.03 <= -0.75 <= f["slope_hi"] + 0.03
+    assert summary["chains"]["converged"] == summary["chains"]["fits"] == 6
     # The stratified runs at 64 spp are better than the 8192-spp reference's 1% rule allows.
     assert summary["warnings"] and "ground-truth variance" in summary["warnings"][0]
     plots = sorted(p.name for p in (out / "plots").iterdir())
-    assert plots == ["strat-efficiency.png", "strat-rmse-vs-seconds.png", "strat-rmse-vs-spp.png"]
-    assert sorted(p.name for p in (out / "images").iterdir()) == ["aa-edges.png", "glossy.png"]
+    assert plots == [f"{s}-{k}.png" for s in ("rel", "strat")
+                     for k in ("efficiency", "rmse-vs-seconds", "rmse-vs-spp")]
+    assert sorted(p.name for p in (out / "images").iterdir()) == [
+        "rel--glossy.png", "strat--aa-edges.png", "strat--glossy.png"]
     report = (out / "report.md").read_text()
     assert "![strat: RMSE vs samples per pixel](plots/strat-rmse-vs-spp.png)" in report
-    assert "images/aa-edges.png" in report and "noise floor" in report
+    assert "images/strat--aa-edges.png" in report and "noise floor" in report
+    assert "relative RMSE" in report
     m = json.loads((out / "manifest.json").read_text())
     assert {"git", "packages", "machine", "seeds", "wall_seconds"} <= set(m)
-    assert m["packages"]["emcee"] and m["seeds"]["roots"] == {"strat": 11}
+    assert m["packages"]["emcee"] and m["seeds"]["roots"] == {"strat": 11, "rel": 11}
     # Each run's seed reproduces its image alone.
     r0 = rows[5]
     img = fake.render(fake.load_scene(r0["scene"]), spp=int(r0["spp"]), sampler=r0["sampler"],
