@@ -252,6 +252,20 @@ def _strip_job(label, samplers, strip_spp, gt_dir, run_ids, out_dir, path):
     return path
 
 
+def _bound(sc: dict, s: str, base: str) -> str:
+    """'≥' when the sampler beat the target at its first cell (its time is an upper bound), '≤' when
+    the baseline did, '' when both times are interpolated."""
+    ttt = sc["speed"]["time_to_target"]
+    mine, theirs = ttt.get(s, {}).get("how"), ttt.get(base, {}).get("how")
+    if s == base:
+        return ""
+    if mine == "at_most" and theirs != "at_most":
+        return "≥"
+    if theirs == "at_most" and mine != "at_most":
+        return "≤"
+    return ""
+
+
 def _rel(p: Path, base: Path) -> str:
     return str(Path(p).relative_to(base)).replace("\\", "/")
 
@@ -337,7 +351,7 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                 sp = sc["speed"]["speedup_vs_baseline"].get(s)
                 eff = sc["efficiency"].get(s, {}).get("relative")
                 w(f"| {sc['scene']} | `{s}` | {slope} | {rm} | {mse_ratio} | {t_txt} | "
-                  f"{fmt(sp)}× | {fmt(eff)}× |")
+                  f"{_bound(sc, s, base)}{fmt(sp)}× | {fmt(eff)}× |")
         w("")
         w(f"Target {E} per scene: " + "; ".join(
             f"{sc['scene']} {fmt(sc['speed']['target_rmse'])}" + (" (auto: the lowest error every sampler reached)"
@@ -365,7 +379,8 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                             f"; at N={sd['spp'][-1]} its {M} is {fmt(1 / r['ratio'])}× higher "
                             f"(95% CI {fmt(1 / r['hi'])}–{fmt(1 / r['lo'])})")
                 if math.isfinite(sp) and sp > 0:
-                    txt += (f", and it reaches the target error {fmt(sp)}× faster" if sp >= 1 else
+                    bound = {"≥": "at least ", "≤": "at most "}.get(_bound(sc, s, base), "")
+                    txt += (f", and it reaches the target error {bound}{fmt(sp)}× faster" if sp >= 1 else
                             f", but it needs {fmt(1 / sp)}× more render time to reach the target error")
                 bits.append(txt)
             biased = [f"{c['sampler']}@{c['spp']}" for c in sc["cells"] if c["bias"]["significant"]]

@@ -163,6 +163,23 @@ def load_run_image(out_dir: Path, run_id: str) -> np.ndarray:
         return z["image"].astype(np.float64)
 
 
+def _lock(out_dir: Path):
+    """An exclusive lock on `<out>/.lock`, released when the returned file is closed (or the process
+    dies): a second sweep into the same folder stops with one line instead of racing the first."""
+    f = open(out_dir / ".lock", "a+")
+    try:
+        import fcntl
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except ImportError:                       # no fcntl (Windows): no lock
+        pass
+    except OSError:
+        f.close()
+        from drtlab.kernels.errors import InputError
+        raise InputError("--out", f"another `drtlab experiment` is writing to {out_dir}; wait for it "
+                         f"or choose another --out") from None
+    return f
+
+
 def _remove_orphaned_temps(out_dir: Path) -> None:
     """Temp files of writes a kill interrupted (never read: the os.replace never happened)."""
     for d in (out_dir, out_dir / "runs"):
@@ -220,10 +237,21 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
 
-    if fresh and out_dir.exists():
-        _clean_outputs(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    lock = _lock(out_dir)                     # one sweep at a time per output folder
+    try:
+        if fresh:
+            _clean_outputs(out_dir)
+        (out_dir / "runs").mkdir(exist_ok=True)
+        return _sweep_and_report(exp, plan, gt_req, out_dir, gt_root, backend, threads, progress,
+                                 clock, log, analyze, argv, t_start)
+    finally:
+        lock.close()
+
+
+def _sweep_and_report(exp, plan, gt_req, out_dir, gt_root, backend, threads, progress, clock, log,
+                      analyze, argv, t_start) -> dict:
     runs_dir = out_dir / "runs"
-    runs_dir.mkdir(parents=True, exist_ok=True)
     _remove_orphaned_temps(out_dir)
     records = load_records(runs_dir)
 

@@ -260,3 +260,19 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
     from drtlab.kernels import CODE_VERSION
     assert man["code_version"] == CODE_VERSION
     assert s["studies"][0]["scenes"][0]["cells"][0]["rmse"]["mean"] > 0
+
+
+def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
+    from drtlab.experiments.runner import _lock
+    from drtlab.kernels.errors import InputError
+    exp = tiny_experiment(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    held = _lock(out)
+    try:
+        with pytest.raises(InputError) as e:
+            run(exp, out, tmp_path / "gt")
+        assert e.value.field == "--out"
+    finally:
+        held.close()
+    run(exp, out, tmp_path / "gt")
