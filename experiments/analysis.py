@@ -142,10 +142,6 @@ def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list, metr
         "fraction_of_smallest_mse": gt.variance / min_mse if min_mse > 0 else float("nan"),
     }
     floor["warning"] = bool(min_mse > 0 and gt.variance > NOISE_FLOOR_FRACTION * min_mse)
-    if floor["warning"]:
-        log(f"warning: ground truth of {g[0].label} ({gt.spp} spp) contributes "
-            f"{100 * floor['fraction_of_smallest_mse']:.1f}% of the smallest MSE measured "
-            f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted, but raise gt_spp")
     return {"cells": cells, "slopes": {m: {} for m in metrics}, "noise_floor": floor}
 
 
@@ -248,6 +244,13 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     warnings = [f"{_group_name(g)}: ground-truth variance is {100 * v['noise_floor']['fraction_of_smallest_mse']:.1f}% "
                 f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)"
                 for g, v in gres.items() if v["noise_floor"]["warning"]]
+    flagged = [(g, v["noise_floor"]) for g, v in gres.items() if v["noise_floor"]["warning"]]
+    if flagged:
+        fr = [100 * nf["fraction_of_smallest_mse"] for _, nf in flagged]
+        log(f"warning: in {len(flagged)} of {len(gres)} scenes ({', '.join(g[0].label for g, _ in flagged)}) "
+            f"the reference's own variance is {min(fr):.1f}-{max(fr):.1f}% of the smallest MSE measured "
+            f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted from every MSE, but a larger "
+            f"gt_spp (e.g. --profile full) lowers the floor")
     fits = [(g, s, f) for g, v in gres.items() for per in v["slopes"].values() for s, f in per.items()]
     chains = {
         "fits": len(fits),

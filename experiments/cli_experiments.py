@@ -95,8 +95,6 @@ def cmd_experiment(args) -> int:
                   if s != sd["baseline"] and v == v]
             print(f"  {sd['name']:>18} {sc['scene']:<14} " + "; ".join(parts)
                   + (f"; speed-up vs {sd['baseline']}: " + ", ".join(sp) if sp else ""))
-    for w in summary.get("warnings", []):
-        print(f"warning: {w}", file=sys.stderr)
     print(f"report: {out / 'report.md'}")
     return 0
 
@@ -104,7 +102,7 @@ def cmd_experiment(args) -> int:
 def cmd_ground_truth(args) -> int:
     from drtlab.experiments import groundtruth as gtmod
     from drtlab.experiments.backend import default_backend, default_scene_loader
-    from drtlab.experiments.config import SceneRef, load_experiment
+    from drtlab.experiments.config import _scene_ref, load_experiment
     from drtlab.experiments.runner import default_gt_root, gt_requirements, plan_runs
     if (args.scene is None) == (args.experiment is None):
         raise InputError("ground-truth", "give either a SCENE or --experiment NAME (one of the two)")
@@ -127,8 +125,7 @@ def cmd_ground_truth(args) -> int:
                              f"use drt or path")
         spp = args.spp or 16384
         batch = args.batch_spp or max(1, min(512, spp // 8))
-        label = Path(args.scene).stem if args.scene.endswith(".toml") else args.scene
-        jobs.append((SceneRef(args.scene, label), integ, args.res, spp, batch))
+        jobs.append((_scene_ref(args.scene, "SCENE"), integ, args.res, spp, batch))
         backend = default_backend()
     root = args.gt_dir or default_gt_root()
     for sc, integ, res, spp, batch in jobs:

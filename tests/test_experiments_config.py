@@ -3,7 +3,6 @@ nothing written."""
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
