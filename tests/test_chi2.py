@@ -50,9 +50,11 @@ GLOSSY_DIELECTRIC_LEAK = (
     "reflection lobe that falls below the surface (or from the transmission lobe that falls above) is "
     "kept, and pdf_bsdf gives it the density of the other side's lobe only (F*lobe_r above, "
     "(1-F)*lobe_t below), while the proposal's true density is F*lobe_r + (1-F)*lobe_t on both sides. "
-    "E.g. exponent 10, ior 1.5, wo 85 deg: pdf_bsdf integrates to 0.761 but 100% of samples are valid; "
-    "chi2 p = 0. Biases BSDF-sampled glossy-dielectric estimates (reflection mass leaking under the "
-    "surface is counted as transmission) and MIS weights.")
+    "Exponent 10, ior 1.5, wo 85 deg: pdf_bsdf integrates to 0.761 but 100% of samples are valid, "
+    "chi2 = 4.8e6 on 6456 dof (p = 0); the BSDF-sampled directional albedo (mean weight, albedo 1) is "
+    "0.653 against the integral of eval_bsdf 0.547 (+19%; +8% at exponent 100, +0.3% for exponent 10 "
+    "from inside at 30 deg). Fix: reject (valid = 0) a lobe sample on the other side of the surface, "
+    "or make pdf_bsdf (and eval) the two-lobe mixture on both sides.")
 
 
 def seed_of(name: str) -> int:
@@ -156,7 +158,8 @@ def phong_domain(n: float):
 WARP_CASES = [
     ("uniform_hemisphere", C.UNIFORM_HEMISPHERE, 0.0, lambda: (C.SphericalDomain(), (101, 202))),
     ("uniform_sphere", C.UNIFORM_SPHERE, 0.0, lambda: (C.SphericalDomain(), (101, 202))),
-    ("cosine_hemisphere", C.COSINE_HEMISPHERE, 0.0, lambda: (C.SphericalDomain(), (101, 202))),
+    ("cosine_hemisphere", C.COSINE_HEMISPHERE, 0.0,
+     lambda: (C.SphericalDomain(cos_range=(0.0, 1.0)), (101, 202))),
     ("concentric_disk", C.DISK, 0.0, lambda: (C.PlanarDomain(), (101, 101))),
     ("harness_random_input", C.SQUARE, 0.0,
      lambda: (C.PlanarDomain(((0.0, 1.0), (0.0, 1.0))), (100, 100))),
