@@ -20,6 +20,7 @@ from drtlab.experiments.parallel import pmap
 from drtlab.experiments.slopes import fit_slope
 
 NOISE_FLOOR_FRACTION = 0.01
+ERRATIC_SIGMA = 0.25        # log-error scatter above which a sampler's errors are called heavy-tailed
 # The error a study ranks samplers by. "mse": RMSE over pixels and channels (noise floor removed).
 # "relmse": relative MSE (x - y)^2 / (y^2 + 0.01), for scenes whose RMSE is dominated by a few very
 # bright pixels (directly seen small lights), reported as its square root ("relative RMSE").
@@ -223,6 +224,9 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
                              tuple(needed[g]))
             for g, runs in groups.items()}
     for (g, metric, s, _), f in zip(fit_calls, pmap([c for *_, c in fit_calls])):
+        # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):
+        # the errors are heavy-tailed (rare, very bright samples), and so is every number built on them.
+        f["erratic"] = bool(f.get("ok") and f["sigma"] > ERRATIC_SIGMA)
         gres[g]["slopes"][metric][s] = f
     studies = []
     for st in exp.studies:

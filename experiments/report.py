@@ -12,7 +12,10 @@ from pathlib import Path
 import numpy as np
 
 from drtlab.experiments.imageio_util import atomic_write_text, linear_to_srgb
+from drtlab.experiments.analysis import ERRATIC_SIGMA
 from drtlab.experiments.parallel import pmap
+
+ERRATIC_TXT = f"{ERRATIC_SIGMA:g} in log error (a factor {math.exp(ERRATIC_SIGMA):.2f})"
 
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 LINESTYLES = ("-", "--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)), (0, (3, 1)))
@@ -337,6 +340,8 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
             for s in sd["samplers"]:
                 fit = sc["slopes"].get(s, {})
                 slope = fmt_ci(fit.get("slope"), fit.get("slope_lo"), fit.get("slope_hi")) if fit.get("ok") else "–"
+                if fit.get("erratic"):
+                    slope += " ‡"
                 top = [c for c in sc["cells"] if c["sampler"] == s and c["spp"] == sd["spp"][-1]]
                 rm = fmt_ci(top[0]["err"]["mean"], top[0]["err"]["lo"], top[0]["err"]["hi"]) if top else "–"
                 vs = [x for x in sc["vs_baseline"].get(s, []) if x["spp"] == sd["spp"][-1]]
@@ -353,6 +358,9 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                 w(f"| {sc['scene']} | `{s}` | {slope} | {rm} | {mse_ratio} | {t_txt} | "
                   f"{_bound(sc, s, base)}{fmt(sp)}× | {fmt(eff)}× |")
         w("")
+        if any(sc["slopes"].get(s, {}).get("erratic") for sc in sd["scenes"] for s in sd["samplers"]):
+            w("‡ heavy-tailed errors: the scatter around the fitted line is over "
+              f"{ERRATIC_TXT}, far above pixel noise; the slope is poorly determined.\n")
         w(f"Target {E} per scene: " + "; ".join(
             f"{sc['scene']} {fmt(sc['speed']['target_rmse'])}" + (" (auto: the lowest error every sampler reached)"
                                                                    if sc['speed']['target_auto'] and i == 0 else "")
@@ -383,6 +391,12 @@ def write_report(exp, summary: dict, plan, records: dict, out_dir: Path, gts: di
                     txt += (f", and it reaches the target error {bound}{fmt(sp)}× faster" if sp >= 1 else
                             f", but it needs {fmt(1 / sp)}× more render time to reach the target error")
                 bits.append(txt)
+            erratic = [s for s in sd["samplers"] if sc["slopes"].get(s, {}).get("erratic")]
+            if erratic:
+                bits.append(f"**heavy tails**: the errors of {', '.join(f'`{s}`' for s in erratic)} scatter "
+                            f"far more than pixel noise explains (rare, very bright samples), so a few "
+                            f"repetitions cannot pin this scene's slope or ratios down; trust the intervals, "
+                            f"not the point estimates")
             biased = [f"{c['sampler']}@{c['spp']}" for c in sc["cells"] if c["bias"]["significant"]]
             b_txt = (f" Bias screen: mean error differs from 0 at 95% in {', '.join(biased)} "
                      f"(expected in ~5% of cells by chance)." if biased else "")
