@@ -243,7 +243,7 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     target_rmse=vals["target_rmse"], strip_spp=tuple(strip))
 
 
-def _scene_ref(entry, fld) -> SceneRef:
+def _scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
     if isinstance(entry, str):
         name, overrides, label = _str(entry, fld), {}, None
     elif isinstance(entry, dict):
@@ -257,8 +257,11 @@ def _scene_ref(entry, fld) -> SceneRef:
         label = _str(entry["label"], f"{fld}.label") if "label" in entry else None
     else:
         raise InputError(fld, f"must be a scene name or a table {{name, overrides, label}}, got {entry!r}")
+    is_path = "/" in name or name.endswith(".toml")
+    if is_path and base is not None and not Path(name).is_absolute() and (base / name).is_file():
+        name = str((base / name).resolve())        # relative to the experiment file
     if label is None:
-        label = Path(name).stem if ("/" in name or name.endswith(".toml")) else name
+        label = Path(name).stem if is_path else name
         if overrides:
             label = f"{label}~{short_hash(overrides, 6)}"
     bad = [c for c in label if not (c.isalnum() or c in "-_.~")]
@@ -282,7 +285,7 @@ def _integrator(name, fld) -> str:
     return integ.name
 
 
-def _study(t, i, exp_name, seed, default_integrator, settings) -> Study:
+def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None = None) -> Study:
     fld = f"study[{i}]"
     _check_keys(t, STUDY_KEYS, fld)
     for req in ("name", "scenes", "samplers"):
@@ -292,7 +295,7 @@ def _study(t, i, exp_name, seed, default_integrator, settings) -> Study:
     scenes = t["scenes"]
     if not isinstance(scenes, list) or not scenes:
         raise InputError(f"{fld}.scenes", f"must be a non-empty list of scenes, got {scenes!r}")
-    refs = tuple(_scene_ref(s, f"{fld}.scenes[{j}]") for j, s in enumerate(scenes))
+    refs = tuple(_scene_ref(s, f"{fld}.scenes[{j}]", base) for j, s in enumerate(scenes))
     labels = [r.label for r in refs]
     for j, lab in enumerate(labels):
         if labels.index(lab) != j:
@@ -381,7 +384,7 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
     if not isinstance(raw, list):
         raise InputError("study", "must be an array of tables: write each as [[study]]")
     for i, t in enumerate(raw):
-        studies.append(_study(t, i, path.stem, seed, integrator, settings))
+        studies.append(_study(t, i, path.stem, seed, integrator, settings, path.parent))
     if not studies:
         raise InputError("study", "no [[study]] section and nothing included: the experiment is empty")
     return desc, studies

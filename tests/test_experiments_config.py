@@ -5,6 +5,7 @@ import subprocess
 import sys
 
 import pytest
+from pathlib import Path
 
 from drtlab.experiments.config import builtin_experiments, load_experiment
 from drtlab.experiments.fakes import FakeRenderer
@@ -159,3 +160,15 @@ def test_bad_experiment_file_via_cli_exits_2_writes_nothing(tmp_path):
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "study[0].samplers[1]" in lines[0], r.stderr
     assert list(work.iterdir()) == []
+
+
+def test_scene_paths_are_relative_to_the_experiment_file(tmp_path, monkeypatch):
+    import drtlab.kernels
+    src = Path(drtlab.kernels.__file__).parent / "scenes" / "aa-edges.toml"
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "mine.toml").write_text(src.read_text())
+    write(tmp_path / "sub", GOOD.replace('"aa-edges"', '"mine.toml"'))
+    monkeypatch.chdir(tmp_path)
+    exp = load_experiment(str(tmp_path / "sub" / "exp.toml"))
+    sc = exp.studies[0].scenes[0]
+    assert sc.label == "mine" and Path(sc.name).is_absolute()
