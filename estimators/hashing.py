@@ -1,8 +1,8 @@
 """Integer hashing shared by every point set: a sample value is a pure function of its key.
 
-`hash_key(seed, pixel, index, dim)` decorrelates all four coordinates; `permute` is a bijection of
-[0, n) keyed by a hash (cycle-walking over the next power of two, then a keyed rotation), used to
-decorrelate strata between dimensions the way pbrt-v4 permutes per dimension.
+`hash_key(seed, pixel, index, dim)` decorrelates all four coordinates; `permute` is a keyed
+pseudo-random bijection of [0, n) (a Feistel network with cycle-walking, then a keyed rotation),
+used to decorrelate strata between dimensions the way pbrt-v4 permutes per dimension.
 """
 import warp as wp
 
@@ -31,7 +31,9 @@ def hash_key(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32
     h = mix32(h ^ (pixel + _M3))
     h = mix32(h ^ (index + _GOLDEN))
     h = mix32(h ^ (dim + _M1))
-    return h
+    # A second avalanche round: with one, neighbouring dimensions (inputs a few low bits apart) of
+    # one sample were measurably not jointly uniform.
+    return mix32(h + _GOLDEN)
 
 
 @wp.func
@@ -44,31 +46,38 @@ def unit_float(h: wp.uint32) -> float:
 def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
     if n <= wp.uint32(1):
         return wp.uint32(0)
-    w = n - wp.uint32(1)
-    mask = w | (w >> wp.uint32(1))
-    mask = mask | (mask >> wp.uint32(2))
-    mask = mask | (mask >> wp.uint32(4))
-    mask = mask | (mask >> wp.uint32(8))
-    mask = mask | (mask >> wp.uint32(16))
-    # Each step is a bijection on the low bits under `mask` (xor with a constant, multiply by an odd
-    # constant, xorshift of the masked value), so walking until the value falls below n is a
-    # bijection of [0, n); fewer than two rounds are needed on average.
+    # A 4-round Feistel network on an even number of bits >= log2(n) is a keyed pseudo-random
+    # permutation (Luby-Rackoff); cycle-walking restricts it to [0, n) (under 4 rounds of walking
+    # on average). Simpler keyed bijections (xor-multiply chains) give a family of permutations so
+    # small that the strata of two dimensions of one pixel correlate.
+    bits = int(0)
+    while (wp.uint32(1) << wp.uint32(bits)) < n:
+        bits += 1
+    half = wp.uint32((bits + 1) / 2)
+    hmask = (wp.uint32(1) << half) - wp.uint32(1)
+    k0 = mix32(key ^ _M1)
+    k1 = mix32(key ^ _M2)
+    k2 = mix32(key ^ _M3)
+    k3 = mix32(key ^ _GOLDEN)
     x = i
-    k2 = mix32(key)
     done = int(0)
     while done == 0:
-        x = x ^ key
-        x = (x * _M1) & mask
-        x = x ^ ((x & mask) >> wp.uint32(3))
-        x = x ^ (k2 & mask)
-        x = (x * (_M2 | wp.uint32(1))) & mask
-        x = x ^ ((x & mask) >> wp.uint32(5))
-        x = (x * (_M3 | wp.uint32(1))) & mask
-        x = x ^ ((x & mask) >> wp.uint32(7))
-        x = x & mask
+        left = x >> half
+        right = x & hmask
+        t = left ^ (mix32(right ^ k0) & hmask)
+        left = right
+        right = t
+        t = left ^ (mix32(right ^ k1) & hmask)
+        left = right
+        right = t
+        t = left ^ (mix32(right ^ k2) & hmask)
+        left = right
+        right = t
+        t = left ^ (mix32(right ^ k3) & hmask)
+        left = right
+        right = t
+        x = (left << half) | right
         if x < n:
             done = 1
-    # The walk alone mixes few bits for small n, so sample i's stratum would not be uniform over keys
-    # (dimensions of one sample would correlate); a keyed rotation makes every position uniform and,
-    # with independent keys, the strata of two dimensions independent.
-    return (x + mix32(k2 ^ _GOLDEN) % n) % n
+    # A keyed rotation makes every position exactly uniform over keys.
+    return (x + mix32(key + _GOLDEN) % n) % n

@@ -80,16 +80,14 @@ def interface(n: wp.vec3, wo: wp.vec3, ior: float) -> Interface:
 
 @wp.func
 def glossy_dielectric_lobes(it: Interface, wo: wp.vec3, wi: wp.vec3, exponent: float) -> wp.vec2:
-    """Phong lobe densities at wi around the mirror (x) and refracted (y) directions; a lobe is zero
-    on the other side of the surface, the refracted one also under total internal reflection."""
-    ci = wp.dot(it.nf, wi)
-    r = wp.vec2(0.0, 0.0)
-    if ci > 0.0:
-        r = wp.vec2(phong_lobe_pdf(wp.dot(2.0 * it.co * it.nf - wo, wi), exponent), 0.0)
-    elif ci < 0.0 and it.F < 1.0:
-        tdir = refract_dir(wo, it.nf, it.co, it.eta)
-        r = wp.vec2(0.0, phong_lobe_pdf(wp.dot(tdir, wi), exponent))
-    return r
+    """Phong lobe densities at wi around the mirror (x) and refracted (y) directions, on either
+    side of the surface: a lobe near the horizon proposes directions on both sides. The refracted
+    lobe is zero under total internal reflection."""
+    r = phong_lobe_pdf(wp.dot(2.0 * it.co * it.nf - wo, wi), exponent)
+    t = float(0.0)
+    if it.F < 1.0:
+        t = phong_lobe_pdf(wp.dot(refract_dir(wo, it.nf, it.co, it.eta), wi), exponent)
+    return wp.vec2(r, t)
 
 
 def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
@@ -105,9 +103,17 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                                wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
         # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
         # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
+        # A lobe's part on the wrong side of the surface is not scattering: reflection counts only
+        # above, transmission only below (the sampler's pdf still counts both, see pdf_bsdf).
         it = interface(n, wo, ior)
         lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
-        return wp.vec3(it.F * lobes[0]) + albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
+        ci = wp.dot(it.nf, wi)
+        r = wp.vec3(0.0)
+        if ci > 0.0:
+            r = wp.vec3(it.F * lobes[0])
+        elif ci < 0.0:
+            r = albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
+        return r
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -162,6 +168,7 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                 if kind == GLOSSY_DIELECTRIC:
                     it = interface(n, wo, ior)
                     lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
+                    # The proposal is the Fresnel-weighted mixture of both lobes wherever wi lies.
                     p = it.F * lobes[0] + (1.0 - it.F) * lobes[1]
         return p
 

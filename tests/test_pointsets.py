@@ -333,30 +333,28 @@ def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
     h = py_mix32((seed + _GOLDEN) & M32)
     h = py_mix32(h ^ ((pixel + _M3) & M32))
     h = py_mix32(h ^ ((index + _GOLDEN) & M32))
-    return py_mix32(h ^ ((dim + _M1) & M32))
+    h = py_mix32(h ^ ((dim + _M1) & M32))
+    return py_mix32((h + _GOLDEN) & M32)
 
 
 def py_permute(i: int, n: int, key: int) -> int:
-    """Python reference of hashing.permute (uint32 arithmetic)."""
+    """Python reference of hashing.permute (uint32 arithmetic): Feistel + cycle-walk + rotation."""
     if n <= 1:
         return 0
-    w = n - 1
-    mask = w
-    for shift in (1, 2, 4, 8, 16):
-        mask |= mask >> shift
-    x, k2 = i, py_mix32(key)
+    bits = 0
+    while (1 << bits) < n:
+        bits += 1
+    half = (bits + 1) // 2
+    hmask = (1 << half) - 1
+    keys = [py_mix32(key ^ c) for c in (_M1, _M2, _M3, _GOLDEN)]
+    x = i
     while True:
-        x ^= key
-        x = (x * _M1) & mask
-        x ^= (x & mask) >> 3
-        x ^= k2 & mask
-        x = (x * (_M2 | 1)) & mask
-        x ^= (x & mask) >> 5
-        x = (x * (_M3 | 1)) & mask
-        x ^= (x & mask) >> 7
-        x &= mask
+        left, right = x >> half, x & hmask
+        for k in keys:
+            left, right = right, left ^ (py_mix32(right ^ k) & hmask)
+        x = (left << half) | right
         if x < n:
-            return (x + py_mix32(k2 ^ _GOLDEN) % n) % n
+            return (x + py_mix32((key + _GOLDEN) & M32) % n) % n
 
 
 @wp.kernel(enable_backward=False)
