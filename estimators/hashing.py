@@ -55,27 +55,15 @@ def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
         bits += 1
     half = wp.uint32((bits + 1) / 2)
     hmask = (wp.uint32(1) << half) - wp.uint32(1)
-    k0 = mix32(key ^ _M1)
-    k1 = mix32(key ^ _M2)
-    k2 = mix32(key ^ _M3)
-    k3 = mix32(key ^ _GOLDEN)
     x = i
     done = int(0)
     while done == 0:
         left = x >> half
         right = x & hmask
-        t = left ^ (mix32(right ^ k0) & hmask)
-        left = right
-        right = t
-        t = left ^ (mix32(right ^ k1) & hmask)
-        left = right
-        right = t
-        t = left ^ (mix32(right ^ k2) & hmask)
-        left = right
-        right = t
-        t = left ^ (mix32(right ^ k3) & hmask)
-        left = right
-        right = t
+        for r in range(4):
+            t = left ^ (mix32(right ^ mix32(key ^ (_M1 + wp.uint32(r)))) & hmask)
+            left = right
+            right = t
         x = (left << half) | right
         if x < n:
             done = 1

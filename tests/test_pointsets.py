@@ -346,7 +346,7 @@ def py_permute(i: int, n: int, key: int) -> int:
         bits += 1
     half = (bits + 1) // 2
     hmask = (1 << half) - 1
-    keys = [py_mix32(key ^ c) for c in (_M1, _M2, _M3, _GOLDEN)]
+    keys = [py_mix32(key ^ ((_M1 + r) & M32)) for r in range(4)]
     x = i
     while True:
         left, right = x >> half, x & hmask
