@@ -5,6 +5,8 @@ import subprocess
 import sys
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from pathlib import Path
 
 from drtlab.experiments.config import builtin_experiments, load_experiment
@@ -93,6 +95,22 @@ def test_profiles_override_experiment_settings(tmp_path):
     (('resolution = [16, 12]', 'resolution = [16]'), "experiment.resolution"),
     (('description = "tiny"', ''), "experiment.description"),
     (('[[study]]', '[study]'), "study"),
+    (("repetitions = 2", "repetitions = -3"), "experiment.repetitions"),
+    (("repetitions = 2", 'repetitions = "two"'), "experiment.repetitions"),
+    (("repetitions = 2", "repetitions = true"), "experiment.repetitions"),
+    (("repetitions = 2", "repetitions = 2.5"), "experiment.repetitions"),
+    (("seed = 3", "seed = -1"), "experiment.seed"),
+    (("seed = 3", 'seed = "x"'), "experiment.seed"),
+    (("spp = [1, 4, 16]", "spp = [0, 4]"), "experiment.spp[0]"),
+    (("spp = [1, 4, 16]", 'spp = "many"'), "experiment.spp"),
+    (("gt_spp = 1024", "gt_spp = nan"), "experiment.gt_spp"),
+    (("gt_batch_spp = 128", "gt_batch_spp = 0"), "experiment.gt_batch_spp"),
+    (("resolution = [16, 12]", "resolution = [0, 12]"), "experiment.resolution[0]"),
+    (("resolution = [16, 12]", 'resolution = ["a", 12]'), "experiment.resolution[0]"),
+    (('scenes = ["aa-edges", "glossy"]', "scenes = []"), "study[0].scenes"),
+    (('samplers = ["uniform", "stratified"]', "samplers = []"), "study[0].samplers"),
+    (('samplers = ["uniform", "stratified"]', "samplers = [3]"), "study[0].samplers[0]"),
+    (('name = "s"', "name = 5"), "study[0].name"),
 ])
 def test_bad_fields_are_named(tmp_path, edit, field):
     p = write(tmp_path, GOOD.replace(*edit))
@@ -172,3 +190,26 @@ def test_scene_paths_are_relative_to_the_experiment_file(tmp_path, monkeypatch):
     exp = load_experiment(str(tmp_path / "sub" / "exp.toml"))
     sc = exp.studies[0].scenes[0]
     assert sc.label == "mine" and Path(sc.name).is_absolute()
+
+
+_LITERALS = ['"x"', "-1", "0", "1", "2.5", "nan", "inf", "-inf", "true", "[]", "[1, \"a\"]",
+             "[[1]]", "{a = 1}", "1e400", '""', "[-4, 0]"]
+_VALUE_LINES = [i for i, line in enumerate(GOOD.splitlines()) if " = " in line]
+
+
+@settings(max_examples=200, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(line=st.sampled_from(_VALUE_LINES), literal=st.sampled_from(_LITERALS),
+       second=st.sampled_from([None] + _VALUE_LINES), literal2=st.sampled_from(_LITERALS))
+def test_fuzzed_experiment_files_fail_cleanly(tmp_path, line, literal, second, literal2):
+    # Replace one or two values of a valid file by arbitrary TOML literals: the loader either
+    # accepts the result or raises one single-line InputError naming a field; nothing else escapes.
+    lines = GOOD.splitlines()
+    for i, lit in ((line, literal), (second, literal2)):
+        if i is not None:
+            lines[i] = lines[i].split(" = ")[0] + " = " + lit
+    p = write(tmp_path, "\n".join(lines), name="fuzz.toml")
+    try:
+        load_experiment(str(p), scene_loader=FAKE.load_scene)
+    except InputError as e:
+        assert e.field and "\n" not in str(e)
