@@ -8,7 +8,7 @@ from drtlab.estimators.integrators import INTEGRATORS, Integrator
 from drtlab.estimators.pointsets import independent, stratified
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
-from drtlab.kernels.errors import InputError
+from drtlab.errors import InputError
 
 _POINTSET_MODULES = (independent, stratified)
 POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
@@ -54,9 +54,14 @@ def parse_sampler(name: str, field: str = "sampler") -> SamplerSpec:
     return SamplerSpec(POINTSETS[points], STRATEGIES[strategy])
 
 
-def parse_integrator(name: str, field: str = "integrator") -> Integrator:
+def parse_integrator(name: str, field: str = "integrator", unbiased: bool = False) -> Integrator:
+    """The integrator called `name`; with `unbiased`, one that can make a ground truth."""
+    allowed = [i.name for i in INTEGRATORS.values() if not (unbiased and i.biased)]
+    if unbiased and name in INTEGRATORS and INTEGRATORS[name].biased:
+        raise InputError(field, f"'{name}' is biased and cannot make a ground truth; "
+                                f"use {' or '.join(allowed)}")
     if name not in INTEGRATORS:
-        raise InputError(field, f"unknown integrator '{name}'; allowed: {', '.join(INTEGRATORS)}")
+        raise InputError(field, f"unknown integrator '{name}'; allowed: {', '.join(allowed)}")
     return INTEGRATORS[name]
 
 

@@ -54,7 +54,7 @@ def code_version() -> str:
 
 def default_backend(device: str = "cpu") -> Backend:
     from drtlab.kernels.render import render_with_stats
-    from drtlab.kernels.scene import load_scene
+    from drtlab.kernels.scene_file import load_scene
 
     def render(scene, *, spp, sampler, integrator, seed, res, threads=None):
         return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
@@ -65,5 +65,5 @@ def default_backend(device: str = "cpu") -> Backend:
 
 
 def default_scene_loader():
-    from drtlab.kernels.scene import load_scene
+    from drtlab.kernels.scene_file import load_scene
     return load_scene

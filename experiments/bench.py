@@ -35,9 +35,10 @@ def main(argv: list[str] | None = None) -> int:
     wp.config.kernel_cache_dir = cache
     from drtlab import __version__
     from drtlab.kernels import CODE_VERSION
-    from drtlab.kernels.render import get_kernel, features_of, render_with_stats, _wp
+    from drtlab.kernels.render import get_kernel, features_of, render_with_stats
+    from drtlab.kernels.warp_runtime import warp as _wp
     from drtlab.estimators.registry import parse_sampler
-    from drtlab.kernels.scene import builtin_names, load_scene
+    from drtlab.kernels.scene_file import builtin_names, load_scene
 
     t0 = time.perf_counter()
     _wp()

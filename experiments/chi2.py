@@ -62,7 +62,7 @@ import warp as wp
 from scipy import stats
 
 from drtlab.estimators.hashing import hash_key, unit_float
-from drtlab.kernels.scene_data import SPHERE, SceneData
+from drtlab.kernels.device_scene import SPHERE, SceneData
 
 ALPHA = 0.01
 POOL_THRESHOLD = 5.0
@@ -491,9 +491,7 @@ def relative_error(a, b, floor: float = 1e-30) -> np.ndarray:
 # Warp adapters: samplers and claimed densities of the project's Warp functions
 # ---------------------------------------------------------------------------------------------------
 
-def _wp():
-    from drtlab.kernels.render import _wp as init
-    return init()
+from drtlab.kernels.warp_runtime import warp as _wp  # noqa: E402
 
 
 @wp.func
@@ -864,6 +862,6 @@ def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool
 def upload_scene(scene_dict: dict):
     """SceneData on the CPU for a scene dict (kernels/SCENE_FORMAT.md), and the Scene itself."""
     from drtlab.kernels.render import upload
-    from drtlab.kernels.scene import scene_from_dict
+    from drtlab.kernels.scene_file import scene_from_dict
     scene = scene_from_dict(scene_dict, name="chi2")
     return upload(scene, "cpu"), scene

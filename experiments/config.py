@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from drtlab.experiments.seeds import short_hash
-from drtlab.kernels.errors import InputError
+from drtlab.errors import InputError
 
 EXPERIMENT_DIR = Path(__file__).resolve().parent
 DEFAULT_PROFILE = "quick"
@@ -243,7 +243,7 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     target_rmse=vals["target_rmse"], strip_spp=tuple(strip))
 
 
-def _scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
+def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
     if isinstance(entry, str):
         name, overrides, label = _str(entry, fld), {}, None
     elif isinstance(entry, dict):
@@ -278,11 +278,7 @@ def _canonical_sampler(name, fld) -> str:
 
 def _integrator(name, fld) -> str:
     from drtlab.estimators.registry import parse_integrator
-    integ = parse_integrator(name, fld)
-    if integ.biased:
-        raise InputError(fld, f"'{name}' is a biased estimator and cannot have an unbiased ground "
-                         f"truth; use drt or path")
-    return integ.name
+    return parse_integrator(name, fld, unbiased=True).name
 
 
 def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None = None) -> Study:
@@ -295,7 +291,7 @@ def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None
     scenes = t["scenes"]
     if not isinstance(scenes, list) or not scenes:
         raise InputError(f"{fld}.scenes", f"must be a non-empty list of scenes, got {scenes!r}")
-    refs = tuple(_scene_ref(s, f"{fld}.scenes[{j}]", base) for j, s in enumerate(scenes))
+    refs = tuple(scene_ref(s, f"{fld}.scenes[{j}]", base) for j, s in enumerate(scenes))
     labels = [r.label for r in refs]
     for j, lab in enumerate(labels):
         if labels.index(lab) != j:

@@ -32,9 +32,9 @@ from typing import Callable
 import numpy as np
 
 from drtlab.experiments.config import SceneRef
+from drtlab.experiments.paths import default_gt_root
 from drtlab.experiments.imageio_util import atomic_savez, atomic_write_json, write_exr
 from drtlab.experiments.seeds import gt_seed, short_hash
-from drtlab.kernels.errors import InputError
 
 GT_SAMPLER = "independent+importance"    # canonical name "importance": unbiased, MIS
 GT_FORMAT = 1                            # bump when the storage or seeding scheme changes
@@ -63,7 +63,7 @@ class GroundTruth:
 def pending_samples(scene_ref: SceneRef, integrator: str, resolution, spp: int, batch_spp: int,
                     backend, root: Path | None = None) -> int:
     """Samples (spp x pixels) still to render for this reference: 0 when it can be reused."""
-    root = Path(root) if root is not None else default_root()
+    root = Path(root) if root is not None else default_gt_root()
     key, res, _ = scene_key_info(scene_ref, integrator, resolution, backend)
     state = _load_state(gt_directory(root, scene_ref, integrator, res), key)
     have = 0
@@ -74,20 +74,9 @@ def pending_samples(scene_ref: SceneRef, integrator: str, resolution, spp: int, 
     return max(need - have, 0) * batch_spp * res[0] * res[1]
 
 
-def default_root() -> Path:
-    return Path("results") / "ground-truth"
-
-
 def gt_directory(root: Path, scene: SceneRef, integrator: str, resolution) -> Path:
     res = f"{resolution[0]}x{resolution[1]}"
     return Path(root) / f"{scene.key}__{integrator}__{res}"
-
-
-def _check_integrator(integrator: str) -> None:
-    from drtlab.estimators.registry import parse_integrator
-    if parse_integrator(integrator, "integrator").biased:
-        raise InputError("integrator", f"'{integrator}' is biased and cannot make a ground truth; "
-                         f"use drt or path")
 
 
 def scene_key_info(scene_ref: SceneRef, integrator: str, resolution, backend):
@@ -142,8 +131,9 @@ def ensure_ground_truth(scene_ref: SceneRef, integrator: str, resolution, spp: i
     a caller's own progress bar; without it (and with `progress`) the batches get a bar of their own.
     """
     log = log or (lambda s: print(s, file=sys.stderr))
-    _check_integrator(integrator)
-    root = Path(root) if root is not None else default_root()
+    from drtlab.estimators.registry import parse_integrator
+    parse_integrator(integrator, "integrator", unbiased=True)
+    root = Path(root) if root is not None else default_gt_root()
     key, res, scene = scene_key_info(scene_ref, integrator, resolution, backend)
     d = gt_directory(root, scene_ref, integrator, res)
     state = _load_state(d, key)

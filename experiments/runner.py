@@ -12,7 +12,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 import shutil
 import sys
 import time
@@ -25,6 +24,7 @@ import numpy as np
 from drtlab.experiments import groundtruth as gtmod
 from drtlab.experiments.config import Experiment, SceneRef
 from drtlab.experiments.imageio_util import atomic_savez, atomic_write_json, atomic_write_text
+from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.metrics import _lab, image_metrics
 from drtlab.experiments.seeds import run_seed, short_hash
 
@@ -57,18 +57,6 @@ class RunSpec:
     @property
     def group(self) -> tuple:
         return (self.scene, self.integrator, self.resolution)
-
-
-def results_root() -> Path:
-    return Path(os.environ.get("DRTLAB_RESULTS", "results"))
-
-
-def default_out_dir(exp: Experiment) -> Path:
-    return results_root() / exp.name
-
-
-def default_gt_root() -> Path:
-    return Path(os.environ.get("DRTLAB_GT_DIR", results_root() / "ground-truth"))
 
 
 def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
@@ -174,7 +162,7 @@ def _lock(out_dir: Path):
         pass
     except OSError:
         f.close()
-        from drtlab.kernels.errors import InputError
+        from drtlab.errors import InputError
         raise InputError("--out", f"another `drtlab experiment` is writing to {out_dir}; wait for it "
                          f"or choose another --out") from None
     return f
@@ -232,7 +220,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         backend = default_backend()
     log = log or (lambda s: print(s, file=sys.stderr))
     t_start = time.time()
-    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(exp)
+    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(exp.name)
     gt_root = Path(gt_root) if gt_root is not None else default_gt_root()
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)

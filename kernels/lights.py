@@ -14,7 +14,7 @@ import warp as wp
 
 from drtlab.estimators.warps import (PI, cone_pdf, frame_to_world, square_to_cone,
                                      square_to_uniform_sphere)
-from drtlab.kernels.scene_data import SPHERE, SceneData, make_motion
+from drtlab.kernels.device_scene import SPHERE, SceneData, make_motion
 
 
 @wp.struct

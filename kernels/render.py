@@ -16,8 +16,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from drtlab.estimators.registry import SamplerSpec, parse_integrator, parse_sampler
-from drtlab.kernels.errors import InputError
-from drtlab.kernels.scene_model import Scene
+from drtlab import fields
+from drtlab.errors import InputError
+from drtlab.kernels.warp_runtime import warp as _wp
+from drtlab.kernels.scene import Scene
 
 # Samples per pixel per launch: bounds a launch's duration (progress, responsiveness) and fixes the
 # float64 summation order independently of threads and tiles.
@@ -27,26 +29,6 @@ DEVICES = ("cpu", "cuda")
 
 _lock = threading.Lock()
 _kernels: dict = {}
-_warp = None
-
-
-def _wp():
-    """Import and initialise Warp once, quietly (its banner is noise in a CLI)."""
-    global _warp
-    if _warp is None:
-        import warp as wp  # drtlab/__init__ has set Warp's log level already
-        # On a machine without a GPU the native library prints a missing-driver notice to fd 2
-        # during init; the CPU backend needs no driver, so keep that line out of our output.
-        saved = os.dup(2)
-        try:
-            with open(os.devnull, "w") as devnull:
-                os.dup2(devnull.fileno(), 2)
-                wp.init()
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-        _warp = wp
-    return _warp
 
 
 @dataclass
@@ -127,7 +109,7 @@ def _scene_extent(scene: Scene) -> float:
 def upload(scene: Scene, device: str):
     """Pack a Scene into the kernel's SceneData struct (arrays on `device`)."""
     wp = _wp()
-    from drtlab.kernels.scene_model import MATERIAL_KINDS
+    from drtlab.kernels.scene import MATERIAL_KINDS
     from drtlab.kernels.tracer import WHITTED_SPLITS, SceneData
 
     def arr(values, dtype, empty_shape):
@@ -226,42 +208,12 @@ def upload(scene: Scene, device: str):
 
 def _resolve_scene(scene, res) -> Scene:
     if not isinstance(scene, Scene):
-        from drtlab.kernels.scene import load_scene
+        from drtlab.kernels.scene_file import load_scene
         scene = load_scene(scene)
     if res is not None:
-        w, h = parse_resolution(res, scene)
+        w, h = fields.resolution(res, "res", aspect=scene.height / scene.width)
         scene = replace(scene, width=w, height=h)
     return scene
-
-
-def parse_resolution(res, scene: Scene | None = None) -> tuple[int, int]:
-    """`N` (width N, height from the scene's aspect), `WxH`, or a (W, H) pair."""
-    try:
-        if isinstance(res, str):
-            parts = res.lower().split("x")
-            vals = [int(p) for p in parts]
-        elif isinstance(res, (int, np.integer)) and not isinstance(res, bool):
-            vals = [int(res)]
-        else:
-            vals = [int(v) for v in res]
-    except (TypeError, ValueError):
-        vals = []
-    if len(vals) == 1 and vals[0] >= 1:
-        w = vals[0]
-        aspect = scene.height / scene.width if scene is not None else 1.0
-        return w, max(1, round(w * aspect))
-    if len(vals) == 2 and min(vals) >= 1:
-        return vals[0], vals[1]
-    raise InputError("res", f"must be N or WxH with positive integers, got {res!r}")
-
-
-def _check_int(name: str, value, low: int, high: int | None = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InputError(name, f"must be an integer >= {low}, got {value!r}")
-    if value < low or (high is not None and value > high):
-        rng = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise InputError(name, f"must be an integer {rng}, got {value}")
-    return int(value)
 
 
 def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
@@ -275,10 +227,10 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     spec = parse_sampler(sampler)
     scene = _resolve_scene(scene, res)
     integ = parse_integrator(integrator if integrator is not None else scene.integrator).name
-    spp = _check_int("spp", scene.spp if spp is None else spp, 1, 2**31 - 1)
-    seed = _check_int("seed", seed, 0, 2**32 - 1)
-    threads = _check_int("threads", (os.cpu_count() or 1) if threads is None else threads, 1, 1024)
-    tile = _check_int("tile", DEFAULT_TILE if tile is None else tile, 1, 1 << 16)
+    spp = fields.integer_in(scene.spp if spp is None else spp, "spp", 1, 2**31 - 1)
+    seed = fields.integer_in(seed, "seed", 0, 2**32 - 1)
+    threads = fields.integer_in((os.cpu_count() or 1) if threads is None else threads, "threads", 1, 1024)
+    tile = fields.integer_in(DEFAULT_TILE if tile is None else tile, "tile", 1, 1 << 16)
     if device not in DEVICES:
         raise InputError("device", f"must be one of {', '.join(DEVICES)}, got {device!r}")
     if device == "cuda" and not _wp().is_cuda_available():
@@ -290,7 +242,7 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     wp = _wp()
     features = features_of(scene, integ)
     if faults:
-        from drtlab.kernels.scene_data import FAULTS
+        from drtlab.kernels.device_scene import FAULTS
         unknown = sorted(set(faults) - set(FAULTS))
         if unknown:
             raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(FAULTS)}")

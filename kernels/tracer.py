@@ -22,7 +22,7 @@ from drtlab.kernels.geometry import Hit, hit_quad, hit_sphere, offset_origin, qu
 from drtlab.kernels.lights import make_lights
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
                                       MIRROR, interface, make_bsdf, refract_dir)
-from drtlab.kernels.scene_data import QUAD, SPHERE, Features, SceneData, make_motion
+from drtlab.kernels.device_scene import QUAD, SPHERE, Features, SceneData, make_motion
 
 # Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
 WHITTED_SPLITS = 4

@@ -54,7 +54,7 @@ import numpy as np
 from scipy import stats
 
 from drtlab.kernels.render import render
-from drtlab.kernels.scene import scene_from_dict
+from drtlab.kernels.scene_file import scene_from_dict
 
 # ---------------------------------------------------------------------------------------------------
 # Tiers

@@ -11,8 +11,8 @@ import pytest
 from drtlab.estimators.integrators import INTEGRATORS
 from drtlab.estimators.registry import POINTSETS, PRESETS
 from drtlab.estimators.strategies import STRATEGIES
-from drtlab.experiments.cli import main
-from drtlab.kernels.scene import builtin_names
+from drtlab.cli import main
+from drtlab.kernels.scene_file import builtin_names
 
 REPO = Path(__file__).resolve().parent.parent
 DRTLAB = REPO / ".venv" / "bin" / "drtlab"
@@ -107,9 +107,9 @@ CLI_CASES = {
     "spp-not-a-number": (["{good}", "--spp", "abc"], "--spp"),
     "seed-negative": (["{good}", "--seed", "-1"], "--seed"),
     "threads-zero": (["{good}", "--threads", "0"], "--threads"),
-    "res-zero": (["{good}", "--res", "0x5"], "res"),
-    "res-garbage": (["{good}", "--res", "big"], "res"),
-    "res-three-parts": (["{good}", "--res", "4x4x4"], "res"),
+    "res-zero": (["{good}", "--res", "0x5"], "--res"),
+    "res-garbage": (["{good}", "--res", "big"], "--res"),
+    "res-three-parts": (["{good}", "--res", "4x4x4"], "--res"),
     "device-tpu": (["{good}", "--device", "tpu"], "device"),
     **{f"scene-{name}": ([f"{{scenes}}/{name}.toml"], field) for name, (_, field) in BAD_SCENES.items()},
 }

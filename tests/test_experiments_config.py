@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 from pathlib import Path
 
 from drtlab.experiments.config import builtin_experiments, load_experiment
-from drtlab.experiments.fakes import FakeRenderer
+from fakes import FakeRenderer
 from drtlab.experiments.seeds import GT_BIT, gt_seed, run_seed
-from drtlab.kernels.errors import InputError
+from drtlab.errors import InputError
 
 FAKE = FakeRenderer()
 
@@ -172,7 +172,7 @@ def test_bad_experiment_file_via_cli_exits_2_writes_nothing(tmp_path):
     work = tmp_path / "work"
     work.mkdir()
     env = dict(os.environ, DRTLAB_RESULTS=str(work / "results"))
-    r = subprocess.run([sys.executable, "-m", "drtlab.experiments.cli", "experiment", str(bad)],
+    r = subprocess.run([sys.executable, "-m", "drtlab.cli", "experiment", str(bad)],
                        cwd=work, env=env, capture_output=True, text=True, timeout=120)
     assert r.returncode == 2, r.stderr
     lines = [ln for ln in r.stderr.splitlines() if ln.strip()]

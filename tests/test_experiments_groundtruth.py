@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from drtlab.experiments.config import SceneRef
-from drtlab.experiments.fakes import FakeRenderer
+from fakes import FakeRenderer
 from drtlab.experiments.groundtruth import GT_SAMPLER, ensure_ground_truth, load_ground_truth
 from drtlab.experiments.seeds import GT_BIT
-from drtlab.kernels.errors import InputError
+from drtlab.errors import InputError
 
 SCENE = SceneRef("aa-edges", "aa-edges")
 RES = (16, 12)

@@ -7,13 +7,14 @@ import signal
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 import time
 
 import numpy as np
 import pytest
 
 from drtlab.experiments.config import load_experiment
-from drtlab.experiments.fakes import fake_backend
+from fakes import fake_backend
 from drtlab.experiments.runner import CSV_COLUMNS, plan_runs, run_experiment
 
 TINY = """
@@ -141,8 +142,9 @@ def test_resume_after_interruption_gives_the_same_runs_csv(tmp_path):
 
 KILL_SCRIPT = textwrap.dedent("""
     import sys, time
+    sys.path.insert(0, sys.argv[5])                # tests/, where the fakes live
     from drtlab.experiments.config import load_experiment
-    from drtlab.experiments.fakes import fake_backend
+    from fakes import fake_backend
     from drtlab.experiments.runner import run_experiment
     backend, fake = fake_backend()
     slow = fake.render
@@ -170,7 +172,8 @@ def test_kill_9_mid_sweep_then_resume(tmp_path):
     script = tmp_path / "sweep.py"
     script.write_text(KILL_SCRIPT)
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, str(script), str(exp_path), str(out), str(gt), "0.02"],
+    proc = subprocess.Popen([sys.executable, str(script), str(exp_path), str(out), str(gt), "0.02",
+                             str(Path(__file__).parent)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.time() + 60
     while time.time() < deadline:
@@ -216,7 +219,7 @@ def test_plan_dedupes_runs_shared_between_studies(tmp_path):
 def _real_renderer_available():
     try:
         import drtlab.kernels.render  # noqa: F401
-        import drtlab.kernels.scene  # noqa: F401
+        import drtlab.kernels.scene_file  # noqa: F401
         return True
     except ImportError:
         return False
@@ -263,7 +266,7 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
 
 def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
     from drtlab.experiments.runner import _lock
-    from drtlab.kernels.errors import InputError
+    from drtlab.errors import InputError
     exp = tiny_experiment(tmp_path)
     out = tmp_path / "out"
     out.mkdir()

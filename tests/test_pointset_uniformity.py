@@ -40,7 +40,7 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.independent import independent_1d
 from drtlab.estimators.pointsets.stratified import stratified_1d, stratified_2d
 from drtlab.estimators.registry import POINTSETS
-from drtlab.kernels.render import _wp
+from drtlab.kernels.warp_runtime import warp as _wp
 
 ALPHA = 0.01
 SEED = 20240607

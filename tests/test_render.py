@@ -19,8 +19,8 @@ import pytest
 import drtlab
 import drtlab.kernels.render as render_mod
 from drtlab.kernels.imageio import read_exr
-from drtlab.kernels.render import features_of, render, render_with_stats
-from drtlab.kernels.scene import builtin_names, load_scene
+from drtlab.kernels.render import render, render_with_stats
+from drtlab.kernels.scene_file import builtin_names, load_scene
 
 REPO = Path(__file__).resolve().parent.parent
 PYTHON = REPO / ".venv" / "bin" / "python"
@@ -341,7 +341,7 @@ def test_builtin_renders_finite_non_negative(name, integrator, sampler):
 # ---------------------------------------------------------------------------------------------------
 
 def test_cli_exr_has_metadata_and_the_render_pixels(scenes, tmp_path, capsys):
-    from drtlab.experiments.cli import main
+    from drtlab.cli import main
     from drtlab.kernels import CODE_VERSION
     out = tmp_path / "out" / "frame.exr"
     rc = main(["render", str(scenes["pinhole"]), "--spp", "6", "--res", "16x12", "--seed", "3",

@@ -11,8 +11,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drtlab.kernels.errors import InputError
-from drtlab.kernels.scene import (
+from drtlab.errors import InputError
+from drtlab.kernels.scene_file import (
     BUILTIN_DIR,
     box_quads,
     builtin_descriptions,
@@ -20,7 +20,7 @@ from drtlab.kernels.scene import (
     load_scene,
     scene_from_dict,
 )
-from drtlab.kernels.scene_model import Scene
+from drtlab.kernels.scene import Scene
 
 BUILTINS = ["aa-edges", "cornell-box", "dof", "drt-showcase", "glossy", "motion-blur", "soft-shadows",
             "translucency", "veach-mis"]

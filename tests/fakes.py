@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drtlab.experiments.backend import Backend, RenderResult
-from drtlab.kernels.errors import InputError
+from drtlab.errors import InputError
 
 FAKE_SCENES = ("aa-edges", "soft-shadows", "glossy", "translucency", "dof", "motion-blur",
                "cornell-box", "veach-mis", "drt-showcase", "tiny")

@@ -1,0 +1,288 @@
+"""The `drtlab` command. Bad input of any kind ends in one line naming the field, and exit code 2."""
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import time
+from pathlib import Path
+
+from drtlab import fields
+from drtlab.errors import InputError
+
+EXIT_BAD_INPUT = 2
+DEFAULT_GT_SPP = 16384
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2."""
+
+    def error(self, message: str):
+        m = re.match(r"argument ([^:]+): (.*)", message)
+        if m:
+            raise InputError(m.group(1).split("/")[-1], m.group(2))
+        m = re.match(r"the following arguments are required: (.*)", message)
+        if m:
+            raise InputError(m.group(1), "required")
+        m = re.match(r"unrecognized arguments: (.*)", message)
+        if m:
+            raise InputError(m.group(1).split()[0], f"unknown option; see `{self.prog} --help`")
+        raise InputError("arguments", message)
+
+
+def _flag(check, *args):
+    """An argparse `type` from a `drtlab.fields` check; the parser puts the flag's name in front."""
+    def parse(text: str):
+        try:
+            return check(text, "", *args)
+        except InputError as e:
+            raise argparse.ArgumentTypeError(e.message) from None
+    return parse
+
+
+def _int_flag(low: int, high: int | None = None):
+    return _flag(fields.int_text, low, high)
+
+
+def _resolution_text(text: str, field: str) -> str:
+    """`N` or `WxH`, checked now; `N` takes its height from each scene's aspect later."""
+    fields.resolution(text, field, aspect=1.0)
+    return text
+
+
+_res_flag = _flag(_resolution_text)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Scenes, samplers, render
+# ---------------------------------------------------------------------------------------------------
+
+def cmd_scenes(args) -> int:
+    from drtlab.kernels.scene_file import builtin_names, load_scene
+    for name in builtin_names():
+        scene = load_scene(name)
+        print(f"{name:14s} {scene.width}x{scene.height} {scene.spp:3d} spp {scene.integrator:7s} "
+              f"{scene.description}")
+    return 0
+
+
+def cmd_samplers(args) -> int:
+    from drtlab.estimators.integrators import INTEGRATORS
+    from drtlab.estimators.registry import POINTSETS, PRESETS
+    from drtlab.estimators.strategies import STRATEGIES
+    print("point sets:")
+    for p in POINTSETS.values():
+        print(f"  {p.name:12s} {p.description}")
+    print("strategies:")
+    for s in STRATEGIES.values():
+        print(f"  {s.name:12s} {s.description}")
+    print("presets (any POINTS+STRATEGY is accepted too):")
+    for name, (p, s) in PRESETS.items():
+        print(f"  {name:12s} {p}+{s}")
+    print("integrators:")
+    for i in INTEGRATORS.values():
+        print(f"  {i.name:12s} {'biased  ' if i.biased else 'unbiased'} {i.description}")
+    return 0
+
+
+def cmd_render(args) -> int:
+    from drtlab import __version__
+    from drtlab.kernels import CODE_VERSION
+    from drtlab.kernels.imageio import write_exr, write_png
+    from drtlab.kernels.render import render_with_stats
+    from drtlab.kernels.scene_file import load_scene
+
+    scene = load_scene(args.scene)
+    out = Path(args.out) if args.out else Path("results/renders") / (
+        f"{scene.name}-{args.sampler.replace('+', '_')}-{args.spp or scene.spp}spp-s{args.seed}.exr")
+    if out.suffix.lower() != ".exr":
+        raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
+    t0 = time.perf_counter()
+    stats = render_with_stats(scene, spp=args.spp, sampler=args.sampler, integrator=args.integrator,
+                              seed=args.seed, res=args.res, threads=args.threads, tile=args.tile,
+                              device=args.device)
+    wall = time.perf_counter() - t0
+    meta = {"scene": scene.name, "scene_hash": scene.content_hash(), "spp": stats.spp,
+            "sampler": stats.sampler, "integrator": stats.integrator, "seed": stats.seed,
+            "resolution": f"{stats.width}x{stats.height}", "version": __version__,
+            "code_version": CODE_VERSION, "variant": stats.variant, "device": stats.device,
+            "wall_seconds": round(wall, 4), "render_seconds": round(stats.render_seconds, 4),
+            "compile_seconds": round(stats.compile_seconds, 4)}
+    write_exr(out, stats.image, meta)
+    write_png(out.with_suffix(".png"), stats.image, meta)
+    print(f"wrote {out} and {out.with_suffix('.png').name}: {stats.width}x{stats.height}, "
+          f"{stats.spp} spp, {stats.sampler}, {stats.integrator}, render {stats.render_seconds:.3f} s, "
+          f"compile {stats.compile_seconds:.2f} s, {stats.samples_per_second / 1e6:.2f} M samples/s")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------------
+# Experiments and ground truth
+# ---------------------------------------------------------------------------------------------------
+
+def cmd_experiment(args) -> int:
+    from drtlab.experiments.backend import default_backend
+    from drtlab.experiments.config import load_experiment
+    from drtlab.experiments.paths import default_out_dir
+    from drtlab.experiments.runner import run_experiment
+    exp = load_experiment(args.experiment, args.profile)          # raises InputError, writes nothing
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        raise InputError("--out", f"{args.out} exists and is not a folder")
+    summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=default_backend(),
+                             threads=args.threads, fresh=args.fresh, progress=not args.no_progress,
+                             argv=sys.argv)
+    out = args.out if args.out is not None else default_out_dir(exp.name)
+    _print_summary(exp, summary)
+    print(f"report: {out / 'report.md'}")
+    return 0
+
+
+def _print_summary(exp, summary: dict) -> None:
+    stats = summary.get("_stats", {})
+    print(f"{exp.name} ({exp.profile}): {stats.get('runs_new', 0)} new runs, "
+          f"{stats.get('runs_reused', 0)} reused, {summary.get('_wall_seconds', 0):.1f} s")
+    for study in summary.get("studies", []):
+        for scene in study["scenes"]:
+            parts = []
+            for s in study["samplers"]:
+                f = scene["slopes"].get(s, {})
+                if f.get("ok"):
+                    parts.append(f"{s} b={f['slope']:.2f} [{f['slope_lo']:.2f},{f['slope_hi']:.2f}]")
+            sp = [f"{s} {v:.2f}x" for s, v in scene["speed"]["speedup_vs_baseline"].items()
+                  if s != study["baseline"] and v == v]
+            print(f"  {study['name']:>18} {scene['scene']:<14} " + "; ".join(parts)
+                  + (f"; speed-up vs {study['baseline']}: " + ", ".join(sp) if sp else ""))
+
+
+def _ground_truth_jobs(args) -> list[tuple]:
+    """(scene ref, integrator, resolution, spp, batch) of every reference the command asks for."""
+    from drtlab.estimators.registry import parse_integrator
+    from drtlab.experiments.backend import default_backend
+    from drtlab.experiments.config import load_experiment, scene_ref
+    from drtlab.experiments.runner import gt_requirements, plan_runs
+    if (args.scene is None) == (args.experiment is None):
+        raise InputError("ground-truth", "give either a SCENE or --experiment NAME (one of the two)")
+    if args.integrator is not None:
+        parse_integrator(args.integrator, "--integrator", unbiased=True)
+    backend = default_backend()
+    if args.experiment is not None:
+        exp = load_experiment(args.experiment, args.profile)
+        jobs = []
+        for (ref, integ, res), (spp, batch) in gt_requirements(exp, plan_runs(exp, backend)).items():
+            if args.integrator and args.integrator != integ:
+                continue
+            if args.res is not None:
+                scene = backend.load_scene(ref.name, ref.overrides_dict or None)
+                res = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+            jobs.append((ref, integ, res, args.spp or spp, args.batch_spp or batch))
+        return jobs
+    scene = backend.load_scene(args.scene, None)                    # raises InputError
+    integ = parse_integrator(args.integrator or scene.integrator, "--integrator", unbiased=True).name
+    res = None if args.res is None else fields.resolution(args.res, "--res",
+                                                          aspect=scene.height / scene.width)
+    spp = args.spp or DEFAULT_GT_SPP
+    batch = args.batch_spp or max(1, min(512, spp // 8))
+    return [(scene_ref(args.scene, "SCENE"), integ, res, spp, batch)]
+
+
+def cmd_ground_truth(args) -> int:
+    from drtlab.experiments import groundtruth
+    from drtlab.experiments.backend import default_backend
+    from drtlab.experiments.paths import default_gt_root
+    jobs = _ground_truth_jobs(args)
+    backend = default_backend()
+    root = args.gt_dir or default_gt_root()
+    for ref, integ, res, spp, batch in jobs:
+        gt = groundtruth.ensure_ground_truth(ref, integ, res, spp, batch, backend, root,
+                                             threads=args.threads, progress=not args.no_progress)
+        how = "reused" if gt.reused else f"rendered in {gt.manifest.get('wall_seconds', 0):.1f} s"
+        print(f"{gt.directory}: {gt.spp} spp, Var_GT {gt.variance:.3e} ({how})")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------------
+# The parser
+# ---------------------------------------------------------------------------------------------------
+
+def _add_render(sub) -> None:
+    r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG")
+    r.add_argument("scene", help="built-in scene name or path to a .toml scene")
+    r.add_argument("--spp", type=_int_flag(1, 2**31 - 1), default=None,
+                   help="samples per pixel (default: the scene's)")
+    r.add_argument("--sampler", default="stratified",
+                   help="preset (uniform, stratified, importance) or POINTS+STRATEGY")
+    r.add_argument("--integrator", default=None, help="whitted, drt or path (default: the scene's)")
+    r.add_argument("--seed", type=_int_flag(0, 2**32 - 1), default=0)
+    r.add_argument("--res", type=_res_flag, default=None, help="N (width, scene aspect) or WxH")
+    r.add_argument("--threads", type=_int_flag(1, 1024), default=None)
+    r.add_argument("--tile", type=_int_flag(1, 1 << 16), default=None, help="tile edge in pixels")
+    r.add_argument("--device", default="cpu", help="cpu or cuda")
+    r.add_argument("--out", default=None, help="output .exr (a .png preview is written beside it)")
+    r.set_defaults(func=cmd_render)
+
+
+def _add_experiment(sub) -> None:
+    p = sub.add_parser(
+        "experiment", help="run (or resume) an experiment: ground truth, runs, plots, report",
+        description="Run an experiment file (a built-in name such as stratified, importance, uniform, "
+                    "all, or a path). Finished runs are kept and skipped on a rerun.")
+    p.add_argument("experiment", metavar="NAME_OR_PATH")
+    p.add_argument("--profile", default="quick", help="profile section to use (quick | full | ...)")
+    p.add_argument("--out", type=Path, default=None, help="output folder (default results/NAME)")
+    p.add_argument("--gt-dir", type=Path, default=None,
+                   help="ground-truth cache (default results/ground-truth)")
+    p.add_argument("--threads", type=_int_flag(1, 1024), default=None)
+    p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
+    p.add_argument("--no-progress", action="store_true")
+    p.set_defaults(func=cmd_experiment)
+
+
+def _add_ground_truth(sub) -> None:
+    g = sub.add_parser(
+        "ground-truth", help="render (or reuse) high-spp references with their standard error",
+        description="Render the reference of one scene, or of every scene of an experiment.")
+    g.add_argument("scene", nargs="?", metavar="SCENE", help="built-in scene name or path")
+    g.add_argument("--spp", type=_int_flag(1), default=None,
+                   help=f"reference samples per pixel (default: the experiment's gt_spp, or "
+                        f"{DEFAULT_GT_SPP})")
+    g.add_argument("--batch-spp", type=_int_flag(1), default=None)
+    g.add_argument("--integrator", default=None,
+                   help="drt | path (default: the scene's, or the experiment's)")
+    g.add_argument("--res", type=_res_flag, default=None,
+                   help="N (width, scene aspect) or WxH (default: the scene's own)")
+    g.add_argument("--experiment", default=None, metavar="NAME_OR_PATH",
+                   help="render the references every scene of this experiment needs")
+    g.add_argument("--profile", default="quick")
+    g.add_argument("--gt-dir", type=Path, default=None)
+    g.add_argument("--threads", type=_int_flag(1, 1024), default=None)
+    g.add_argument("--no-progress", action="store_true")
+    g.set_defaults(func=cmd_ground_truth)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="drtlab", description="Monte Carlo estimator studies for distribution ray "
+                "tracing (Warp kernels).")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub.add_parser("scenes", help="list built-in scenes").set_defaults(func=cmd_scenes)
+    sub.add_parser("samplers", help="list point sets, strategies, presets, integrators") \
+        .set_defaults(func=cmd_samplers)
+    _add_render(sub)
+    _add_experiment(sub)
+    _add_ground_truth(sub)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        return args.func(args)
+    except InputError as e:
+        print(f"drtlab: {e.field}: {e.message}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("drtlab: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,155 @@
+"""Validation of values read from TOML (scene and experiment files) and from command-line flags.
+
+Every check returns the converted value or raises one `InputError` whose field is the dotted path of
+the offending value (`shapes[2].radius`, `experiment.spp[1]`, `--res`) and whose message says what is
+allowed and what was given.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from drtlab.errors import InputError
+
+REQUIRED = object()         # sentinel default: the key must be present
+
+def show(v: Any) -> str:
+    """A value as the user wrote it (TOML spelling for booleans), shortened for messages."""
+    if isinstance(v, bool):
+        text = "true" if v else "false"
+    elif isinstance(v, str):
+        text = f"'{v}'"
+    elif isinstance(v, dict):
+        text = "a table"
+    else:
+        text = repr(v)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def is_number(v: Any) -> bool:
+    # bool is a subclass of int in Python, but `true` is not a number in a scene file.
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def finite_float(v: Any) -> float | None:
+    """float(v) if v is a finite number, else None (huge ints that overflow count as infinite)."""
+    if not is_number(v):
+        return None
+    try:
+        f = float(v)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) else None
+
+
+def number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | None = None) -> float:
+    f = finite_float(v)
+    if f is None or (ok is not None and not ok(f)):
+        raise InputError(field, f"must be a finite number{' ' + rule if rule else ''}, got {show(v)}")
+    return f
+
+
+def integer(v: Any, field: str, rule: str = "", ok: Callable[[int], bool] | None = None) -> int:
+    if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or (ok is not None and not ok(v)):
+        raise InputError(field, f"must be an integer{' ' + rule if rule else ''}, got {show(v)}")
+    return int(v)
+
+
+def numbers(v: Any, field: str, n: int, rule: str = "",
+             ok: Callable[[float], bool] | None = None) -> np.ndarray:
+    """A list of exactly n finite numbers, each satisfying `ok` (the per-channel rule)."""
+    what = f"a list of {n} finite numbers{' each ' + rule if rule else ''}"
+    if not isinstance(v, (list, tuple)) or len(v) != n:
+        raise InputError(field, f"must be {what}, got {show(v)}")
+    values = [finite_float(x) for x in v]
+    if any(x is None for x in values) or (ok is not None and not all(ok(x) for x in values)):
+        raise InputError(field, f"must be {what}, got {show(v)}")
+    return np.array(values, dtype=np.float64)
+
+
+
+def string(v: Any, field: str, choices: Sequence[str] | None = None) -> str:
+    if choices is not None:
+        if not isinstance(v, str) or v not in choices:
+            raise InputError(field, f"must be one of {', '.join(choices)}; got {show(v)}")
+        return v
+    if not isinstance(v, str):
+        raise InputError(field, f"must be a string, got {show(v)}")
+    return v
+
+
+def boolean(v: Any, field: str) -> bool:
+    if not isinstance(v, bool):
+        raise InputError(field, f"must be true or false, got {show(v)}")
+    return v
+
+
+class Table:
+    """One TOML table under validation: knows its dotted path, checks its keys, reads its values."""
+
+    def __init__(self, value: Any, path: str, what: str):
+        if not isinstance(value, dict):
+            raise InputError(path, f"must be a table ({what}), got {show(value)}")
+        self.data = value
+        self.path = path
+        self.what = what
+
+    def field(self, key: str) -> str:
+        return f"{self.path}.{key}"
+
+    def check_keys(self, allowed: Sequence[str]) -> None:
+        for key in self.data:
+            if key not in allowed:
+                raise InputError(self.field(key), f"unknown key '{key}' in {self.what}; "
+                                                  f"allowed keys: {', '.join(allowed)}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def get(self, key: str, default: Any, describe: str) -> Any:
+        """The raw value, the default, or an error saying the key is required and what it holds."""
+        if key in self.data:
+            return self.data[key]
+        if default is REQUIRED:
+            raise InputError(self.field(key), f"is required ({describe}) but missing")
+        return default
+
+
+def integer_in(v: Any, field: str, low: int, high: int | None = None) -> int:
+    """An integer in [low, high] (high None: no upper bound)."""
+    rule = f">= {low}" if high is None else f"in [{low}, {high}]"
+    return integer(v, field, rule, lambda n: n >= low and (high is None or n <= high))
+
+
+def int_text(text: str, field: str, low: int, high: int | None = None) -> int:
+    """A command-line integer such as `--spp 64`."""
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        rule = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise InputError(field, f"must be an integer {rule}, got {show(text)}") from None
+    return integer_in(value, field, low, high)
+
+
+def resolution(v: Any, field: str, aspect: float | None = None) -> tuple[int, int]:
+    """`WxH` or [W, H]; also `N` (width N, height N * aspect) where an aspect (H / W) is known."""
+    vals: list = []
+    if isinstance(v, str):
+        try:
+            vals = [int(p) for p in v.lower().split("x")]
+        except ValueError:
+            vals = []
+    elif isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+        vals = [int(v)]
+    elif isinstance(v, (list, tuple)) and all(isinstance(x, (int, np.integer)) and not isinstance(x, bool)
+                                              for x in v):
+        vals = [int(x) for x in v]
+    if len(vals) == 2 and min(vals) >= 1:
+        return vals[0], vals[1]
+    if len(vals) == 1 and vals[0] >= 1 and aspect is not None:
+        return vals[0], max(1, round(vals[0] * aspect))
+    allowed = "WxH or [W, H]" + (", or N (height from the scene's aspect)" if aspect is not None else "")
+    raise InputError(field, f"must be {allowed} with integers >= 1, got {show(v)}")
