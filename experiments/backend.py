@@ -5,9 +5,7 @@ the real Warp renderer. Tests inject a fake that returns ground truth plus noise
 """
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable
 
 
@@ -31,28 +29,8 @@ class Backend:
     name: str = "warp-cpu"
 
 
-def source_hash() -> str:
-    """Hash of the .py sources under kernels/ and estimators/ (fallback when CODE_VERSION is absent)."""
-    import drtlab.estimators
-    import drtlab.kernels
-    h = hashlib.sha256()
-    for pkg in (drtlab.kernels, drtlab.estimators):
-        root = Path(pkg.__file__).parent
-        for p in sorted(root.rglob("*.py")):
-            h.update(str(p.relative_to(root)).encode())
-            h.update(p.read_bytes())
-    return h.hexdigest()[:16]
-
-
-def code_version() -> str:
-    try:
-        from drtlab.kernels import CODE_VERSION  # type: ignore[attr-defined]
-        return str(CODE_VERSION)
-    except ImportError:
-        return source_hash()
-
-
 def default_backend(device: str = "cpu") -> Backend:
+    from drtlab.kernels import CODE_VERSION
     from drtlab.kernels.render import render_with_stats
     from drtlab.kernels.scene_file import load_scene
 
@@ -60,7 +38,7 @@ def default_backend(device: str = "cpu") -> Backend:
         return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
                                  res=res, threads=threads, device=device, progress=False)
 
-    return Backend(load_scene=load_scene, render=render, code_version=code_version(),
+    return Backend(load_scene=load_scene, render=render, code_version=CODE_VERSION,
                    name=f"warp-{device}")
 
 

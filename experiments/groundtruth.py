@@ -33,7 +33,8 @@ import numpy as np
 
 from drtlab.experiments.config import SceneRef
 from drtlab.experiments.paths import default_gt_root
-from drtlab.experiments.imageio_util import atomic_savez, atomic_write_json, write_exr
+from drtlab.experiments.files import atomic_savez, atomic_write_json
+from drtlab.kernels.imageio import write_exr
 from drtlab.experiments.seeds import gt_seed, short_hash
 
 GT_SAMPLER = "independent+importance"    # canonical name "importance": unbiased, MIS

@@ -9,7 +9,7 @@ import sys
 from importlib import metadata
 from pathlib import Path
 
-from drtlab.experiments.imageio_util import atomic_write_json
+from drtlab.experiments.files import atomic_write_json
 
 PACKAGES = ("drtlab", "warp-lang", "numpy", "scipy", "emcee", "matplotlib", "colour-science",
             "OpenImageIO", "tqdm")

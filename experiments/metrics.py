@@ -14,10 +14,6 @@ REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et a
 CI_LEVEL = 0.95
 
 
-def luminance(img: np.ndarray) -> np.ndarray:
-    return img[..., 0] * 0.2126 + img[..., 1] * 0.7152 + img[..., 2] * 0.0722
-
-
 def _lab(linear: np.ndarray) -> np.ndarray:
     import colour  # slow import: only when a colour difference is asked for
     rgb = np.clip(np.nan_to_num(linear, nan=0.0, posinf=1.0), 0.0, 1.0)
@@ -32,11 +28,6 @@ def ciede2000(img: np.ndarray, ref: np.ndarray, ref_lab: np.ndarray | None = Non
     import colour
     lab_ref = _lab(ref) if ref_lab is None else ref_lab
     return float(np.mean(colour.delta_E(_lab(img), lab_ref, method="CIE 2000")))
-
-
-def gt_variance(gt_stderr: np.ndarray) -> float:
-    """The ground truth's own contribution to every MSE measured against it."""
-    return float(np.mean(np.square(gt_stderr, dtype=np.float64)))
 
 
 def image_metrics(img: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.experiments.imageio_util import atomic_write_text, linear_to_srgb
+from drtlab.experiments.files import atomic_write_text
+from drtlab.kernels.imageio import to_srgb
 from drtlab.experiments.analysis import ERRATIC_SIGMA
 from drtlab.experiments.parallel import pmap
 
@@ -217,7 +218,7 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, o
             ax.set_yticks([])
             if c == 0:
                 if r == 0:
-                    ax.imshow(linear_to_srgb(gt_mean), interpolation="nearest")
+                    ax.imshow(to_srgb(gt_mean), interpolation="nearest")
                     ax.add_patch(__import__("matplotlib.patches", fromlist=["Rectangle"]).Rectangle(
                         (x - 0.5, y - 0.5), size, size, fill=False, ec="white", lw=1.0))
                     ax.add_patch(__import__("matplotlib.patches", fromlist=["Rectangle"]).Rectangle(
@@ -228,7 +229,7 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, o
                 continue
             if c == 1:
                 if r == 0:
-                    ax.imshow(linear_to_srgb(crop(gt_mean)), interpolation="nearest")
+                    ax.imshow(to_srgb(crop(gt_mean)), interpolation="nearest")
                     ax.set_title("reference (crop)", fontsize=7)
                 else:
                     ax.axis("off")
@@ -238,7 +239,7 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, o
             if rid is None:
                 ax.axis("off")
                 continue
-            ax.imshow(linear_to_srgb(crop(load_run_image(out_dir, rid))), interpolation="nearest")
+            ax.imshow(to_srgb(crop(load_run_image(out_dir, rid))), interpolation="nearest")
             if r == 0:
                 ax.set_title(f"{n} spp", fontsize=7)
             if c == 2:

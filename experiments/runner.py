@@ -23,7 +23,7 @@ import numpy as np
 
 from drtlab.experiments import groundtruth as gtmod
 from drtlab.experiments.config import Experiment, SceneRef
-from drtlab.experiments.imageio_util import atomic_savez, atomic_write_json, atomic_write_text
+from drtlab.experiments.files import atomic_savez, atomic_write_json, atomic_write_text
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.metrics import _lab, image_metrics
 from drtlab.experiments.seeds import run_seed, short_hash

@@ -89,8 +89,3 @@ def offset_origin(p: wp.vec3, n: wp.vec3, wi: wp.vec3, eps: float) -> wp.vec3:
     if wp.dot(n, wi) < 0.0:
         off = -off
     return p + n * off
-
-
-@wp.func
-def luminance(c: wp.vec3) -> float:
-    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]

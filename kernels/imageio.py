@@ -7,12 +7,16 @@ from pathlib import Path
 import numpy as np
 
 
-def to_srgb8(image: np.ndarray) -> np.ndarray:
-    """Linear radiance -> 8-bit sRGB (clipped to [0, 1], IEC 61966-2-1 transfer function)."""
+def to_srgb(image: np.ndarray) -> np.ndarray:
+    """Linear radiance -> display sRGB in [0, 1] (NaN as 0, clipped, IEC 61966-2-1 transfer)."""
     import colour
-    encoded = colour.cctf_encoding(np.clip(np.asarray(image, dtype=np.float64), 0.0, 1.0),
-                                   function="sRGB")
-    return np.clip(np.round(encoded * 255.0), 0, 255).astype(np.uint8)
+    linear = np.nan_to_num(np.asarray(image, dtype=np.float64), nan=0.0, posinf=1.0)
+    return colour.cctf_encoding(np.clip(linear, 0.0, 1.0), function="sRGB")
+
+
+def to_srgb8(image: np.ndarray) -> np.ndarray:
+    """Linear radiance -> 8-bit sRGB."""
+    return np.clip(np.round(to_srgb(image) * 255.0), 0, 255).astype(np.uint8)
 
 
 def _write(path: Path, pixels: np.ndarray, fmt, metadata: dict | None) -> None:

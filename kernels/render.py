@@ -18,6 +18,7 @@ import numpy as np
 from drtlab.estimators.registry import SamplerSpec, parse_integrator, parse_sampler
 from drtlab import fields
 from drtlab.errors import InputError
+from drtlab.kernels.colour import luminance
 from drtlab.kernels.warp_runtime import warp as _wp
 from drtlab.kernels.scene import Scene
 
@@ -128,7 +129,7 @@ def upload(scene: Scene, device: str):
     for i in lights:
         s = scene.shapes[i]
         e = scene.materials[s.material].emission
-        lum = 0.2126 * e[0] + 0.7152 * e[1] + 0.0722 * e[2]
+        lum = luminance(e)
         power.append(max(lum, 1e-12) * s.area() * math.pi)
     pmf = np.array(power) / np.sum(power) if power else np.zeros(0)
     cdf = np.cumsum(pmf) if power else np.zeros(0)

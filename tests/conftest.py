@@ -4,3 +4,11 @@ from pathlib import Path
 
 # Set before anything imports Warp, so a plain `pytest` run reuses (and fills) the same kernel cache.
 os.environ.setdefault("WARP_CACHE_PATH", str(Path(__file__).resolve().parent.parent / ".warp-cache"))
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """For .ci/run: pytest's exit status and the number of tests run, which `make` would hide."""
+    path = os.environ.get("DRTLAB_PYTEST_STATUS")
+    if path:
+        with open(path, "w") as f:
+            f.write(f"{int(exitstatus)} {session.testscollected}\n")
