@@ -81,6 +81,23 @@ def string(v: Any, field: str, choices: Sequence[str] | None = None) -> str:
     return v
 
 
+def nonempty_string(v: Any, field: str) -> str:
+    if not isinstance(v, str) or not v.strip():
+        raise InputError(field, f"must be a non-empty string, got {show(v)}")
+    return v
+
+
+def check_keys(table: Any, allowed: Sequence[str], path: str, what: str = "") -> None:
+    """`table` is a dict whose every key is in `allowed`; `path` is its dotted name ('' at the top)."""
+    if not isinstance(table, dict):
+        raise InputError(path or "file", f"must be a table{f' ({what})' if what else ''}, got {show(table)}")
+    for key in table:
+        if key not in allowed:
+            raise InputError(f"{path}.{key}" if path else str(key),
+                             f"unknown key '{key}'{f' in {what}' if what else ''}; "
+                             f"allowed keys: {', '.join(allowed)}")
+
+
 def boolean(v: Any, field: str) -> bool:
     if not isinstance(v, bool):
         raise InputError(field, f"must be true or false, got {show(v)}")
@@ -101,10 +118,7 @@ class Table:
         return f"{self.path}.{key}"
 
     def check_keys(self, allowed: Sequence[str]) -> None:
-        for key in self.data:
-            if key not in allowed:
-                raise InputError(self.field(key), f"unknown key '{key}' in {self.what}; "
-                                                  f"allowed keys: {', '.join(allowed)}")
+        check_keys(self.data, allowed, self.path, self.what)
 
     def has(self, key: str) -> bool:
         return key in self.data
@@ -134,8 +148,14 @@ def int_text(text: str, field: str, low: int, high: int | None = None) -> int:
     return integer_in(value, field, low, high)
 
 
-def resolution(v: Any, field: str, aspect: float | None = None) -> tuple[int, int]:
-    """`WxH` or [W, H]; also `N` (width N, height N * aspect) where an aspect (H / W) is known."""
+def resolution(v: Any, field: str, aspect: float | None = None,
+               name_elements: bool = False) -> tuple[int, int]:
+    """[W, H] or `WxH`; also `N` (width N, height N * aspect) where an aspect (H / W) is known.
+
+    With `name_elements`, a bad entry of a two-entry list is named as `field[i]`."""
+    if name_elements and isinstance(v, (list, tuple)) and len(v) == 2:
+        w, h = (integer_in(x, f"{field}[{i}]", 1) for i, x in enumerate(v))
+        return w, h
     vals: list = []
     if isinstance(v, str):
         try:
@@ -151,5 +171,7 @@ def resolution(v: Any, field: str, aspect: float | None = None) -> tuple[int, in
         return vals[0], vals[1]
     if len(vals) == 1 and vals[0] >= 1 and aspect is not None:
         return vals[0], max(1, round(vals[0] * aspect))
-    allowed = "WxH or [W, H]" + (", or N (height from the scene's aspect)" if aspect is not None else "")
-    raise InputError(field, f"must be {allowed} with integers >= 1, got {show(v)}")
+    allowed = "[width, height] of 2 integers >= 1, or WxH"
+    if aspect is not None:
+        allowed += ", or N (width N, height from the scene's aspect)"
+    raise InputError(field, f"must be {allowed}, got {show(v)}")

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from drtlab.experiments.seeds import short_hash
+from drtlab import fields
 from drtlab.errors import InputError
 
 EXPERIMENT_DIR = Path(__file__).resolve().parent
@@ -159,31 +160,8 @@ def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
                      f"{', '.join(builtin_experiments())}, or a path to a .toml file")
 
 
-def _type_name(v) -> str:
-    return type(v).__name__
-
-
 def _int(v, fld, lo=None):
-    if isinstance(v, bool) or not isinstance(v, int):
-        raise InputError(fld, f"must be an integer, got {v!r}")
-    if lo is not None and v < lo:
-        raise InputError(fld, f"must be an integer >= {lo}, got {v}")
-    return v
-
-
-def _str(v, fld):
-    if not isinstance(v, str) or not v.strip():
-        raise InputError(fld, f"must be a non-empty string, got {v!r}")
-    return v
-
-
-def _check_keys(table, allowed, where):
-    if not isinstance(table, dict):
-        raise InputError(where, f"must be a table, got {_type_name(table)}")
-    for k in table:
-        if k not in allowed:
-            prefix = f"{where}." if where else ""
-            raise InputError(f"{prefix}{k}", f"unknown key; allowed: {', '.join(allowed)}")
+    return fields.integer(v, fld) if lo is None else fields.integer_in(v, fld, lo)
 
 
 def _setting(key, v, fld):
@@ -198,9 +176,7 @@ def _setting(key, v, fld):
     if key == "repetitions":
         return _int(v, fld, 2)
     if key == "resolution":
-        if not isinstance(v, list) or len(v) != 2:
-            raise InputError(fld, f"must be [width, height], got {v!r}")
-        return (_int(v[0], f"{fld}[0]", 1), _int(v[1], f"{fld}[1]", 1))
+        return fields.resolution(v, fld, name_elements=True)
     if key in ("gt_spp", "gt_batch_spp"):
         return _int(v, fld, 1)
     if key == "target_rmse":
@@ -245,16 +221,16 @@ def _settings(exp_table, profile_table, profile) -> Settings:
 
 def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
     if isinstance(entry, str):
-        name, overrides, label = _str(entry, fld), {}, None
+        name, overrides, label = fields.nonempty_string(entry, fld), {}, None
     elif isinstance(entry, dict):
-        _check_keys(entry, SCENE_KEYS, fld)
+        fields.check_keys(entry, SCENE_KEYS, fld)
         if "name" not in entry:
             raise InputError(f"{fld}.name", "required (a built-in scene name or a path)")
-        name = _str(entry["name"], f"{fld}.name")
+        name = fields.nonempty_string(entry["name"], f"{fld}.name")
         overrides = entry.get("overrides", {})
         if not isinstance(overrides, dict):
             raise InputError(f"{fld}.overrides", f"must be a table of dotted keys, got {overrides!r}")
-        label = _str(entry["label"], f"{fld}.label") if "label" in entry else None
+        label = fields.nonempty_string(entry["label"], f"{fld}.label") if "label" in entry else None
     else:
         raise InputError(fld, f"must be a scene name or a table {{name, overrides, label}}, got {entry!r}")
     is_path = "/" in name or name.endswith(".toml")
@@ -283,11 +259,11 @@ def _integrator(name, fld) -> str:
 
 def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None = None) -> Study:
     fld = f"study[{i}]"
-    _check_keys(t, STUDY_KEYS, fld)
+    fields.check_keys(t, STUDY_KEYS, fld)
     for req in ("name", "scenes", "samplers"):
         if req not in t:
             raise InputError(f"{fld}.{req}", "required")
-    name = _str(t["name"], f"{fld}.name")
+    name = fields.nonempty_string(t["name"], f"{fld}.name")
     scenes = t["scenes"]
     if not isinstance(scenes, list) or not scenes:
         raise InputError(f"{fld}.scenes", f"must be a non-empty list of scenes, got {scenes!r}")
@@ -329,14 +305,14 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(path.name, f"not valid TOML: {e}") from None
-    _check_keys(data, ("experiment", "study", "profile"), "")
+    fields.check_keys(data, ("experiment", "study", "profile"), "")
     if "experiment" not in data:
         raise InputError("experiment", "required table [experiment] is missing")
     exp = data["experiment"]
-    _check_keys(exp, EXPERIMENT_KEYS, "experiment")
+    fields.check_keys(exp, EXPERIMENT_KEYS, "experiment")
     if "description" not in exp:
         raise InputError("experiment.description", "required (one line saying what the study asks)")
-    desc = _str(exp["description"], "experiment.description")
+    desc = fields.nonempty_string(exp["description"], "experiment.description")
     seed = _int(exp.get("seed", 0), "experiment.seed", 0)
     integrator = exp.get("integrator", "drt")
     _integrator(integrator, "experiment.integrator")
@@ -345,7 +321,7 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
     if not isinstance(profiles, dict):
         raise InputError("profile", "must be a table of [profile.NAME] sections")
     for pname, ptab in profiles.items():
-        _check_keys(ptab, SETTINGS_KEYS, f"profile.{pname}")
+        fields.check_keys(ptab, SETTINGS_KEYS, f"profile.{pname}")
         _settings(exp, ptab, pname)            # every profile is checked, not only the one asked for
     if profile in profiles:
         ptable = profiles[profile]

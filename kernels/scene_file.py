@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
+from drtlab import fields
 from drtlab.fields import (REQUIRED, Table, boolean, integer, number, numbers,
                            show, string)
 from drtlab.kernels.scene import (
@@ -246,7 +247,7 @@ def _parse_settings(value: Any) -> dict:
     t = Table(value, "scene", "[scene]")
     t.check_keys(SCENE_KEYS)
     description = string(t.get("description", REQUIRED, "a one-line string"), t.field("description"))
-    width, height = (int(x) for x in _resolution(t.get("resolution", [96, 72], ""), t.field("resolution")))
+    width, height = fields.resolution(t.get("resolution", [96, 72], ""), t.field("resolution"))
     spp = integer(t.get("spp", 16, ""), t.field("spp"), ">= 1", lambda n: n >= 1)
     integrator = string(t.get("integrator", "drt", ""), t.field("integrator"), INTEGRATORS)
     roulette = boolean(t.get("russian_roulette", False, ""), t.field("russian_roulette"))
@@ -258,14 +259,6 @@ def _parse_settings(value: Any) -> dict:
     background = _color(t.get("background", [0, 0, 0], ""), t.field("background"))
     return dict(description=description, width=width, height=height, spp=spp, integrator=integrator,
                 max_depth=max_depth, rr_depth=rr_depth, russian_roulette=roulette, background=background)
-
-
-def _resolution(v: Any, field: str) -> list[int]:
-    rule = "a list [width, height] of 2 integers >= 1"
-    if (not isinstance(v, (list, tuple)) or len(v) != 2
-            or not all(isinstance(x, int) and not isinstance(x, bool) and x >= 1 for x in v)):
-        raise InputError(field, f"must be {rule}, got {show(v)}")
-    return list(v)
 
 
 def _max_depth(v: Any, field: str, roulette: bool) -> int:
