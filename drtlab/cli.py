@@ -12,6 +12,8 @@ from drtlab.errors import InputError
 
 EXIT_BAD_INPUT = 2
 DEFAULT_GT_SPP = 16384
+# The render command shows a scene: the lowest-variance estimator (MIS, jittered strata) by default.
+PREVIEW_SAMPLER = "stratified+importance"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -28,6 +30,15 @@ class _Parser(argparse.ArgumentParser):
         if m:
             raise InputError(m.group(1).split()[0], f"unknown option; see `{self.prog} --help`")
         raise InputError("arguments", message)
+
+
+class _Help(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows a flag's default where it has one; defaults that depend on the scene say so in words."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False or action.default is argparse.SUPPRESS:
+            return action.help
+        return super()._get_help_string(action)
 
 
 def _flag(check, *args):
@@ -85,22 +96,51 @@ def cmd_samplers(args) -> int:
     return 0
 
 
+def _overrides(pairs: list[str] | None) -> dict:
+    """`--set key=value` pairs as scene overrides; a value is read as TOML (`[1, 2]`, `0.5`, `true`,
+    `"text"`), and a bare word that is not TOML is taken as a string."""
+    import tomllib
+    out: dict = {}
+    for pair in pairs or []:
+        key, sep, text = pair.partition("=")
+        if not sep or not key.strip():
+            raise InputError("--set", f"must look like key=value (e.g. camera.fov=30), got {pair!r}")
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text
+        out[key.strip()] = value
+    return out
+
+
+def _show_progress(args) -> bool:
+    """A progress bar only for a person watching: not with --no-progress, not into a log."""
+    return not args.no_progress and sys.stdout.isatty() and sys.stderr.isatty()
+
+
+def _warn(lines: list[str]) -> None:
+    for line in lines:
+        print(f"drtlab: warning: {line}", file=sys.stderr)
+
+
 def cmd_render(args) -> int:
     from drtlab import __version__
     from drtlab.kernels import CODE_VERSION
     from drtlab.kernels.imageio import write_exr, write_png
     from drtlab.kernels.render import render_with_stats
+    from drtlab.kernels.scene_checks import image_warnings
     from drtlab.kernels.scene_file import load_scene
 
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, _overrides(args.set))
     out = Path(args.out) if args.out else Path("results/renders") / (
         f"{scene.name}-{args.sampler.replace('+', '_')}-{args.spp or scene.spp}spp-s{args.seed}.exr")
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
+    fields.writable_location(out, "--out")
     t0 = time.perf_counter()
     stats = render_with_stats(scene, spp=args.spp, sampler=args.sampler, integrator=args.integrator,
                               seed=args.seed, res=args.res, threads=args.threads, tile=args.tile,
-                              device=args.device)
+                              device=args.device, progress=_show_progress(args))
     wall = time.perf_counter() - t0
     meta = {"scene": scene.name, "scene_hash": scene.content_hash(), "spp": stats.spp,
             "sampler": stats.sampler, "integrator": stats.integrator, "seed": stats.seed,
@@ -113,6 +153,7 @@ def cmd_render(args) -> int:
     print(f"wrote {out} and {out.with_suffix('.png').name}: {stats.width}x{stats.height}, "
           f"{stats.spp} spp, {stats.sampler}, {stats.integrator}, render {stats.render_seconds:.3f} s, "
           f"compile {stats.compile_seconds:.2f} s, {stats.samples_per_second / 1e6:.2f} M samples/s")
+    _warn(image_warnings(scene, stats.image))
     return 0
 
 
@@ -126,10 +167,12 @@ def cmd_experiment(args) -> int:
     from drtlab.experiments.paths import default_out_dir
     from drtlab.experiments.runner import run_experiment
     exp = load_experiment(args.experiment, args.profile)          # raises InputError, writes nothing
-    if args.out is not None and args.out.exists() and not args.out.is_dir():
-        raise InputError("--out", f"{args.out} exists and is not a folder")
+    fields.writable_location(args.out if args.out is not None else default_out_dir(exp.name), "--out",
+                             folder=True)
+    if args.gt_dir is not None:
+        fields.writable_location(args.gt_dir, "--gt-dir", folder=True)
     summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=default_backend(),
-                             threads=args.threads, fresh=args.fresh, progress=not args.no_progress,
+                             threads=args.threads, fresh=args.fresh, progress=_show_progress(args),
                              argv=sys.argv)
     out = args.out if args.out is not None else default_out_dir(exp.name)
     _print_summary(exp, summary)
@@ -191,12 +234,50 @@ def cmd_ground_truth(args) -> int:
     from drtlab.experiments.paths import default_gt_root
     jobs = _ground_truth_jobs(args)
     backend = default_backend()
-    root = args.gt_dir or default_gt_root()
+    root = fields.writable_location(args.gt_dir or default_gt_root(), "--gt-dir", folder=True)
     for ref, integ, res, spp, batch in jobs:
         gt = groundtruth.ensure_ground_truth(ref, integ, res, spp, batch, backend, root,
-                                             threads=args.threads, progress=not args.no_progress)
+                                             threads=args.threads, progress=_show_progress(args))
         how = "reused" if gt.reused else f"rendered in {gt.manifest.get('wall_seconds', 0):.1f} s"
         print(f"{gt.directory}: {gt.spp} spp, Var_GT {gt.variance:.3e} ({how})")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------------------
+# Image tools
+# ---------------------------------------------------------------------------------------------------
+
+def cmd_info(args) -> int:
+    from drtlab.experiments.imagetools import image_info
+    print("\n".join(image_info(args.file).lines()))
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from drtlab.experiments import imagetools as tools
+    a, _ = tools.read_image(args.a, "A")
+    b, _ = tools.read_image(args.b, "B")
+    ref = tools.read_image(args.ref, "--ref")[0] if args.ref else None
+    se_b = None
+    if args.per_pixel_z:
+        se_path = args.stderr or tools.stderr_beside(args.ref or args.b)
+        if se_path is None:
+            raise InputError("--per-pixel-z", f"needs the standard error of {args.ref or args.b}: "
+                             "--stderr FILE, or X.stderr.exr beside X.exr (stderr.exr beside a "
+                             "ground truth's mean.exr)")
+        se_b = tools.read_image(se_path, "--stderr")[0]
+    out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
+    se_a_path = tools.stderr_beside(args.a) if args.per_pixel_z else None
+    se_a = tools.read_image(se_a_path, "A")[0] if se_a_path else None
+    pairs = [(a, b, args.a, args.b, se_a)] if ref is None else \
+        [(a, ref, args.a, args.ref, se_a), (b, ref, args.b, args.ref, None)]
+    for img, reference, name, ref_name, se_img in pairs:
+        result = tools.compare_images(img, reference, names=(name, ref_name), se_a=se_img, se_b=se_b)
+        print(result.line())
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stem = out_dir / f"{Path(args.a).stem}-vs-{Path(args.b).stem}"
+    written = tools.write_error_images(a, b, stem)
+    print("wrote " + ", ".join(str(p) for p in written))
     return 0
 
 
@@ -205,63 +286,112 @@ def cmd_ground_truth(args) -> int:
 # ---------------------------------------------------------------------------------------------------
 
 def _add_render(sub) -> None:
-    r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG")
+    r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
+                       formatter_class=_Help)
     r.add_argument("scene", help="built-in scene name or path to a .toml scene")
     r.add_argument("--spp", type=_int_flag(1, 2**31 - 1), default=None,
                    help="samples per pixel (default: the scene's)")
-    r.add_argument("--sampler", default="stratified",
-                   help="preset (uniform, stratified, importance) or POINTS+STRATEGY")
-    r.add_argument("--integrator", default=None, help="whitted, drt or path (default: the scene's)")
-    r.add_argument("--seed", type=_int_flag(0, 2**32 - 1), default=0)
-    r.add_argument("--res", type=_res_flag, default=None, help="N (width, scene aspect) or WxH")
-    r.add_argument("--threads", type=_int_flag(1, 1024), default=None)
-    r.add_argument("--tile", type=_int_flag(1, 1 << 16), default=None, help="tile edge in pixels")
+    r.add_argument("--sampler", default=PREVIEW_SAMPLER,
+                   help="preset (uniform, stratified, importance) or POINTS+STRATEGY; "
+                        "`drtlab samplers` lists them")
+    r.add_argument("--integrator", default=None,
+                   help="whitted, drt or path (default: the scene's)")
+    r.add_argument("--seed", type=_int_flag(0, 2**32 - 1), default=0, help="root seed")
+    r.add_argument("--res", type=_res_flag, default=None,
+                   help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
+    r.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,
+                   help="override a scene value, e.g. --set camera.fov=30 --set "
+                        "materials.gloss.exponent=50 (repeatable; values are TOML)")
+    r.add_argument("--threads", type=_int_flag(1, 1024), default=None,
+                   help="CPU threads (default: all cores)")
+    r.add_argument("--tile", type=_int_flag(1, 1 << 16), default=None,
+                   help="tile edge in pixels (default: 16)")
     r.add_argument("--device", default="cpu", help="cpu or cuda")
-    r.add_argument("--out", default=None, help="output .exr (a .png preview is written beside it)")
+    r.add_argument("--out", default=None,
+                   help="output .exr; a .png preview is written beside it (default: "
+                        "results/renders/SCENE-SAMPLER-SPPspp-sSEED.exr)")
+    r.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (there is none either when output goes to a file or pipe)")
     r.set_defaults(func=cmd_render)
 
 
 def _add_experiment(sub) -> None:
     p = sub.add_parser(
         "experiment", help="run (or resume) an experiment: ground truth, runs, plots, report",
+        formatter_class=_Help,
         description="Run an experiment file (a built-in name such as stratified, importance, uniform, "
                     "all, or a path). Finished runs are kept and skipped on a rerun.")
-    p.add_argument("experiment", metavar="NAME_OR_PATH")
-    p.add_argument("--profile", default="quick", help="profile section to use (quick | full | ...)")
-    p.add_argument("--out", type=Path, default=None, help="output folder (default results/NAME)")
+    p.add_argument("experiment", metavar="NAME_OR_PATH",
+                   help="a built-in experiment (experiments/*.toml) or a path to a .toml file")
+    p.add_argument("--profile", default="quick",
+                   help="profile section of the file to use (e.g. quick, full)")
+    p.add_argument("--out", type=Path, default=None,
+                   help="output folder (default: results/NAME)")
     p.add_argument("--gt-dir", type=Path, default=None,
-                   help="ground-truth cache (default results/ground-truth)")
-    p.add_argument("--threads", type=_int_flag(1, 1024), default=None)
+                   help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
+    p.add_argument("--threads", type=_int_flag(1, 1024), default=None,
+                   help="CPU threads per render (default: all cores)")
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (there is none either when output goes to a file or pipe)")
     p.set_defaults(func=cmd_experiment)
 
 
 def _add_ground_truth(sub) -> None:
     g = sub.add_parser(
         "ground-truth", help="render (or reuse) high-spp references with their standard error",
+        formatter_class=_Help,
         description="Render the reference of one scene, or of every scene of an experiment.")
     g.add_argument("scene", nargs="?", metavar="SCENE", help="built-in scene name or path")
     g.add_argument("--spp", type=_int_flag(1), default=None,
                    help=f"reference samples per pixel (default: the experiment's gt_spp, or "
                         f"{DEFAULT_GT_SPP})")
-    g.add_argument("--batch-spp", type=_int_flag(1), default=None)
+    g.add_argument("--batch-spp", type=_int_flag(1), default=None,
+                   help="samples per independent batch (default: the experiment's, or spp / 8 up to 512)")
     g.add_argument("--integrator", default=None,
                    help="drt | path (default: the scene's, or the experiment's)")
     g.add_argument("--res", type=_res_flag, default=None,
                    help="N (width, scene aspect) or WxH (default: the scene's own)")
     g.add_argument("--experiment", default=None, metavar="NAME_OR_PATH",
                    help="render the references every scene of this experiment needs")
-    g.add_argument("--profile", default="quick")
-    g.add_argument("--gt-dir", type=Path, default=None)
-    g.add_argument("--threads", type=_int_flag(1, 1024), default=None)
-    g.add_argument("--no-progress", action="store_true")
+    g.add_argument("--profile", default="quick", help="profile of --experiment to use")
+    g.add_argument("--gt-dir", type=Path, default=None,
+                   help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
+    g.add_argument("--threads", type=_int_flag(1, 1024), default=None,
+                   help="CPU threads (default: all cores)")
+    g.add_argument("--no-progress", action="store_true",
+                   help="no progress bar (there is none either when output goes to a file or pipe)")
     g.set_defaults(func=cmd_ground_truth)
 
 
+def _add_image_tools(sub) -> None:
+    i = sub.add_parser("info", help="resolution, channel statistics, NaN/Inf/negative counts and "
+                                    "drtlab metadata of an EXR", formatter_class=_Help)
+    i.add_argument("file", metavar="FILE", help="an EXR (or any image OpenImageIO reads)")
+    i.set_defaults(func=cmd_info)
+    c = sub.add_parser("compare", help="error metrics of A against B, and error images",
+                       formatter_class=_Help,
+                       description="RMSE, relMSE, MAE, CIEDE2000 and mean signed error of A against "
+                                   "B (or of A and B against --ref); writes a signed-difference EXR "
+                                   "and a false-colour error PNG of A - B.")
+    c.add_argument("a", metavar="A", help="image to measure")
+    c.add_argument("b", metavar="B", help="reference image (or a second image, with --ref)")
+    c.add_argument("--ref", default=None, metavar="R", help="measure A and B against this reference")
+    c.add_argument("--per-pixel-z", action="store_true",
+                   help="per-pixel z-scores (A - B) / standard error, with the reference's standard "
+                        "error (and A's, when A.stderr.exr exists)")
+    c.add_argument("--stderr", default=None, metavar="FILE",
+                   help="standard-error image of the reference (default: found beside it)")
+    c.add_argument("--out-dir", type=Path, default=Path("results/compare"),
+                   help="where the error images go")
+    c.set_defaults(func=cmd_compare)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="drtlab", description="Monte Carlo estimator studies for distribution ray "
-                "tracing (Warp kernels).")
+    p = _Parser(prog="drtlab", formatter_class=_Help,
+                description="Monte Carlo estimator studies for distribution ray tracing (Warp kernels).")
+    from drtlab import __version__
+    p.add_argument("--version", action="version", version=f"drtlab {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
     sub.add_parser("scenes", help="list built-in scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("samplers", help="list point sets, strategies, presets, integrators") \
@@ -269,6 +399,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_render(sub)
     _add_experiment(sub)
     _add_ground_truth(sub)
+    _add_image_tools(sub)
     return p
 
 

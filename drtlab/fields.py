@@ -175,3 +175,43 @@ def resolution(v: Any, field: str, aspect: float | None = None,
     if aspect is not None:
         allowed += ", or N (width N, height from the scene's aspect)"
     raise InputError(field, f"must be {allowed}, got {show(v)}")
+
+
+def writable_location(path, field: str, folder: bool = False):
+    """Check, before any long work, that `path` (a file, or a folder with `folder`) can be written:
+    its first existing ancestor is a folder in which files can be created. Folders made to probe are
+    removed again, so a rejected path leaves nothing behind. Returns `path` as a Path."""
+    import os
+    import tempfile
+    from pathlib import Path
+    target = Path(path).expanduser()
+    if folder and target.exists() and not target.is_dir():
+        raise InputError(field, f"{target} exists and is not a folder")
+    if not folder and target.is_dir():
+        raise InputError(field, f"{target} is a folder; give a file path")
+    start = target if folder else target.parent
+    missing = []
+    probe_dir = start
+    while not probe_dir.exists():
+        missing.append(probe_dir)
+        probe_dir = probe_dir.parent
+    if not probe_dir.is_dir():
+        raise InputError(field, f"cannot write {target}: {probe_dir} is a file, not a folder")
+    made = []
+    try:
+        for d in reversed(missing):
+            d.mkdir()
+            made.append(d)
+        fd, probe = tempfile.mkstemp(prefix=".drtlab-probe-", dir=start)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise InputError(field, f"cannot write {target}: {reason} ({exc.filename or start})") from None
+    finally:
+        for d in reversed(made):
+            try:
+                d.rmdir()
+            except OSError:
+                pass
+    return target

@@ -298,14 +298,21 @@ def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None
                  metric=metric)
 
 
-def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[str, list[Study]]:
+def _parse_file(path: Path, profile: str, stack: tuple, sources: dict,
+                profiles_seen: set) -> tuple[str, list[Study]]:
     text = path.read_text()
     sources[str(path)] = short_hash(text, 16)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(path.name, f"not valid TOML: {e}") from None
-    fields.check_keys(data, ("experiment", "study", "profile"), "")
+    return _parse_data(data, path, profile, stack, sources, profiles_seen)
+
+
+def _parse_data(data: dict, path: Path, profile: str, stack: tuple, sources: dict,
+                profiles_seen: set) -> tuple[str, list[Study]]:
+    """An experiment's parsed TOML; `path` names it (its stem) and anchors relative paths."""
+    fields.check_keys(data, ("experiment", "study", "profile"), "", "an experiment")
     if "experiment" not in data:
         raise InputError("experiment", "required table [experiment] is missing")
     exp = data["experiment"]
@@ -320,6 +327,7 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
     profiles = data.get("profile", {})
     if not isinstance(profiles, dict):
         raise InputError("profile", "must be a table of [profile.NAME] sections")
+    profiles_seen.update(profiles)
     for pname, ptab in profiles.items():
         fields.check_keys(ptab, SETTINGS_KEYS, f"profile.{pname}")
         _settings(exp, ptab, pname)            # every profile is checked, not only the one asked for
@@ -345,7 +353,7 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
         if ipath.resolve() in stack:
             raise InputError(f"experiment.include[{k}]", f"'{inc}' includes itself (cycle)")
         try:
-            _, sub = _parse_file(ipath, profile, stack + (ipath.resolve(),), sources)
+            _, sub = _parse_file(ipath, profile, stack + (ipath.resolve(),), sources, profiles_seen)
         except InputError as e:
             if e.field.startswith(f"{ipath.name}:"):
                 raise
@@ -362,14 +370,31 @@ def _parse_file(path: Path, profile: str, stack: tuple, sources: dict) -> tuple[
     return desc, studies
 
 
-def load_experiment(name_or_path: str, profile: str = DEFAULT_PROFILE,
-                    scene_loader: Callable | None = None, check_scenes: bool = True) -> Experiment:
-    """Parse and fully validate an experiment; raises InputError and writes nothing."""
+def load_experiment(name_or_path: str | Path | dict, profile: str = DEFAULT_PROFILE,
+                    scene_loader: Callable | None = None, check_scenes: bool = True,
+                    name: str = "inline") -> Experiment:
+    """Parse and fully validate an experiment (a built-in name, a .toml path, or a dict shaped like
+    the TOML file, which is then called `name`); raises InputError and writes nothing."""
     if not isinstance(profile, str) or not profile:
         raise InputError("profile", f"must be a profile name, got {profile!r}")
-    path = resolve_path(name_or_path)
     sources: dict = {}
-    desc, studies = _parse_file(path, profile, (path.resolve(),), sources)
+    profiles_seen: set = set()
+    if isinstance(name_or_path, dict):
+        if not isinstance(name, str) or not name or any(not (c.isalnum() or c in "-_.") for c in name):
+            raise InputError("name", f"an experiment's name holds letters, digits and - _ . only "
+                                     f"(it names the results folder), got {name!r}")
+        # An experiment defined in memory: named by `name`, relative paths from the working folder.
+        path = Path.cwd() / f"{name}.toml"
+        sources["<dict>"] = short_hash(name_or_path, 16)
+        desc, studies = _parse_data(name_or_path, path, profile, (path,), sources, profiles_seen)
+    else:
+        path = resolve_path(name_or_path)
+        desc, studies = _parse_file(path, profile, (path.resolve(),), sources, profiles_seen)
+    if profile != DEFAULT_PROFILE and profile not in profiles_seen:
+        known = [DEFAULT_PROFILE] + sorted(profiles_seen - {DEFAULT_PROFILE})
+        raise InputError("profile", f"unknown profile '{profile}': {path.name} (with its includes) "
+                         f"defines {', '.join(known)} ('{DEFAULT_PROFILE}' is the [experiment] settings "
+                         f"when no [profile.{DEFAULT_PROFILE}] is given)")
 
     names = [s.name for s in studies]
     for i, n in enumerate(names):

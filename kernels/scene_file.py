@@ -123,6 +123,10 @@ def _resolve(name_or_path: str | Path) -> tuple[Path, str, str]:
     path = Path(name_or_path).expanduser()
     if path.is_file():
         return path, path.stem, str(path)
+    if path.is_dir():
+        raise InputError("scene", f"'{name_or_path}' is a folder, not a scene file")
+    if isinstance(name_or_path, Path) or "/" in str(name_or_path) or path.suffix == ".toml":
+        raise InputError("scene", f"scene file '{name_or_path}' does not exist")
     raise InputError("scene", f"unknown scene '{name_or_path}'; built-ins: "
                               f"{', '.join(builtin_names())} or a path to a .toml file")
 

@@ -1,0 +1,49 @@
+"""Plausibility checks of a valid scene that still renders nothing useful; each finding is one line.
+
+A quad emits only on the side of normalize(edge_u x edge_v): writing the edges in the other order is
+the easy mistake, and it leaves the light shining at nothing."""
+from __future__ import annotations
+
+import numpy as np
+
+from drtlab.kernels.scene import Scene, Shape
+
+
+def _corners(shape: Shape) -> np.ndarray:
+    o, u, v = shape.origin, shape.edge_u, shape.edge_v
+    return np.array([o, o + u, o + v, o + u + v])
+
+
+def _reaches_front(shape: Shape, origin: np.ndarray, normal: np.ndarray) -> bool:
+    """Whether some part of `shape` lies strictly in front of the plane (origin, normal)."""
+    if shape.kind == "sphere":
+        return float(np.dot(shape.center - origin, normal)) + shape.radius > 0.0
+    heights = (_corners(shape) - origin) @ normal
+    scale = max(float(np.abs(_corners(shape) - origin).max()), 1e-30)
+    return bool(np.any(heights > 1e-9 * scale))
+
+
+def emitters_facing_nothing(scene: Scene) -> list[str]:
+    """Emitting quads whose lit side faces away from every other shape."""
+    found = []
+    for i in scene.emitter_shapes():
+        shape = scene.shapes[i]
+        if shape.kind != "quad" or len(scene.shapes) < 2:
+            continue
+        n = np.cross(shape.edge_u, shape.edge_v)
+        n = n / np.linalg.norm(n)
+        others = [s for j, s in enumerate(scene.shapes) if j != i]
+        if not any(_reaches_front(s, shape.origin, n) for s in others):
+            found.append(f"emitter '{shape.name}' emits towards {np.round(n, 3).tolist()} "
+                         "(normalize(edge_u x edge_v)), where no other shape is; swap edge_u and "
+                         "edge_v to light the scene")
+    return found
+
+
+def image_warnings(scene: Scene, image: np.ndarray) -> list[str]:
+    """Findings about a rendered image: the scene checks, and an image that is zero everywhere."""
+    found = emitters_facing_nothing(scene)
+    if not np.any(image):
+        found.append("the image is zero everywhere: the camera sees no light (lights enclosed, "
+                     "facing away, or the camera looking at nothing)")
+    return found
