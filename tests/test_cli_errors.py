@@ -14,40 +14,10 @@ from drtlab.estimators.strategies import STRATEGIES
 from drtlab.cli import main
 from drtlab.kernels.scene_file import builtin_names
 
+from cli_util import GOOD_SCENE, assert_one_line_error, run_bad
+
 REPO = Path(__file__).resolve().parent.parent
 DRTLAB = REPO / ".venv" / "bin" / "drtlab"
-
-GOOD_SCENE = """
-[scene]
-description = "cli test"
-resolution = [8, 6]
-spp = 1
-
-[camera]
-position = [0.0, 1.0, 4.0]
-look_at = [0.0, 0.5, 0.0]
-
-[materials.grey]
-kind = "diffuse"
-albedo = [0.5, 0.5, 0.5]
-
-[materials.light]
-kind = "emitter"
-emission = [5.0, 5.0, 5.0]
-
-[[shapes]]
-kind = "sphere"
-material = "grey"
-center = [0.0, 0.5, 0.0]
-radius = 0.5
-
-[[shapes]]
-kind = "quad"
-material = "light"
-origin = [-0.5, 2.0, -0.5]
-edge_u = [1.0, 0.0, 0.0]
-edge_v = [0.0, 0.0, 1.0]
-"""
 
 # name -> scene file text (each a single mistake in GOOD_SCENE), expected field
 BAD_SCENES = {
@@ -75,24 +45,6 @@ def folders(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
     return scenes, out
-
-
-def assert_one_line_error(err: str, field: str):
-    lines = err.splitlines()
-    assert len(lines) == 1, f"expected one line on stderr, got {len(lines)}:\n{err}"
-    assert err.endswith("\n")
-    assert lines[0].startswith(f"drtlab: {field}: "), lines[0]
-    assert "Traceback" not in err
-    assert len(lines[0]) > len(f"drtlab: {field}: ") + 5, "the message says what is wrong"
-
-
-def run_bad(argv, field, out_dir: Path, capsys):
-    rc = main(argv)
-    captured = capsys.readouterr()
-    assert rc == 2
-    assert captured.out == ""
-    assert_one_line_error(captured.err, field)
-    assert list(out_dir.iterdir()) == [], "no output or temporary file may be left"
 
 
 # (extra argv, expected field); every case renders `good.toml` unless it names another scene
