@@ -7,7 +7,7 @@ error estimate rather than a fixed number: RUNS independent renders (fixed seeds
 tests/stats_util.py). Multiple-test correction: Sidak over every comparison this module makes in the
 full tier (M_TESTS), alpha_test = 1 - 0.99^(1/M_TESTS).
 
-Scenes (closed forms derived in tests/stats_util.py):
+Scenes (closed forms derived in tests/scene_util.py):
   white furnace      closed diffuse box, albedo rho, emission Le, camera inside:
                      path Le (1 - rho^d) / (1 - rho) for max_depth d, Le / (1 - rho) unbounded with
                      Russian roulette; drt Le (d = 1), Le (1 + rho) (d >= 2).
@@ -34,9 +34,10 @@ import pytest
 
 from drtlab.estimators import registry
 from drtlab.estimators.registry import all_sampler_names
+from drtlab.experiments.chi2 import sidak
 
-import stats_util as su
-from stats_util import ALPHA, FULL, compare, render_estimate, sidak, tier
+import scene_util as su
+from stats_util import ALPHA, FULL, compare, render_estimate, tier
 
 BLOCK = 4
 RES = (16, 12)
@@ -47,7 +48,7 @@ PRESETS = list(registry.PRESETS)
 INTEGRATORS = ("drt", "path")
 FURNACE_DEPTHS = {"path": (1, 2, 5), "drt": (1, 3)}
 # NEE-only strategies (emitters area-sampled, no MIS) have infinite variance in a closed emitting
-# box beyond direct light (stats_util.furnace_box): path depth 5 is tested with the other strategies.
+# box beyond direct light (scene_util.furnace_box): path depth 5 is tested with the other strategies.
 NEE_ONLY = {name for name, st in registry.STRATEGIES.items() if st.combine == "nee"}
 BSDF_KINDS = ("diffuse", "glossy", "mirror", "dielectric", "glossy_dielectric")
 
@@ -94,7 +95,7 @@ def test_family_size():
 
 
 def test_closed_form_scenes_share_builtin_kernel_variants():
-    # Compile budget: the closed-form scenes compile to the built-ins' kernel variants (stats_util
+    # Compile budget: the closed-form scenes compile to the built-ins' kernel variants (scene_util
     # adds invisible feature shapes where needed), so testing them with every sampler costs renders,
     # not compiles.
     from drtlab.kernels.render import features_of
@@ -127,7 +128,7 @@ def test_furnace_closed_form_values():
 @pytest.mark.parametrize("sampler", samplers_for(fast_all=True))
 def test_white_furnace(sampler, integrator):
     # The camera sees only the middle of one wall (EDGE_FREE_VIEW) so that direct light sampled
-    # from the walls' area has finite variance (stats_util.furnace_box).
+    # from the walls' area has finite variance (scene_util.furnace_box).
     for depth in furnace_depths(sampler, integrator):
         cf = su.furnace_box(rho=0.6, le=1.0, depth=depth, integrator=integrator, **su.EDGE_FREE_VIEW)
         check(cf, sampler, integrator)

@@ -1,4 +1,4 @@
-"""Chi-square tests of every sampling routine (issue 5), with the harness in experiments/chi2.py.
+"""Chi-square tests of every sampling routine (issue 5), with the harness in experiments/chi2/.
 
 Each test draws 10^6 samples with a Warp kernel (random input: a hash of the thread id), histograms
 them on a (cos theta, phi), (1 - cos theta, phi), cone or (x, y) grid, integrates the pdf the code

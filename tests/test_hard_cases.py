@@ -1,5 +1,5 @@
 """Hard cases (numerical stability): a parameterized matrix of small scenes with closed-form pixel
-values (tests/stats_util.py) that must render finite, non-negative images converging to the truth.
+values (tests/scene_util.py) that must render finite, non-negative images converging to the truth.
 
 Each case renders RUNS independent images (fixed seeds) with each listed sampler (path tracing) and is
 compared with its closed form by the suite's one test (12 regions of 4 x 4 pixels, Welch t ->
@@ -23,7 +23,7 @@ Samplers: `importance` and `stratified` (uniform strategy) where the uniform str
 variance. It is left out for Phong exponents 10^3 and 10^6 (uniform hemisphere directions hit a lobe
 of solid angle ~2 pi / n: the estimate is a handful of huge values) and replaced by
 stratified+importance in the closed boxes (next-event estimation alone has infinite variance where
-two emitting walls meet, see stats_util.furnace_box); SAMPLERS_NOTE says so in the summary.
+two emitting walls meet, see scene_util.furnace_box); SAMPLERS_NOTE says so in the summary.
 Tiers: fast RUNS x SPP = 8 x 64, full 16 x 256 (same cases).
 """
 from __future__ import annotations
@@ -34,8 +34,10 @@ import math
 import numpy as np
 import pytest
 
-import stats_util as su
-from stats_util import ALPHA, compare, render_estimate, sidak, tier
+from drtlab.experiments.chi2 import sidak
+
+import scene_util as su
+from stats_util import ALPHA, compare, render_estimate, tier
 
 BLOCK = 4
 RUNS = tier(8, 16)
@@ -43,7 +45,7 @@ SPP = tier(64, 256)
 BOTH = ("importance", "stratified")
 IMPORTANCE = ("importance",)
 # Closed diffuse boxes: NEE-only sampling (the uniform strategy) has infinite variance where two
-# emitting walls meet (see stats_util.furnace_box); the stratified point set is tested with MIS.
+# emitting walls meet (see scene_util.furnace_box); the stratified point set is tested with MIS.
 MIS_BOTH = ("importance", "stratified+importance")
 SAMPLERS_NOTE = ("not tested with the uniform strategy: Phong lobes of exponent >= 10^3 (a handful "
                  "of huge samples) and closed emitting boxes (infinite variance at the edges)")
