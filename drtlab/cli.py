@@ -180,21 +180,23 @@ def cmd_experiment(args) -> int:
     return 0
 
 
-def _print_summary(exp, summary: dict) -> None:
-    stats = summary.get("_stats", {})
+def _print_summary(exp, result) -> None:
+    """One line of run counts, then per study and scene its slopes and speed-ups (an
+    `experiments.results.ExperimentResult`)."""
+    stats = result.stats
     print(f"{exp.name} ({exp.profile}): {stats.get('runs_new', 0)} new runs, "
-          f"{stats.get('runs_reused', 0)} reused, {summary.get('_wall_seconds', 0):.1f} s")
-    for study in summary.get("studies", []):
-        for scene in study["scenes"]:
+          f"{stats.get('runs_reused', 0)} reused, {result.wall_seconds:.1f} s")
+    for study in result.summary.studies if result.summary is not None else []:
+        for scene in study.scenes:
             parts = []
-            for s in study["samplers"]:
-                f = scene["slopes"].get(s, {})
-                if f.get("ok"):
-                    parts.append(f"{s} b={f['slope']:.2f} [{f['slope_lo']:.2f},{f['slope_hi']:.2f}]")
-            sp = [f"{s} {v:.2f}x" for s, v in scene["speed"]["speedup_vs_baseline"].items()
-                  if s != study["baseline"] and v == v]
-            print(f"  {study['name']:>18} {scene['scene']:<14} " + "; ".join(parts)
-                  + (f"; speed-up vs {study['baseline']}: " + ", ".join(sp) if sp else ""))
+            for s in study.samplers:
+                f = scene.fit(s)
+                if f is not None:
+                    parts.append(f"{s} b={f.slope:.2f} [{f.slope_lo:.2f},{f.slope_hi:.2f}]")
+            sp = [f"{s} {v:.2f}x" for s, v in scene.speed.speedup_vs_baseline.items()
+                  if s != study.baseline and v == v]
+            print(f"  {study.name:>18} {scene.scene:<14} " + "; ".join(parts)
+                  + (f"; speed-up vs {study.baseline}: " + ", ".join(sp) if sp else ""))
 
 
 def _ground_truth_jobs(args) -> list[tuple]:

@@ -4,40 +4,44 @@ A cell is (scene, sampler, spp) over its repetitions. Error statistics use the n
 MSE (MSE - Var_GT); the RMSE of a cell is sqrt(mean corrected MSE), whose 95% CI is the square root
 of the Student-t interval of the corrected MSEs. The time of a cell is the median render time of its
 repetitions (compile excluded): robust to a run slowed down by other work on the machine.
+
+`analyze` returns a `results.Summary`; the report, summary.json and the CLI read that.
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from drtlab.experiments.groundtruth import load_ground_truth
+from drtlab.experiments.groundtruth import GroundTruth, load_ground_truth
 from drtlab.experiments.metrics import CellAccumulator, mean_ci
-from drtlab.experiments.seeds import short_hash
 from drtlab.experiments.parallel import pmap
+from drtlab.experiments.results import (
+    METRICS, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, NoiseFloor, RatioCI,
+    SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
+)
+from drtlab.experiments.run_store import load_run_image
+from drtlab.experiments.seeds import short_hash
 from drtlab.experiments.slopes import fit_slope
 
 NOISE_FLOOR_FRACTION = 0.01
 ERRATIC_SIGMA = 0.25        # log-error scatter above which a sampler's errors are called heavy-tailed
-# The error a study ranks samplers by. "mse": RMSE over pixels and channels (noise floor removed).
-# "relmse": relative MSE (x - y)^2 / (y^2 + 0.01), for scenes whose RMSE is dominated by a few very
-# bright pixels (directly seen small lights), reported as its square root ("relative RMSE").
-METRICS = {
-    "mse": {"err": "rmse_of_mean_mse", "mse": "mse_corrected", "eff": "efficiency",
-            "run": "rmse_corrected", "label": "RMSE", "mse_label": "MSE"},
-    "relmse": {"err": "rrmse_of_mean_relmse", "mse": "relmse_corrected", "eff": "efficiency_relmse",
-               "run": "rrmse_corrected", "label": "relative RMSE (√relMSE)", "mse_label": "relMSE"},
-}
 CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
                 "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
+NAN = float("nan")
 
 
-def _sqrt_ci(ci: dict) -> dict:
+# ---------------------------------------------------------------------------------------------------
+# Small statistics
+# ---------------------------------------------------------------------------------------------------
+
+def _sqrt_ci(ci: Interval) -> Interval:
     f = lambda v: math.sqrt(v) if v is not None and math.isfinite(v) and v > 0 else 0.0  # noqa: E731
-    return {"mean": f(ci["mean"]), "lo": f(ci["lo"]) if math.isfinite(ci["lo"]) else float("nan"),
-            "hi": f(ci["hi"]) if math.isfinite(ci["hi"]) else float("nan"), "n": ci["n"]}
+    return Interval(f(ci.mean), f(ci.lo) if math.isfinite(ci.lo) else NAN,
+                    f(ci.hi) if math.isfinite(ci.hi) else NAN, ci.n)
 
 
 def _interp_loglog(x0, y0, x1, y1, y):
@@ -72,21 +76,42 @@ def time_to_target(times, rmses, target: float) -> dict:
     return {"seconds": float("inf"), "how": "not reached"}
 
 
-def _ratio_ci(a: dict, b: dict) -> dict:
+def _rel_var(x: Interval) -> float:
+    """Variance of log(mean) by the delta method: (sd / mean)^2 / n."""
+    sd = x.sd if x.sd is not None else NAN
+    return (sd / x.mean) ** 2 / x.n if x.n > 1 and math.isfinite(sd) else NAN
+
+
+def _ratio_ci(a: Interval, b: Interval) -> RatioCI:
     """Ratio a/b of two means with a delta-method 95% interval on the log scale."""
-    if not (a["mean"] > 0 and b["mean"] > 0):
-        return {"ratio": float("nan"), "lo": float("nan"), "hi": float("nan")}
-    r = a["mean"] / b["mean"]
-    va = (a["sd"] / a["mean"]) ** 2 / a["n"] if a.get("n", 0) > 1 and math.isfinite(a.get("sd", float("nan"))) else float("nan")
-    vb = (b["sd"] / b["mean"]) ** 2 / b["n"] if b.get("n", 0) > 1 and math.isfinite(b.get("sd", float("nan"))) else float("nan")
-    s = math.sqrt(va + vb) if math.isfinite(va + vb) else float("nan")
-    return {"ratio": r, "lo": r * math.exp(-1.96 * s) if math.isfinite(s) else float("nan"),
-            "hi": r * math.exp(1.96 * s) if math.isfinite(s) else float("nan")}
+    if not (a.mean > 0 and b.mean > 0):
+        return RatioCI(NAN, NAN, NAN)
+    r = a.mean / b.mean
+    va, vb = _rel_var(a), _rel_var(b)
+    s = math.sqrt(va + vb) if math.isfinite(va + vb) else NAN
+    return RatioCI(r, r * math.exp(-1.96 * s) if math.isfinite(s) else NAN,
+                   r * math.exp(1.96 * s) if math.isfinite(s) else NAN)
 
 
-def _group_name(g) -> str:
-    sc, integ, res = g
-    return f"{sc.key}__{integ}__{res[0]}x{res[1]}"
+def _efficiency(mse: float, seconds: float) -> float:
+    return 1.0 / (mse * seconds) if mse > 0 and seconds > 0 else NAN
+
+
+# ---------------------------------------------------------------------------------------------------
+# One (scene, integrator, resolution) group: cells, noise floor, slope fits
+# ---------------------------------------------------------------------------------------------------
+
+@dataclass
+class GroupResult:
+    """The cells of one (scene, integrator, resolution), its slope fits and its noise floor."""
+    cells: dict                     # (sampler, spp) -> Cell
+    slopes: dict                    # metric -> sampler -> SlopeFit
+    noise_floor: NoiseFloor
+
+
+def group_name(g) -> str:
+    scene, integrator, res = g
+    return f"{scene.key}__{integrator}__{res[0]}x{res[1]}"
 
 
 def _run_error(rec: dict, metric: str) -> float:
@@ -96,178 +121,193 @@ def _run_error(rec: dict, metric: str) -> float:
     return rec["rmse_corrected"]
 
 
-def analyze_group(g, runs, records, out_dir: Path, gt_dir, log, fits: list, metrics=("mse",)) -> dict:
-    """Cells and noise floor of one (scene, integrator, resolution); its slope fits (one per sampler
-    and metric) are appended to `fits` as (group, metric, sampler, call), to be run together (in
-    parallel) by `analyze`."""
-    from drtlab.experiments.runner import load_run_image
+def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: GroundTruth) -> Cell:
+    recs = [records[r.run_id] for r in cell_runs]
+    acc = CellAccumulator()
+    for r in cell_runs:                       # one image in memory at a time
+        acc.add(load_run_image(out_dir, r.run_id))
+    stats = {m: Interval.of(mean_ci([rec[m] for rec in recs])) for m in CELL_METRICS}
+    b = acc.bias(gt.mean, gt.stderr, [rec["mean_error"] for rec in recs])
+    bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))
+    # Time per cell: the median over repetitions, robust to a run slowed by other load.
+    seconds = float(np.median([rec["render_seconds"] for rec in recs]))
+    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, seconds) for m in METRICS.values()}
+    return Cell(sampler=sampler, spp=spp, n=len(recs), **stats,
+                rmse_of_mean_mse=_sqrt_ci(stats["mse_corrected"]),
+                rrmse_of_mean_relmse=_sqrt_ci(stats["relmse_corrected"]),
+                bias=bias, seconds=seconds, **efficiency)
+
+
+def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
+    mses = [c.mse.mean for c in cells.values() if math.isfinite(c.mse.mean)]
+    min_mse = min(mses) if mses else NAN
+    return NoiseFloor(gt_dir=str(gt_dir), gt_spp=gt.spp, gt_variance=gt.variance, smallest_mse=min_mse,
+                      fraction_of_smallest_mse=gt.variance / min_mse if min_mse > 0 else NAN,
+                      warning=bool(min_mse > 0 and gt.variance > NOISE_FLOOR_FRACTION * min_mse))
+
+
+def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict) -> tuple:
+    """The `fit_slope` call for one sampler's runs (every repetition a point), with a fixed seed."""
+    fit_seed = int(short_hash([g[0].key, g[1], sampler] + ([metric] if metric != "mse" else []), 8),
+                   16) & 0x7FFFFFFF
+    return (fit_slope, ([r.spp for r in sampler_runs],
+                        [_run_error(records[r.run_id], metric) for r in sampler_runs]),
+            {"seed": fit_seed})
+
+
+def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",)) -> tuple:
+    """(GroupResult, fits to run) of one (scene, integrator, resolution). Its slope fits (one per
+    sampler and metric) come back as (metric, sampler, call) for `analyze` to run together, in
+    parallel; the GroupResult's `slopes` are empty until then."""
     gt = load_ground_truth(gt_dir)
-    samplers = list(dict.fromkeys(r.sampler for r in runs))
     cells: dict = {}
-    for s in samplers:
-        s_runs = [r for r in runs if r.sampler == s and r.run_id in records]
-        ladder = sorted({r.spp for r in s_runs})
-        for spp in ladder:
-            cell_runs = [r for r in s_runs if r.spp == spp]
-            recs = [records[r.run_id] for r in cell_runs]
-            acc = CellAccumulator()
-            for r in cell_runs:                       # one image in memory at a time
-                acc.add(load_run_image(out_dir, r.run_id))
-            c = {"sampler": s, "spp": spp, "n": len(recs)}
-            for m in CELL_METRICS:
-                c[m] = mean_ci([rec[m] for rec in recs])
-            c["rmse_of_mean_mse"] = _sqrt_ci(c["mse_corrected"])
-            c["rrmse_of_mean_relmse"] = _sqrt_ci(c["relmse_corrected"])
-            c["bias"] = acc.bias(gt.mean, gt.stderr, [rec["mean_error"] for rec in recs])
-            c["bias"]["significant"] = bool(math.isfinite(c["bias"]["lo"]) and
-                                            (c["bias"]["lo"] > 0 or c["bias"]["hi"] < 0))
-            c["pixel_variance"] = c["bias"]["pixel_variance"]
-            # Time per cell: the median over repetitions, robust to a run slowed by other load.
-            c["seconds"] = float(np.median([rec["render_seconds"] for rec in recs]))
-            t = c["seconds"]
-            for m in METRICS.values():
-                mse = c[m["mse"]]["mean"]
-                c[m["eff"]] = 1.0 / (mse * t) if mse > 0 and t > 0 else float("nan")
-            cells[(s, spp)] = c
-        for metric in metrics:
-            fit_seed = int(short_hash([g[0].key, g[1], s] + ([metric] if metric != "mse" else []), 8),
-                           16) & 0x7FFFFFFF
-            fits.append((g, metric, s, (fit_slope, ([r.spp for r in s_runs],
-                                                    [_run_error(records[r.run_id], metric) for r in s_runs]),
-                                        {"seed": fit_seed})))
-    mses = [c["mse"]["mean"] for c in cells.values() if math.isfinite(c["mse"]["mean"])]
-    min_mse = min(mses) if mses else float("nan")
-    floor = {
-        "gt_dir": str(gt_dir), "gt_spp": gt.spp, "gt_variance": gt.variance,
-        "smallest_mse": min_mse,
-        "fraction_of_smallest_mse": gt.variance / min_mse if min_mse > 0 else float("nan"),
-    }
-    floor["warning"] = bool(min_mse > 0 and gt.variance > NOISE_FLOOR_FRACTION * min_mse)
-    return {"cells": cells, "slopes": {m: {} for m in metrics}, "noise_floor": floor}
+    fit_calls: list = []
+    for s in dict.fromkeys(r.sampler for r in runs):
+        sampler_runs = [r for r in runs if r.sampler == s and r.run_id in records]
+        for spp in sorted({r.spp for r in sampler_runs}):
+            cell_runs = [r for r in sampler_runs if r.spp == spp]
+            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt)
+        fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records)) for metric in metrics]
+    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir)), fit_calls
 
 
-def _study_scene(st, sc, gres: dict) -> dict:
-    samplers = list(st.samplers)
-    ladder = st.settings.spp
-    K = METRICS[st.metric]
-    # Study-level views of the group's cells: `err`, `err_mse` and `eff` are the study's metric.
-    view = {}
-    for key, c in gres["cells"].items():
-        if key[0] in samplers and key[1] in ladder:
-            view[key] = dict(c, err=c[K["err"]], err_mse=c[K["mse"]], eff=c[K["eff"]])
-    gres = dict(gres, cells=view)
-    cells = [view[(s, n)] for s in samplers for n in ladder if (s, n) in view]
-    slopes = gres["slopes"][st.metric]
-    out = {"scene": sc.label, "scene_name": sc.name, "overrides": sc.overrides_dict,
-           "cells": cells, "slopes": {s: slopes[s] for s in samplers if s in slopes},
-           "noise_floor": gres["noise_floor"]}
-    # Speed against error.
-    best = {}
-    for s in samplers:
-        cs = [gres["cells"][(s, n)] for n in ladder if (s, n) in gres["cells"]]
-        best[s] = min((c["err"]["mean"] for c in cs if c["err"]["mean"] > 0),
-                      default=float("nan"))
-    target = st.settings.target_rmse
+# ---------------------------------------------------------------------------------------------------
+# One study: its view of each scene's group (its samplers, its ladder, its metric)
+# ---------------------------------------------------------------------------------------------------
+
+def _speed(study, by_sampler: dict) -> Speed:
+    """Time to a common target error and the speed-up over the baseline that gives."""
+    metric = study.metric
+    best = {s: min((c.error(metric).mean for c in cells if c.error(metric).mean > 0), default=NAN)
+            for s, cells in by_sampler.items()}
+    target = study.settings.target_rmse
     auto = target is None
     if auto:
         vals = [v for v in best.values() if math.isfinite(v)]
-        target = max(vals) if vals else float("nan")
-    ttt = {}
-    for s in samplers:
-        cs = [gres["cells"][(s, n)] for n in ladder if (s, n) in gres["cells"]]
-        ttt[s] = time_to_target([c["seconds"] for c in cs],
-                                [c["err"]["mean"] for c in cs], target) \
-            if math.isfinite(target) else {"seconds": float("nan"), "how": "no data"}
-    base = st.baseline
-    tb = ttt.get(base, {}).get("seconds", float("nan"))
-    speed = {"target_rmse": target, "target_auto": auto, "time_to_target": ttt,
-             "speedup_vs_baseline": {s: (tb / ttt[s]["seconds"]) if ttt[s]["seconds"] and
-                                     math.isfinite(ttt[s]["seconds"]) and math.isfinite(tb) else float("nan")
-                                     for s in samplers}}
-    out["speed"] = speed
-    # Comparisons against the baseline at each spp, and efficiency at the top of the ladder.
-    comp = {}
-    for s in samplers:
+        target = max(vals) if vals else NAN
+    time_to = {}
+    for s, cells in by_sampler.items():
+        time_to[s] = TimeToTarget(**time_to_target([c.seconds for c in cells],
+                                                   [c.error(metric).mean for c in cells], target)) \
+            if math.isfinite(target) else TimeToTarget(NAN, "no data")
+    tb = time_to[study.baseline].seconds if study.baseline in time_to else NAN
+    speedup = {s: (tb / t.seconds) if t.seconds and math.isfinite(t.seconds) and math.isfinite(tb) else NAN
+               for s, t in time_to.items()}
+    return Speed(target_rmse=target, target_auto=auto, time_to_target=time_to, speedup_vs_baseline=speedup)
+
+
+def _vs_baseline(study, cells: dict) -> dict:
+    """Per sampler, against the baseline at each spp both have: MSE ratio and efficiency ratio."""
+    base, metric = study.baseline, study.metric
+    out = {}
+    for s in study.samplers:
         rows = []
-        for n in ladder:
-            if (s, n) in gres["cells"] and (base, n) in gres["cells"]:
-                c, b = gres["cells"][(s, n)], gres["cells"][(base, n)]
-                rows.append({"spp": n,
-                             "mse_ratio": _ratio_ci(b["err_mse"], c["err_mse"]),
-                             "efficiency_ratio": (c["eff"] / b["eff"])
-                             if b["eff"] and math.isfinite(b["eff"]) else float("nan")})
-        comp[s] = rows
-    out["vs_baseline"] = comp
-    top = {}
-    for s in samplers:
-        n = max((n for n in ladder if (s, n) in gres["cells"]), default=None)
-        if n is not None:
-            top[s] = {"spp": n, "efficiency": gres["cells"][(s, n)]["eff"]}
-    be = top.get(base, {}).get("efficiency", float("nan"))
-    for s in top:
-        top[s]["relative"] = top[s]["efficiency"] / be if be and math.isfinite(be) else float("nan")
-    out["efficiency"] = top
+        for n in study.settings.spp:
+            if (s, n) in cells and (base, n) in cells:
+                c, b = cells[(s, n)], cells[(base, n)]
+                b_eff = b.efficiency_of(metric)
+                rows.append(BaselineComparison(
+                    spp=n, mse_ratio=_ratio_ci(b.error_mse(metric), c.error_mse(metric)),
+                    efficiency_ratio=(c.efficiency_of(metric) / b_eff)
+                    if b_eff and math.isfinite(b_eff) else NAN))
+        out[s] = rows
     return out
 
 
-def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[str], None]) -> dict:
-    groups: dict = {}
+def _top_efficiency(study, cells: dict) -> dict:
+    """Per sampler, the efficiency at the top of its ladder, also relative to the baseline's."""
+    top = {}
+    for s in study.samplers:
+        n = max((n for n in study.settings.spp if (s, n) in cells), default=None)
+        if n is not None:
+            top[s] = (n, cells[(s, n)].efficiency_of(study.metric))
+    be = top[study.baseline][1] if study.baseline in top else NAN
+    return {s: TopEfficiency(spp=n, efficiency=e, relative=e / be if be and math.isfinite(be) else NAN)
+            for s, (n, e) in top.items()}
+
+
+def _scene_result(study, scene_ref, group: GroupResult) -> SceneResult:
+    samplers, ladder = list(study.samplers), study.settings.spp
+    cells = {key: c for key, c in group.cells.items() if key[0] in samplers and key[1] in ladder}
+    by_sampler = {s: [cells[(s, n)] for n in ladder if (s, n) in cells] for s in samplers}
+    slopes = group.slopes[study.metric]
+    return SceneResult(
+        scene=scene_ref.label, scene_name=scene_ref.name, overrides=scene_ref.overrides_dict,
+        cells=[c for s in samplers for c in by_sampler[s]],
+        slopes={s: slopes[s] for s in samplers if s in slopes},
+        noise_floor=group.noise_floor, speed=_speed(study, by_sampler),
+        vs_baseline=_vs_baseline(study, cells), efficiency=_top_efficiency(study, cells))
+
+
+def _study_result(study, plan, group_results: dict) -> StudyResult:
+    group_of: dict = {}
     for r in plan:
-        groups.setdefault(r.group, []).append(r)
-    by_name = {st.name: st for st in exp.studies}
-    needed: dict = {}
-    for r in plan:
-        for name in r.studies:
-            needed.setdefault(r.group, {})[by_name[name].metric] = None
-    fit_calls: list = []
-    gres = {g: analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"], log, fit_calls,
-                             tuple(needed[g]))
-            for g, runs in groups.items()}
-    for (g, metric, s, _), f in zip(fit_calls, pmap([c for *_, c in fit_calls])):
-        # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):
-        # the errors are heavy-tailed (rare, very bright samples), and so is every number built on them.
-        f["erratic"] = bool(f.get("ok") and f["sigma"] > ERRATIC_SIGMA)
-        gres[g]["slopes"][metric][s] = f
-    studies = []
-    for st in exp.studies:
-        res_of = {}
-        for r in plan:
-            if st.name in r.studies:
-                res_of.setdefault(r.scene, r.group)
-        studies.append({
-            "name": st.name, "description": st.description, "experiment": st.experiment,
-            "integrator": st.integrator, "samplers": list(st.samplers), "baseline": st.baseline,
-            "metric": st.metric, "metric_label": METRICS[st.metric]["label"],
-            "mse_label": METRICS[st.metric]["mse_label"],
-            "spp": list(st.settings.spp), "repetitions": st.settings.repetitions,
-            "resolution": list(st.settings.resolution) if st.settings.resolution else None,
-            "gt_spp": st.settings.gt_spp, "seed": st.seed,
-            "strip_spp": list(st.settings.strip_spp),
-            "scenes": [_study_scene(st, sc, gres[res_of[sc]]) for sc in st.scenes if sc in res_of],
-        })
-    warnings = [f"{_group_name(g)}: ground-truth variance is {100 * v['noise_floor']['fraction_of_smallest_mse']:.1f}% "
-                f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)"
-                for g, v in gres.items() if v["noise_floor"]["warning"]]
-    flagged = [(g, v["noise_floor"]) for g, v in gres.items() if v["noise_floor"]["warning"]]
+        if study.name in r.studies:
+            group_of.setdefault(r.scene, r.group)
+    settings, metric = study.settings, METRICS[study.metric]
+    return StudyResult(
+        name=study.name, description=study.description, experiment=study.experiment,
+        integrator=study.integrator, samplers=list(study.samplers), baseline=study.baseline,
+        metric=study.metric, metric_label=metric.label, mse_label=metric.mse_label,
+        spp=list(settings.spp), repetitions=settings.repetitions,
+        resolution=list(settings.resolution) if settings.resolution else None,
+        gt_spp=settings.gt_spp, seed=study.seed, strip_spp=list(settings.strip_spp),
+        scenes=[_scene_result(study, scene_ref, group_results[group_of[scene_ref]])
+                for scene_ref in study.scenes if scene_ref in group_of])
+
+
+# ---------------------------------------------------------------------------------------------------
+# The experiment
+# ---------------------------------------------------------------------------------------------------
+
+def _noise_floor_warnings(group_results: dict, log: Callable[[str], None]) -> list[str]:
+    flagged = [(g, v.noise_floor) for g, v in group_results.items() if v.noise_floor.warning]
     if flagged:
-        fr = [100 * nf["fraction_of_smallest_mse"] for _, nf in flagged]
-        log(f"warning: in {len(flagged)} of {len(gres)} scenes ({', '.join(g[0].label for g, _ in flagged)}) "
+        fr = [100 * nf.fraction_of_smallest_mse for _, nf in flagged]
+        log(f"warning: in {len(flagged)} of {len(group_results)} scenes "
+            f"({', '.join(g[0].label for g, _ in flagged)}) "
             f"the reference's own variance is {min(fr):.1f}-{max(fr):.1f}% of the smallest MSE measured "
             f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted from every MSE, but a larger "
             f"gt_spp (e.g. --profile full) lowers the floor")
-    fits = [(g, s, f) for g, v in gres.items() for per in v["slopes"].values() for s, f in per.items()]
-    chains = {
-        "fits": len(fits),
-        "converged": sum(1 for _, _, f in fits if f.get("converged")),
-        "not_converged": [f"{g[0].label}/{s}" for g, s, f in fits if f.get("ok") and not f.get("converged")],
-        "acceptance_fraction_range": [min((f["acceptance_fraction"] for *_, f in fits if f.get("ok")), default=float("nan")),
-                                      max((f["acceptance_fraction"] for *_, f in fits if f.get("ok")), default=float("nan"))],
-        "max_autocorr_time": max((max(f["autocorr_time"]) for *_, f in fits if f.get("ok")), default=float("nan")),
-    }
-    return {
-        "experiment": exp.name, "description": exp.description, "profile": exp.profile,
-        "studies": studies,
-        "noise_floor": {_group_name(g): v["noise_floor"] for g, v in gres.items()},
-        "warnings": warnings,
-        "chains": chains,
-    }
+    return [f"{group_name(g)}: ground-truth variance is {100 * nf.fraction_of_smallest_mse:.1f}% "
+            f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)" for g, nf in flagged]
+
+
+def _chains(group_results: dict) -> ChainDiagnostics:
+    fits = [(g, s, f) for g, v in group_results.items() for per in v.slopes.values() for s, f in per.items()]
+    ok = [f for _, _, f in fits if f.ok]
+    return ChainDiagnostics(
+        fits=len(fits), converged=sum(1 for _, _, f in fits if f.converged),
+        not_converged=[f"{g[0].label}/{s}" for g, s, f in fits if f.ok and not f.converged],
+        acceptance_fraction_range=[min((f.acceptance_fraction for f in ok), default=NAN),
+                                   max((f.acceptance_fraction for f in ok), default=NAN)],
+        max_autocorr_time=max((max(f.autocorr_time) for f in ok), default=NAN))
+
+
+def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[str], None]) -> Summary:
+    """The summary of a sweep: `gts` is the runner's ground-truth info per group (its `dir` read)."""
+    groups: dict = {}
+    for r in plan:
+        groups.setdefault(r.group, []).append(r)
+    by_name = {study.name: study for study in exp.studies}
+    metrics_of: dict = {}
+    for r in plan:
+        for name in r.studies:
+            metrics_of.setdefault(r.group, {})[by_name[name].metric] = None
+    group_results: dict = {}
+    fit_calls: list = []
+    for g, runs in groups.items():
+        group_results[g], calls = analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"],
+                                                tuple(metrics_of[g]))
+        fit_calls += [(g, metric, s, call) for metric, s, call in calls]
+    for (g, metric, s, _), fit in zip(fit_calls, pmap([call for *_, call in fit_calls])):
+        # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):
+        # the errors are heavy-tailed (rare, very bright samples), and so is every number built on them.
+        group_results[g].slopes[metric][s] = SlopeFit.of(fit, ERRATIC_SIGMA)
+    studies = [_study_result(study, plan, group_results) for study in exp.studies]
+    return Summary(
+        experiment=exp.name, description=exp.description, profile=exp.profile, studies=studies,
+        noise_floor={group_name(g): v.noise_floor for g, v in group_results.items()},
+        warnings=_noise_floor_warnings(group_results, log), chains=_chains(group_results),
+        ground_truth={group_name(g): {k: v for k, v in info.items() if k != "seeds"}
+                      for g, info in gts.items()})

@@ -25,7 +25,7 @@ import math
 import shutil
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -34,6 +34,7 @@ import numpy as np
 from drtlab.experiments.config import SceneRef
 from drtlab.experiments.paths import default_gt_root
 from drtlab.experiments.files import atomic_savez, atomic_write_json
+from drtlab.experiments.running_stats import RunningMoments
 from drtlab.kernels.imageio import write_exr
 from drtlab.experiments.seeds import gt_seed, short_hash
 
@@ -55,10 +56,6 @@ class GroundTruth:
     def variance(self) -> float:
         """Mean per-pixel variance of the reference: its additive contribution to every MSE."""
         return float(np.mean(np.square(self.stderr)))
-
-    @property
-    def resolution(self) -> tuple[int, int]:
-        return (int(self.mean.shape[1]), int(self.mean.shape[0]))
 
 
 def pending_samples(scene_ref: SceneRef, integrator: str, resolution, spp: int, batch_spp: int,
@@ -117,9 +114,7 @@ def _load_state(d: Path, key: dict):
 
 
 def _stderr(m2: np.ndarray, batches: int) -> np.ndarray:
-    if batches < 2:
-        return np.full_like(m2, np.inf)
-    return np.sqrt(m2 / (batches - 1) / batches)
+    return RunningMoments(batches, m2=m2).standard_error()
 
 
 def ensure_ground_truth(scene_ref: SceneRef, integrator: str, resolution, spp: int, batch_spp: int,
@@ -148,63 +143,77 @@ def ensure_ground_truth(scene_ref: SceneRef, integrator: str, resolution, spp: i
     else:
         have = 0
     need = max(math.ceil(spp / batch_spp), 2)
-    reused = state is not None and have >= need
-    if state is not None and not reused:
+    if state is not None and have >= need:
+        return _reuse(d, key, scene_ref, integrator, res, state, have, batch_spp, backend)
+    if state is not None:
         log(f"ground truth {d.name}: resuming at batch {have} of {need}")
-
-    if not reused:
-        d.mkdir(parents=True, exist_ok=True)
-        if state is None:
-            mean = m2 = None
-            seeds: list[int] = []
-            t_render = t_compile = t_wall = 0.0
-        else:
-            mean, m2 = state["mean"].astype(np.float64), state["m2"].astype(np.float64)
-            seeds = [int(s) for s in state["seeds"]]
-            t_render, t_compile = float(state["render_seconds"]), float(state["compile_seconds"])
-            t_wall = float(state["wall_seconds"])
-        bar = None
-        if progress and on_batch is None:
-            from tqdm import tqdm
-            bar = tqdm(total=need, initial=have, desc=f"ground truth {scene_ref.label}", unit="batch",
-                       file=sys.stderr, leave=False, dynamic_ncols=True)
-        try:
-            for b in range(have, need):
-                seed = gt_seed(scene_ref.key, integrator, res, b)
-                t0 = time.perf_counter()
-                r = backend.render(scene, spp=batch_spp, sampler=GT_SAMPLER, integrator=integrator,
-                                   seed=seed, res=res, threads=threads)
-                img = np.asarray(r.image, dtype=np.float64)
-                if img.shape != (res[1], res[0], 3):
-                    raise RuntimeError(f"renderer returned shape {img.shape}, expected {(res[1], res[0], 3)}")
-                # Welford update over batch means, float64.
-                n = b + 1
-                if mean is None:
-                    mean, m2 = img.copy(), np.zeros_like(img)
-                else:
-                    delta = img - mean
-                    mean += delta / n
-                    m2 += delta * (img - mean)
-                seeds.append(seed)
-                t_render += float(r.render_seconds)
-                t_compile += float(getattr(r, "compile_seconds", 0.0))
-                t_wall += time.perf_counter() - t0
-                atomic_savez(d / "gt.npz", key=np.array(short_hash(key, 32)),
-                             key_json=np.array(json.dumps(key, sort_keys=True)), mean=mean, m2=m2,
-                             stderr=_stderr(m2, n), batches=np.array(n), batch_spp=np.array(batch_spp),
-                             spp=np.array(n * batch_spp), seeds=np.array(seeds, dtype=np.uint32),
-                             render_seconds=np.array(t_render), compile_seconds=np.array(t_compile),
-                             wall_seconds=np.array(t_wall))
-                if bar is not None:
-                    bar.update(1)
-                if on_batch is not None:
-                    on_batch(batch_spp * res[0] * res[1])
-        finally:
+    d.mkdir(parents=True, exist_ok=True)
+    acc = _Accumulation() if state is None else _Accumulation.resume(state, have)
+    bar = None
+    if progress and on_batch is None:
+        from tqdm import tqdm
+        bar = tqdm(total=need, initial=have, desc=f"ground truth {scene_ref.label}", unit="batch",
+                   file=sys.stderr, leave=False, dynamic_ncols=True)
+    try:
+        for b in range(have, need):
+            seed = gt_seed(scene_ref.key, integrator, res, b)
+            t0 = time.perf_counter()
+            r = backend.render(scene, spp=batch_spp, sampler=GT_SAMPLER, integrator=integrator,
+                               seed=seed, res=res, threads=threads)
+            img = np.asarray(r.image, dtype=np.float64)
+            if img.shape != (res[1], res[0], 3):
+                raise RuntimeError(f"renderer returned shape {img.shape}, expected {(res[1], res[0], 3)}")
+            acc.add(img, seed, r, t0)
+            acc.save(d / "gt.npz", key, batch_spp)
             if bar is not None:
-                bar.close()
-        return _finalize(d, key, scene_ref, integrator, res, mean, m2, need, batch_spp, seeds,
-                         t_wall, t_render, t_compile, backend, reused=False)
+                bar.update(1)
+            if on_batch is not None:
+                on_batch(batch_spp * res[0] * res[1])
+    finally:
+        if bar is not None:
+            bar.close()
+    return _finalize(d, key, scene_ref, integrator, res, acc.moments.mean, acc.moments.m2, need,
+                     batch_spp, acc.seeds, acc.wall_seconds, acc.render_seconds, acc.compile_seconds,
+                     backend, reused=False)
 
+
+@dataclass
+class _Accumulation:
+    """A reference being accumulated: float64 Welford moments over batch means, seeds, timings."""
+    moments: RunningMoments = field(default_factory=RunningMoments)
+    seeds: list = field(default_factory=list)
+    render_seconds: float = 0.0
+    compile_seconds: float = 0.0
+    wall_seconds: float = 0.0
+
+    @classmethod
+    def resume(cls, state: dict, batches: int) -> "_Accumulation":
+        return cls(RunningMoments(batches, state["mean"].astype(np.float64), state["m2"].astype(np.float64)),
+                   [int(s) for s in state["seeds"]], float(state["render_seconds"]),
+                   float(state["compile_seconds"]), float(state["wall_seconds"]))
+
+    def add(self, img: np.ndarray, seed: int, result, t0: float) -> None:
+        """One batch's image (the render `result`, started at perf_counter() == t0)."""
+        self.moments.add(img)
+        self.seeds.append(seed)
+        self.render_seconds += float(result.render_seconds)
+        self.compile_seconds += float(getattr(result, "compile_seconds", 0.0))
+        self.wall_seconds += time.perf_counter() - t0
+
+    def save(self, path: Path, key: dict, batch_spp: int) -> None:
+        """The state after each batch, written atomically: a kill resumes at the next batch."""
+        m, n = self.moments, self.moments.n
+        atomic_savez(path, key=np.array(short_hash(key, 32)),
+                     key_json=np.array(json.dumps(key, sort_keys=True)), mean=m.mean, m2=m.m2,
+                     stderr=m.standard_error(), batches=np.array(n), batch_spp=np.array(batch_spp),
+                     spp=np.array(n * batch_spp), seeds=np.array(self.seeds, dtype=np.uint32),
+                     render_seconds=np.array(self.render_seconds),
+                     compile_seconds=np.array(self.compile_seconds),
+                     wall_seconds=np.array(self.wall_seconds))
+
+
+def _reuse(d, key, scene_ref, integrator, res, state, have, batch_spp, backend) -> GroundTruth:
+    """A stored reference with enough batches: read as is, or its final files finished first."""
     mean, m2 = state["mean"].astype(np.float64), state["m2"].astype(np.float64)
     try:
         manifest = json.loads((d / "manifest.json").read_text())

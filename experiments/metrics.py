@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from drtlab.experiments.running_stats import RunningMoments
+
 REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
 CI_LEVEL = 0.95
 
@@ -80,24 +82,8 @@ def mean_ci(values, level: float = CI_LEVEL) -> dict:
     return {"mean": m, "lo": m - h, "hi": m + h, "sd": sd, "n": n}
 
 
-class CellAccumulator:
+class CellAccumulator(RunningMoments):
     """Streams the repetitions of one cell (one image at a time) into per-pixel moments."""
-
-    def __init__(self):
-        self.n = 0
-        self.mean = None
-        self.m2 = None
-
-    def add(self, img: np.ndarray) -> None:
-        img = np.asarray(img, dtype=np.float64)
-        self.n += 1
-        if self.mean is None:
-            self.mean = img.copy()
-            self.m2 = np.zeros_like(img)
-            return
-        delta = img - self.mean
-        self.mean += delta / self.n
-        self.m2 += delta * (img - self.mean)
 
     def bias(self, gt: np.ndarray, gt_stderr: np.ndarray, mean_errors, level: float = CI_LEVEL) -> dict:
         """Bias of the estimator: mean image - GT, as a signed mean with its CI and a debiased RMS.
@@ -110,8 +96,7 @@ class CellAccumulator:
         """
         n, P = self.n, self.mean.size
         b = self.mean - gt
-        var = self.m2 / (n - 1) if n > 1 else np.full_like(self.mean, np.nan)
-        pix_var = float(np.mean(var))
+        pix_var = float(np.mean(self.variance()))
         se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
         gvar = float(np.mean(se2))
         ci = mean_ci(mean_errors, level)

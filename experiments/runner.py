@@ -1,39 +1,35 @@
-"""The sweep: ground truth, then every (scene, sampler, spp, repetition) run, resumable at run level.
+"""The sweep: ground truth, then every (scene, sampler, spp, repetition) run, resumable at run level;
+then the analysis, summary.json, the report and the manifest.
 
-Each finished run is two files under `<out>/runs/`, both written atomically (temp file + os.replace):
-`<run id>.npz` (the image, float32) and then `<run id>.json` (its record: seeds, metrics, timings).
-The JSON is the commit point: a run is done exactly when its JSON exists and its fingerprint (code
+Each finished run is two files under `<out>/runs/`, both written atomically (temp file + os.replace;
+see `run_store`): `<run id>.npz` (the image, float32) and then `<run id>.json` (its record: seeds,
+metrics, timings). The JSON is the commit point: a run is done exactly when its JSON exists and its fingerprint (code
 version, ground-truth key, scene hash) matches. `runs.csv` is regenerated from the records after every
 run, also atomically, in the plan's order, so a `kill -9` anywhere loses at most the run in flight,
 and can never leave a torn file or a duplicate row.
 """
 from __future__ import annotations
 
-import csv
-import io
-import json
 import shutil
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from drtlab.experiments import analysis, manifest, report
 from drtlab.experiments import groundtruth as gtmod
 from drtlab.experiments.config import Experiment, SceneRef
-from drtlab.experiments.files import atomic_savez, atomic_write_json, atomic_write_text
+from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.metrics import _lab, image_metrics
+from drtlab.experiments.results import ExperimentResult
+from drtlab.experiments.run_store import (load_records, load_run_image, save_record, save_run,
+                                          write_runs_csv)
 from drtlab.experiments.seeds import run_seed, short_hash
 
-CSV_COLUMNS = (
-    "run_id", "studies", "scene", "sampler", "integrator", "width", "height", "spp", "rep", "seed",
-    "rmse", "rmse_corrected", "mse", "mse_corrected", "gt_var", "relmse", "relmse_corrected", "mae",
-    "mean_error", "ciede2000", "render_seconds", "compile_seconds", "wall_seconds",
-    "samples_per_second", "gt_spp",
-)
 OUTPUT_NAMES = ("runs", "runs.csv", "summary.json", "report.md", "plots", "images", "manifest.json")
 
 
@@ -63,26 +59,26 @@ def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
     """Every run of the experiment in sweep order (scene-major), each listed once."""
     res_cache: dict = {}
     plan: dict[str, RunSpec] = {}
-    for st in exp.studies:
-        s = st.settings
-        for sc in st.scenes:
-            if (sc, s.resolution) not in res_cache:
-                if s.resolution:
-                    res_cache[(sc, s.resolution)] = tuple(s.resolution)
+    for study in exp.studies:
+        settings = study.settings
+        for scene_ref in study.scenes:
+            if (scene_ref, settings.resolution) not in res_cache:
+                if settings.resolution:
+                    res_cache[(scene_ref, settings.resolution)] = tuple(settings.resolution)
                 else:
-                    scene = backend.load_scene(sc.name, sc.overrides_dict or None)
-                    res_cache[(sc, s.resolution)] = (int(scene.width), int(scene.height))
-            res = res_cache[(sc, s.resolution)]
-            for sampler in st.samplers:
-                for spp in s.spp:
-                    for rep in range(s.repetitions):
-                        seed = run_seed(st.seed, sc.key, sampler, st.integrator, res, spp, rep)
-                        r = RunSpec(sc, sampler, st.integrator, res, spp, rep, seed, (st.name,))
+                    scene = backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
+                    res_cache[(scene_ref, settings.resolution)] = (int(scene.width), int(scene.height))
+            res = res_cache[(scene_ref, settings.resolution)]
+            for sampler in study.samplers:
+                for spp in settings.spp:
+                    for rep in range(settings.repetitions):
+                        seed = run_seed(study.seed, scene_ref.key, sampler, study.integrator, res, spp, rep)
+                        r = RunSpec(scene_ref, sampler, study.integrator, res, spp, rep, seed, (study.name,))
                         old = plan.get(r.run_id)
                         if old is None:
                             plan[r.run_id] = r
-                        elif st.name not in old.studies:
-                            plan[r.run_id] = replace(old, studies=old.studies + (st.name,))
+                        elif study.name not in old.studies:
+                            plan[r.run_id] = replace(old, studies=old.studies + (study.name,))
     # Group by scene so that one ground truth is in memory at a time.
     runs = list(plan.values())
     order = {}
@@ -93,62 +89,19 @@ def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
 
 def gt_requirements(exp: Experiment, plan: list[RunSpec]) -> dict:
     """(scene, integrator, resolution) -> (gt_spp, gt_batch_spp): the most any study asks for."""
-    by_name = {st.name: st for st in exp.studies}
+    by_name = {study.name: study for study in exp.studies}
     req: dict = {}
     for r in plan:
         for name in r.studies:
-            s = by_name[name].settings
+            settings = by_name[name].settings
             prev = req.get(r.group)
-            if prev is None or s.gt_spp > prev[0]:
-                req[r.group] = (s.gt_spp, s.gt_batch_spp)
+            if prev is None or settings.gt_spp > prev[0]:
+                req[r.group] = (settings.gt_spp, settings.gt_batch_spp)
     return req
 
 
 def _fingerprint(r: RunSpec, gt, code_version: str) -> str:
     return short_hash({"run": r.run_id, "gt_key": gt.manifest.get("key"), "code": code_version}, 16)
-
-
-def _record_row(rec: dict, studies: tuple[str, ...]) -> dict:
-    row = {k: rec.get(k, "") for k in CSV_COLUMNS}
-    row["studies"] = ";".join(studies)
-    return row
-
-
-def write_runs_csv(path: Path, plan: list[RunSpec], records: dict) -> int:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
-    w.writeheader()
-    n = 0
-    for r in plan:
-        rec = records.get(r.run_id)
-        if rec is not None:
-            row = _record_row(rec, r.studies)
-            for k, v in row.items():
-                if isinstance(v, float):
-                    row[k] = repr(v)
-            w.writerow(row)
-            n += 1
-    atomic_write_text(path, buf.getvalue())
-    return n
-
-
-def load_records(runs_dir: Path) -> dict:
-    out = {}
-    if not runs_dir.is_dir():
-        return out
-    for f in runs_dir.glob("*.json"):
-        try:
-            rec = json.loads(f.read_text())
-        except (OSError, ValueError):
-            continue                       # cannot happen with atomic writes; treat as not done
-        if rec.get("run_id") == f.stem and (runs_dir / f"{f.stem}.npz").is_file():
-            out[f.stem] = rec
-    return out
-
-
-def load_run_image(out_dir: Path, run_id: str) -> np.ndarray:
-    with np.load(Path(out_dir) / "runs" / f"{run_id}.npz", allow_pickle=False) as z:
-        return z["image"].astype(np.float64)
 
 
 def _lock(out_dir: Path):
@@ -213,8 +166,10 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                    backend=None, threads: int | None = None, fresh: bool = False,
                    progress: bool = True, clock: Callable[[], float] = time.perf_counter,
                    log: Callable[[str], None] | None = None, analyze: bool = True,
-                   argv: list[str] | None = None) -> dict:
-    """Run (or resume) the sweep, then analyse it and write every output. Returns the summary."""
+                   argv: list[str] | None = None) -> ExperimentResult:
+    """Run (or resume) the sweep, then analyse it and write every output. Returns the run counts,
+    the wall time and (with `analyze`) the typed summary; `result["studies"]` reads summary.json's
+    content."""
     if backend is None:
         from drtlab.experiments.backend import default_backend
         backend = default_backend()
@@ -231,110 +186,134 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         if fresh:
             _clean_outputs(out_dir)
         (out_dir / "runs").mkdir(exist_ok=True)
-        return _sweep_and_report(exp, plan, gt_req, out_dir, gt_root, backend, threads, progress,
-                                 clock, log, analyze, argv, t_start)
+        _remove_orphaned_temps(out_dir)
+        sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
+                       records=load_records(out_dir / "runs"))
+        sweep.run(gt_req, progress)
+        return _analyse_and_report(exp, sweep, analyze, argv, t_start)
     finally:
         lock.close()
 
 
-def _sweep_and_report(exp, plan, gt_req, out_dir, gt_root, backend, threads, progress, clock, log,
-                      analyze, argv, t_start) -> dict:
-    runs_dir = out_dir / "runs"
-    _remove_orphaned_temps(out_dir)
-    records = load_records(runs_dir)
+def _reference_info(gt) -> dict:
+    """What the summary and the manifest record of a group's ground truth."""
+    return {"dir": str(gt.directory), "spp": gt.spp, "batches": gt.batches, "variance": gt.variance,
+            "reused": gt.reused, "key": gt.manifest.get("key"),
+            "wall_seconds": gt.manifest.get("wall_seconds"),
+            "compile_seconds": gt.manifest.get("compile_seconds"), "seeds": gt.manifest.get("seeds")}
 
-    # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
-    gt_pending = {g: gtmod.pending_samples(g[0], g[1], g[2], req[0], req[1], backend, gt_root)
-                  for g, req in gt_req.items()}
-    candidates = [r for r in plan if r.run_id not in records]
-    total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
-    bar = _Progress(total, len(candidates), progress)
-    stats = {"runs_planned": len(plan), "runs_new": 0, "runs_reused": 0, "runs_refreshed": 0}
-    gts: dict = {}
-    try:
-        groups: dict = {}
-        for r in plan:
-            groups.setdefault(r.group, []).append(r)
-        for g, runs in groups.items():
-            sc, integ, res = g
-            gt_spp, gt_batch = gt_req[g]
-            gt = gtmod.ensure_ground_truth(
-                sc, integ, res, gt_spp, gt_batch, backend, gt_root, threads=threads,
-                progress=False, log=log,
-                on_batch=lambda n, lab=sc.label: bar.update(n, f"ground truth {lab}"))
-            gts[g] = {"dir": str(gt.directory), "spp": gt.spp, "batches": gt.batches,
-                      "variance": gt.variance, "reused": gt.reused, "key": gt.manifest.get("key"),
-                      "wall_seconds": gt.manifest.get("wall_seconds"),
-                      "compile_seconds": gt.manifest.get("compile_seconds"),
-                      "seeds": gt.manifest.get("seeds")}
-            gt_lab = None
-            scene_obj = None
-            for r in runs:
-                fp = _fingerprint(r, gt, backend.code_version)
-                rec = records.get(r.run_id)
-                if rec is not None and rec.get("fingerprint") == fp:
-                    if rec.get("gt_spp") == gt.spp:
-                        stats["runs_reused"] += 1
-                        continue
-                    # Same render, better reference: recompute the metrics, keep the timings.
-                    if gt_lab is None:
-                        gt_lab = _lab(gt.mean)
-                    img = load_run_image(out_dir, r.run_id)
-                    rec.update(image_metrics(img, gt.mean, gt.stderr, gt_lab), gt_spp=gt.spp)
-                    atomic_write_json(runs_dir / f"{r.run_id}.json", rec)
-                    stats["runs_refreshed"] += 1
+
+def _run_record(r: RunSpec, fingerprint: str, img: np.ndarray, result, wall: float, gt,
+                metrics: dict, code_version: str) -> dict:
+    return {
+        "run_id": r.run_id, "fingerprint": fingerprint,
+        "scene": r.scene.label, "scene_key": r.scene.key, "sampler": r.sampler,
+        "integrator": r.integrator, "width": r.resolution[0], "height": r.resolution[1],
+        "spp": r.spp, "rep": r.rep, "seed": r.seed,
+        **metrics,
+        "render_seconds": float(result.render_seconds),
+        "compile_seconds": float(getattr(result, "compile_seconds", 0.0)),
+        "wall_seconds": float(wall),
+        "samples_per_second": float(getattr(result, "samples_per_second", 0.0)
+                                    or (r.spp * img.shape[0] * img.shape[1]
+                                        / max(float(result.render_seconds), 1e-12))),
+        "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
+        "code_version": code_version,
+    }
+
+
+@dataclass
+class _Sweep:
+    """The runs of a plan, group by group (one ground truth in memory at a time): each run reused,
+    refreshed (same render, better reference: new metrics, same timings) or rendered."""
+    plan: list[RunSpec]
+    out_dir: Path
+    gt_root: Path
+    backend: object
+    threads: int | None
+    clock: Callable[[], float]
+    log: Callable[[str], None]
+    records: dict                             # run id -> record, of the runs on disk
+    gts: dict = field(default_factory=dict)   # group -> _reference_info
+    stats: dict = field(default_factory=dict)
+    bar: _Progress | None = None
+
+    def run(self, gt_req: dict, progress: bool) -> None:
+        # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
+        gt_pending = {g: gtmod.pending_samples(g[0], g[1], g[2], req[0], req[1], self.backend, self.gt_root)
+                      for g, req in gt_req.items()}
+        candidates = [r for r in self.plan if r.run_id not in self.records]
+        total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
+        self.bar = _Progress(total, len(candidates), progress)
+        self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0, "runs_refreshed": 0}
+        try:
+            groups: dict = {}
+            for r in self.plan:
+                groups.setdefault(r.group, []).append(r)
+            for g, runs in groups.items():
+                self._group(g, runs, *gt_req[g])
+        finally:
+            self.bar.close()
+
+    def _group(self, g, runs: list[RunSpec], gt_spp: int, gt_batch: int) -> None:
+        scene_ref, integrator, res = g
+        gt = gtmod.ensure_ground_truth(
+            scene_ref, integrator, res, gt_spp, gt_batch, self.backend, self.gt_root,
+            threads=self.threads, progress=False, log=self.log,
+            on_batch=lambda n, lab=scene_ref.label: self.bar.update(n, f"ground truth {lab}"))
+        self.gts[g] = _reference_info(gt)
+        gt_lab = None
+        scene = None
+        for r in runs:
+            fp = _fingerprint(r, gt, self.backend.code_version)
+            rec = self.records.get(r.run_id)
+            if rec is not None and rec.get("fingerprint") == fp:
+                if rec.get("gt_spp") == gt.spp:
+                    self.stats["runs_reused"] += 1
                     continue
-                if scene_obj is None:
-                    scene_obj = backend.load_scene(sc.name, sc.overrides_dict or None)
+                # Same render, better reference: recompute the metrics, keep the timings.
                 if gt_lab is None:
                     gt_lab = _lab(gt.mean)
-                t0 = clock()
-                res_ = backend.render(scene_obj, spp=r.spp, sampler=r.sampler, integrator=r.integrator,
-                                      seed=r.seed, res=r.resolution, threads=threads)
-                wall = clock() - t0
-                img = np.asarray(res_.image, dtype=np.float64)
-                m = image_metrics(img, gt.mean, gt.stderr, gt_lab)
-                rec = {
-                    "run_id": r.run_id, "fingerprint": fp,
-                    "scene": r.scene.label, "scene_key": r.scene.key, "sampler": r.sampler,
-                    "integrator": r.integrator, "width": r.resolution[0], "height": r.resolution[1],
-                    "spp": r.spp, "rep": r.rep, "seed": r.seed,
-                    **m,
-                    "render_seconds": float(res_.render_seconds),
-                    "compile_seconds": float(getattr(res_, "compile_seconds", 0.0)),
-                    "wall_seconds": float(wall),
-                    "samples_per_second": float(getattr(res_, "samples_per_second", 0.0)
-                                                or (r.spp * img.shape[0] * img.shape[1]
-                                                    / max(float(res_.render_seconds), 1e-12))),
-                    "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
-                    "code_version": backend.code_version,
-                }
-                atomic_savez(runs_dir / f"{r.run_id}.npz", image=img.astype(np.float32))
-                atomic_write_json(runs_dir / f"{r.run_id}.json", rec)       # the commit point
-                records[r.run_id] = rec
-                write_runs_csv(out_dir / "runs.csv", plan, records)
-                stats["runs_new"] += 1
-                bar.update(r.spp * r.resolution[0] * r.resolution[1],
-                           f"{r.scene.label} {r.sampler} {r.spp}spp", run_done=True)
-    finally:
-        bar.close()
+                img = load_run_image(self.out_dir, r.run_id)
+                rec.update(image_metrics(img, gt.mean, gt.stderr, gt_lab), gt_spp=gt.spp)
+                save_record(self.out_dir / "runs", r.run_id, rec)
+                self.stats["runs_refreshed"] += 1
+                continue
+            if scene is None:
+                scene = self.backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
+            if gt_lab is None:
+                gt_lab = _lab(gt.mean)
+            self._render(r, scene, gt, gt_lab, fp)
 
+    def _render(self, r: RunSpec, scene, gt, gt_lab, fingerprint: str) -> None:
+        t0 = self.clock()
+        result = self.backend.render(scene, spp=r.spp, sampler=r.sampler, integrator=r.integrator,
+                                     seed=r.seed, res=r.resolution, threads=self.threads)
+        wall = self.clock() - t0
+        img = np.asarray(result.image, dtype=np.float64)
+        metrics = image_metrics(img, gt.mean, gt.stderr, gt_lab)
+        rec = _run_record(r, fingerprint, img, result, wall, gt, metrics, self.backend.code_version)
+        save_run(self.out_dir / "runs", r.run_id, img, rec)          # the record is the commit point
+        self.records[r.run_id] = rec
+        write_runs_csv(self.out_dir / "runs.csv", self.plan, self.records)
+        self.stats["runs_new"] += 1
+        self.bar.update(r.spp * r.resolution[0] * r.resolution[1],
+                        f"{r.scene.label} {r.sampler} {r.spp}spp", run_done=True)
+
+
+def _analyse_and_report(exp, sweep: _Sweep, analyze: bool, argv, t_start: float) -> ExperimentResult:
+    out_dir, plan = sweep.out_dir, sweep.plan
     # Only the plan's runs count; stale records (other code version, other plan) stay on disk unused.
     plan_ids = {r.run_id for r in plan}
-    records = {k: v for k, v in records.items() if k in plan_ids}
-    n_rows = write_runs_csv(out_dir / "runs.csv", plan, records)
-    stats["rows"] = n_rows
-    summary: dict = {}
+    records = {k: v for k, v in sweep.records.items() if k in plan_ids}
+    sweep.stats["rows"] = write_runs_csv(out_dir / "runs.csv", plan, records)
+    summary = None
     if analyze:
-        from drtlab.experiments import analysis, manifest, report
-        summary = analysis.analyze(exp, plan, records, out_dir, gts, log=log)
-        summary["ground_truth"] = {f"{g[0].key}__{g[1]}__{g[2][0]}x{g[2][1]}":
-                                   {k: v for k, v in info.items() if k != "seeds"}
-                                   for g, info in gts.items()}
-        atomic_write_json(out_dir / "summary.json", summary)
-        report.write_report(exp, summary, plan, records, out_dir, gts)
-        wall = time.time() - t_start
-        manifest.write_manifest(out_dir, exp, backend, plan, records, gts, stats, wall, argv)
-        summary["_stats"] = stats
-        summary["_wall_seconds"] = wall
-    return summary
+        summary = analysis.analyze(exp, plan, records, out_dir, sweep.gts, log=sweep.log)
+        atomic_write_json(out_dir / "summary.json", summary.to_json())
+        report.write_report(exp, summary, plan, records, out_dir, sweep.gts)
+    wall = time.time() - t_start
+    if analyze:
+        manifest.write_manifest(out_dir, exp, sweep.backend, plan, records, sweep.gts, sweep.stats,
+                                wall, argv)
+    return ExperimentResult(stats=sweep.stats, wall_seconds=wall, summary=summary)

@@ -15,7 +15,8 @@ import pytest
 
 from drtlab.experiments.config import load_experiment
 from fakes import fake_backend
-from drtlab.experiments.runner import CSV_COLUMNS, plan_runs, run_experiment
+from drtlab.experiments.run_store import CSV_COLUMNS
+from drtlab.experiments.runner import plan_runs, run_experiment
 
 TINY = """
 [experiment]

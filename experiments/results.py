@@ -1,0 +1,325 @@
+"""What the analysis hands to the report, to summary.json and to the CLI: typed results.
+
+`analysis` builds these; `report` and `figures` read them; `Summary.to_json()` is the content of
+summary.json (the key names and their order are part of the file's format: change them in one place,
+here). Every `to_json()` returns plain Python values (non-finite floats stay floats; the JSON writer
+turns them into null).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, is_dataclass
+
+
+def to_json(o):
+    """A result (dataclass, dict, list, tuple or plain value) as plain JSON-ready Python values."""
+    if hasattr(o, "to_json"):
+        return o.to_json()
+    if is_dataclass(o):
+        return {f.name: to_json(getattr(o, f.name)) for f in fields(o)}
+    if isinstance(o, dict):
+        return {k: to_json(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [to_json(v) for v in o]
+    return o
+
+
+def _fields_json(o, skip_none: bool = False, **special) -> dict:
+    """A dataclass's fields in order; `special[name](value)` where given, else `to_json(value)`."""
+    out = {}
+    for f in fields(o):
+        v = getattr(o, f.name)
+        if not (skip_none and v is None):
+            out[f.name] = special[f.name](v) if f.name in special else to_json(v)
+    return out
+
+
+@dataclass(frozen=True)
+class Metric:
+    """The error a study ranks samplers by, and the cell fields that hold it."""
+    error: str            # Cell field: the error (an RMSE-like interval)
+    mse: str              # Cell field: the squared error it is the root of
+    efficiency: str       # Cell field: 1 / (squared error x seconds)
+    label: str
+    mse_label: str
+
+
+# "mse": RMSE over pixels and channels (noise floor removed). "relmse": relative MSE
+# (x - y)^2 / (y^2 + 0.01), for scenes whose RMSE is dominated by a few very bright pixels (directly
+# seen small lights), reported as its square root ("relative RMSE").
+METRICS = {
+    "mse": Metric("rmse_of_mean_mse", "mse_corrected", "efficiency", "RMSE", "MSE"),
+    "relmse": Metric("rrmse_of_mean_relmse", "relmse_corrected", "efficiency_relmse",
+                     "relative RMSE (√relMSE)", "relMSE"),
+}
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A mean with its 95% interval over repetitions (`sd` only where it was measured)."""
+    mean: float
+    lo: float
+    hi: float
+    n: int
+    sd: float | None = None
+
+    @classmethod
+    def of(cls, ci: dict) -> "Interval":
+        """From `metrics.mean_ci`'s dict."""
+        return cls(ci["mean"], ci["lo"], ci["hi"], ci["n"], ci.get("sd"))
+
+    def to_json(self) -> dict:
+        out = {"mean": self.mean, "lo": self.lo, "hi": self.hi}
+        if self.sd is not None:
+            out["sd"] = self.sd
+        out["n"] = self.n
+        return out
+
+
+@dataclass(frozen=True)
+class Bias:
+    """Mean image - GT of a cell: signed mean with its 95% CI, debiased RMS, and the per-pixel
+    variance over the repetitions."""
+    signed: float
+    lo: float
+    hi: float
+    rms: float
+    pixel_variance: float
+    significant: bool
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One (scene, sampler, spp) over its repetitions: every metric's mean [95% CI], and more."""
+    sampler: str
+    spp: int
+    n: int
+    rmse: Interval
+    rmse_corrected: Interval
+    mse: Interval
+    mse_corrected: Interval
+    relmse: Interval
+    relmse_corrected: Interval
+    mae: Interval
+    ciede2000: Interval
+    mean_error: Interval
+    render_seconds: Interval
+    compile_seconds: Interval
+    wall_seconds: Interval
+    rmse_of_mean_mse: Interval          # sqrt of the corrected-MSE interval
+    rrmse_of_mean_relmse: Interval      # sqrt of the corrected-relMSE interval
+    bias: Bias
+    seconds: float                      # median render seconds of the repetitions
+    efficiency: float                   # 1 / (corrected MSE x seconds)
+    efficiency_relmse: float            # 1 / (corrected relMSE x seconds)
+
+    def error(self, metric: str) -> Interval:
+        return getattr(self, METRICS[metric].error)
+
+    def error_mse(self, metric: str) -> Interval:
+        return getattr(self, METRICS[metric].mse)
+
+    def efficiency_of(self, metric: str) -> float:
+        return getattr(self, METRICS[metric].efficiency)
+
+    def to_json(self, metric: str | None = None) -> dict:
+        """With `metric` (a study's), also the study's view of it: `err`, `err_mse` and `eff`."""
+        out = {}
+        for f in fields(self):
+            out[f.name] = to_json(getattr(self, f.name))
+            if f.name == "bias":
+                out["pixel_variance"] = self.bias.pixel_variance
+        if metric is not None:
+            out.update(err=self.error(metric).to_json(), err_mse=self.error_mse(metric).to_json(),
+                       eff=self.efficiency_of(metric))
+        return out
+
+
+@dataclass(frozen=True)
+class FitLine:
+    """The fitted line and its credible band on a grid of sample counts (for plots)."""
+    n: list
+    median: list
+    lo: list
+    hi: list
+
+
+@dataclass(frozen=True)
+class SlopeFit:
+    """A convergence-slope fit (`slopes.fit_slope`): log error = a + b log N + noise. Without `ok`,
+    only the point counts and `reason` are set."""
+    n_points: int
+    dropped: int
+    level: float
+    ok: bool
+    reason: str | None = None
+    slope: float | None = None
+    slope_lo: float | None = None
+    slope_hi: float | None = None
+    intercept: float | None = None
+    intercept_lo: float | None = None
+    intercept_hi: float | None = None
+    sigma: float | None = None
+    ols_slope: float | None = None
+    acceptance_fraction: float | None = None
+    autocorr_time: list | None = None
+    steps: int | None = None
+    burn: int | None = None
+    walkers: int | None = None
+    effective_samples: float | None = None
+    converged: bool | None = None
+    seed: int | None = None
+    line: FitLine | None = None
+    erratic: bool = False               # log-error scatter far above pixel noise: heavy tails
+
+    @classmethod
+    def of(cls, fit: dict, erratic_sigma: float) -> "SlopeFit":
+        kw = dict(fit)
+        if kw.get("line") is not None:
+            kw["line"] = FitLine(**kw["line"])
+        kw["erratic"] = bool(fit.get("ok") and fit["sigma"] > erratic_sigma)
+        return cls(**kw)
+
+    def to_json(self) -> dict:
+        return _fields_json(self, skip_none=True)
+
+
+@dataclass(frozen=True)
+class TimeToTarget:
+    """Seconds to reach the target error; `how`: interpolated, extrapolated, at_most, not reached,
+    no data (see `analysis.time_to_target`)."""
+    seconds: float
+    how: str
+
+
+@dataclass(frozen=True)
+class Speed:
+    """Speed against error: each sampler's time to a common target, and the speed-up that gives."""
+    target_rmse: float
+    target_auto: bool                   # the target is the lowest error every sampler reached
+    time_to_target: dict[str, TimeToTarget]
+    speedup_vs_baseline: dict[str, float]
+
+
+@dataclass(frozen=True)
+class RatioCI:
+    ratio: float
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True)
+class BaselineComparison:
+    """A sampler against the study's baseline at one spp."""
+    spp: int
+    mse_ratio: RatioCI                  # baseline's squared error / this sampler's
+    efficiency_ratio: float
+
+
+@dataclass(frozen=True)
+class TopEfficiency:
+    """Efficiency at the largest spp a sampler has, and relative to the baseline's."""
+    spp: int
+    efficiency: float
+    relative: float
+
+
+@dataclass(frozen=True)
+class NoiseFloor:
+    """The reference's own variance against the smallest MSE measured in its scene."""
+    gt_dir: str
+    gt_spp: int
+    gt_variance: float
+    smallest_mse: float
+    fraction_of_smallest_mse: float
+    warning: bool
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """One scene of one study: its cells (the study's samplers and ladder), fits and comparisons."""
+    scene: str                          # label
+    scene_name: str
+    overrides: dict
+    cells: list[Cell]
+    slopes: dict[str, SlopeFit]         # per sampler, fitted on the study's metric
+    noise_floor: NoiseFloor
+    speed: Speed
+    vs_baseline: dict[str, list[BaselineComparison]]
+    efficiency: dict[str, TopEfficiency]
+
+    def fit(self, sampler: str) -> SlopeFit | None:
+        """The sampler's slope fit when it succeeded."""
+        f = self.slopes.get(sampler)
+        return f if f is not None and f.ok else None
+
+    def cell(self, sampler: str, spp: int) -> Cell | None:
+        return next((c for c in self.cells if c.sampler == sampler and c.spp == spp), None)
+
+    def comparison(self, sampler: str, spp: int) -> BaselineComparison | None:
+        return next((x for x in self.vs_baseline.get(sampler, []) if x.spp == spp), None)
+
+    def to_json(self, metric: str) -> dict:
+        return _fields_json(self, cells=lambda cells: [c.to_json(metric) for c in cells])
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    name: str
+    description: str
+    experiment: str
+    integrator: str
+    samplers: list[str]
+    baseline: str
+    metric: str                         # key of METRICS
+    metric_label: str
+    mse_label: str
+    spp: list[int]
+    repetitions: int
+    resolution: list[int] | None
+    gt_spp: int
+    seed: int
+    strip_spp: list[int]
+    scenes: list[SceneResult]
+
+    def to_json(self) -> dict:
+        return _fields_json(self, scenes=lambda scenes: [scene.to_json(self.metric) for scene in scenes])
+
+
+@dataclass(frozen=True)
+class ChainDiagnostics:
+    """The emcee chains of every slope fit of the experiment."""
+    fits: int
+    converged: int
+    not_converged: list[str]
+    acceptance_fraction_range: list[float]
+    max_autocorr_time: float
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Everything summary.json holds."""
+    experiment: str
+    description: str
+    profile: str
+    studies: list[StudyResult]
+    noise_floor: dict[str, NoiseFloor]  # per (scene, integrator, resolution) group name
+    warnings: list[str]
+    chains: ChainDiagnostics
+    ground_truth: dict[str, dict] = field(default_factory=dict)   # the runner's reference info
+
+    def to_json(self) -> dict:
+        return _fields_json(self)
+
+
+@dataclass
+class ExperimentResult:
+    """What `run_experiment` returns: the run counts, the wall time, and the summary (None when the
+    sweep ran without analysis). Indexing it reads summary.json's content: `result["studies"]`."""
+    stats: dict                         # runs_planned, runs_new, runs_reused, runs_refreshed, rows
+    wall_seconds: float
+    summary: Summary | None = None
+
+    def __getitem__(self, key: str):
+        if self.summary is None:
+            raise KeyError(key)
+        return self.summary.to_json()[key]
