@@ -4,13 +4,23 @@ Every strategy is an unbiased estimator of the same image (for a given integrato
 in variance. Fields are compile-time switches read by the kernel factory.
     direction   "uniform": uniform hemisphere (sphere for transmissive lobes); "lobe": cosine for
                 diffuse, the Phong lobe for glossy reflection/transmission, Fresnel for the lobe choice
-    light       "area": uniform area on the chosen light; "solid_angle": uniform in the cone a sphere
-                light subtends (rectangles stay area-sampled); None: no light sampling
-    light_pick  "uniform" over lights or "power" (proportional to emitted power)
-    combine     "nee": emitters count only through light samples after a non-delta bounce;
-                "bsdf": only through scattered rays; "mis": both, power heuristic (Veach 1995)
+    light       how lights are sampled (LightSampling), or None: no light sampling
+A strategy's `combine` follows from `light`: "nee" (light samples without MIS): emitters count only
+through light samples after a non-delta bounce; "bsdf" (no light sampling): only through scattered
+rays; "mis" (light samples with MIS): both, power heuristic (Veach 1995).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class LightSampling:
+    """Next-event estimation: which light, which point on it, and whether MIS weights it."""
+    point: str          # "area": uniform area on the chosen light; "solid_angle": uniform in the
+                        # cone a sphere light subtends (rectangles stay area-sampled)
+    pick: str           # "uniform" over lights or "power" (proportional to emitted power)
+    mis: bool = False   # combine with scattered-ray hits by the power heuristic
 
 
 @dataclass(frozen=True)
@@ -18,18 +28,43 @@ class Strategy:
     name: str
     description: str
     direction: str
-    light: str | None
-    light_pick: str
-    combine: str
+    light: LightSampling | None = None
+
+    @property
+    def combine(self) -> str:
+        if self.light is None:
+            return "bsdf"
+        return "mis" if self.light.mis else "nee"
+
+    @property
+    def lobe(self) -> bool:
+        return self.direction == "lobe"
+
+    @property
+    def solid_angle(self) -> bool:
+        return self.light is not None and self.light.point == "solid_angle"
+
+    @property
+    def power_pick(self) -> bool:
+        return self.light is not None and self.light.pick == "power"
+
+    @property
+    def mis(self) -> bool:
+        return self.combine == "mis"
+
+    @property
+    def counts_hits(self) -> bool:
+        """Emitters found by scattered rays after a non-delta bounce count (MIS-weighted or not)."""
+        return self.combine in ("bsdf", "mis")
 
 
 STRATEGIES = {s.name: s for s in (
     Strategy("uniform", "uniform directions and uniform light area, next-event estimation",
-             "uniform", "area", "uniform", "nee"),
+             "uniform", LightSampling("area", "uniform")),
     Strategy("importance", "BSDF-lobe and solid-angle light sampling combined by MIS (power heuristic)",
-             "lobe", "solid_angle", "power", "mis"),
+             "lobe", LightSampling("solid_angle", "power", mis=True)),
     Strategy("light", "light sampling only (solid angle), BSDF-lobe continuation",
-             "lobe", "solid_angle", "power", "nee"),
+             "lobe", LightSampling("solid_angle", "power")),
     Strategy("bsdf", "BSDF-lobe sampling only, emitters found by scattered rays",
-             "lobe", None, "power", "bsdf"),
+             "lobe", None),
 )}

@@ -1,17 +1,17 @@
-"""The scene as the kernels see it (SceneData, uploaded by render.upload) and the feature set that
-selects a kernel variant."""
-from dataclasses import dataclass
-from types import SimpleNamespace
+"""The device copy of the scene: the SceneData struct the kernels read, and `upload` that fills it."""
+import math
+from collections.abc import Callable
+from functools import partial
 
+import numpy as np
 import warp as wp
 
-# Faults a test may compile into a kernel to check that a statistical test rejects a wrong estimator:
-#   drop_cosine     diffuse/glossy f|cos| loses its cosine (light samples and scattered rays)
-#   pdf_high_10pct  scattered rays are weighted as if their pdf were 10% higher
-#   rr_no_reweight  Russian roulette kills paths without dividing survivors by their probability
-#   light_jacobian  area light samples convert to solid angle without the cosine at the light
-FAULTS = ("drop_cosine", "pdf_high_10pct", "rr_no_reweight", "light_jacobian")
+from drtlab.kernels.colour import luminance
+from drtlab.kernels.features import material_kinds, splits_for
+from drtlab.kernels.scene import MATERIAL_CODE, Scene
+from drtlab.kernels.warp_runtime import warp as initialised_warp
 
+# Shape kinds (Hit.kind, SceneData.light_shape_kind).
 SPHERE = wp.constant(0)
 QUAD = wp.constant(1)
 
@@ -70,46 +70,124 @@ class SceneData:
     whitted_codes: int
 
 
-@dataclass(frozen=True)
-class Features:
-    """What a scene uses; one compiled kernel per distinct value (with the sampler)."""
-    integrator: str
-    lens: bool
-    motion: bool
-    spheres: bool
-    quads: bool
-    kinds: frozenset
-    checker: bool
-    area_lights: bool
-    point_lights: bool
-    dir_lights: bool
-    roulette: bool
-    background: bool
-    # Deliberately wrong estimators, compiled in only for the tests' negative controls (see FAULTS).
-    faults: frozenset = frozenset()
-
-    def key(self) -> str:
-        flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
-                             "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
-        key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
-        return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
+def _f3(v) -> tuple:
+    return tuple(float(x) for x in np.asarray(v, dtype=np.float64).reshape(3))
 
 
-def make_motion(motion: bool) -> SimpleNamespace:
-    """Shape positions at shutter offset dt; without motion the velocity is never read."""
+def _scene_extent(scene: Scene) -> float:
+    pts = [scene.camera.position]
+    for s in scene.shapes:
+        if s.kind == "sphere":
+            pts += [s.center - s.radius, s.center + s.radius]
+        else:
+            pts += [s.origin, s.origin + s.edge_u + s.edge_v, s.origin + s.edge_u,
+                    s.origin + s.edge_v]
+    pts = np.array(pts, dtype=np.float64)
+    return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) or 1.0
 
-    @wp.func
-    def sphere_center(sd: SceneData, i: int, dt: float) -> wp.vec3:
-        c = sd.sph_center[i]
-        if wp.static(motion):
-            c = c + sd.sph_velocity[i] * dt
-        return c
 
-    @wp.func
-    def quad_origin(sd: SceneData, i: int, dt: float) -> wp.vec3:
-        q0 = sd.quad_origin[i]
-        if wp.static(motion):
-            q0 = q0 + sd.quad_velocity[i] * dt
-        return q0
+def _device_array(values, dtype, empty_shape, device: str):
+    """`values` as a Warp array on `device`; an empty list becomes zeros of `empty_shape`."""
+    a = np.asarray(values, dtype=np.int32 if dtype is int else np.float32)
+    if a.size == 0:
+        a = np.zeros(empty_shape, dtype=a.dtype)
+    return wp.array(a, dtype=dtype, device=device)
 
-    return SimpleNamespace(sphere_center=sphere_center, quad_origin=quad_origin)
+
+def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Callable) -> None:
+    light_of = {id(scene.shapes[i]): li for li, i in enumerate(scene.emitter_shapes())}
+    sd.sph_center = arr([s.center for s in spheres], wp.vec3, (1, 3))
+    sd.sph_radius = arr([s.radius for s in spheres], float, (1,))
+    sd.sph_velocity = arr([s.velocity for s in spheres], wp.vec3, (1, 3))
+    sd.sph_material = arr([s.material for s in spheres], int, (1,))
+    sd.sph_light = arr([light_of.get(id(s), -1) for s in spheres], int, (1,))
+    sd.n_spheres = len(spheres)
+    sd.quad_origin = arr([s.origin for s in quads], wp.vec3, (1, 3))
+    sd.quad_u = arr([s.edge_u for s in quads], wp.vec3, (1, 3))
+    sd.quad_v = arr([s.edge_v for s in quads], wp.vec3, (1, 3))
+    normals = [np.cross(s.edge_u, s.edge_v) for s in quads]
+    sd.quad_normal = arr([n / np.linalg.norm(n) for n in normals], wp.vec3, (1, 3))
+    sd.quad_area = arr([np.linalg.norm(n) for n in normals], float, (1,))
+    sd.quad_velocity = arr([s.velocity for s in quads], wp.vec3, (1, 3))
+    sd.quad_material = arr([s.material for s in quads], int, (1,))
+    sd.quad_light = arr([light_of.get(id(s), -1) for s in quads], int, (1,))
+    sd.n_quads = len(quads)
+
+
+def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
+    sd.mat_kind = arr([MATERIAL_CODE[m.kind] for m in materials], int, (1,))
+    sd.mat_albedo = arr([m.albedo for m in materials], wp.vec3, (1, 3))
+    sd.mat_albedo2 = arr([m.albedo2 if m.albedo2 is not None else m.albedo for m in materials],
+                         wp.vec3, (1, 3))
+    sd.mat_checker = arr([m.checker if m.checker is not None else (0, 0) for m in materials],
+                         wp.vec2, (1, 2))
+    sd.mat_exponent = arr([m.exponent for m in materials], float, (1,))
+    sd.mat_ior = arr([m.ior for m in materials], float, (1,))
+    sd.mat_emission = arr([m.emission for m in materials], wp.vec3, (1, 3))
+
+
+def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Callable) -> None:
+    """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
+    sphere_index = {id(s): i for i, s in enumerate(spheres)}
+    quad_index = {id(s): i for i, s in enumerate(quads)}
+    emitters = [scene.shapes[i] for i in scene.emitter_shapes()]
+    power = [max(luminance(scene.materials[s.material].emission), 1e-12) * s.area() * math.pi
+             for s in emitters]
+    pmf = np.array(power) / np.sum(power) if power else np.zeros(0)
+    cdf = np.cumsum(pmf) if power else np.zeros(0)
+    sd.light_shape_kind = arr([SPHERE if s.kind == "sphere" else QUAD for s in emitters], int, (1,))
+    sd.light_shape = arr([sphere_index[id(s)] if s.kind == "sphere" else quad_index[id(s)]
+                          for s in emitters], int, (1,))
+    sd.light_pmf = arr(pmf, float, (1,))
+    sd.light_cdf = arr(cdf, float, (1,))
+    sd.n_lights = len(emitters)
+    points, dirs = scene.point_lights, scene.directional_lights
+    sd.pl_position = arr([pl.position for pl in points], wp.vec3, (1, 3))
+    sd.pl_intensity = arr([pl.intensity for pl in points], wp.vec3, (1, 3))
+    sd.n_point_lights = len(points)
+    sd.dl_direction = arr([dl.direction for dl in dirs], wp.vec3, (1, 3))
+    sd.dl_irradiance = arr([dl.irradiance for dl in dirs], wp.vec3, (1, 3))
+    sd.n_dir_lights = len(dirs)
+
+
+def _put_camera(sd: SceneData, scene: Scene) -> None:
+    cam = scene.camera
+    pos = np.asarray(cam.position, dtype=np.float64)
+    fwd = np.asarray(cam.look_at, dtype=np.float64) - pos
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, np.asarray(cam.up, dtype=np.float64))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    sd.cam_position = wp.vec3(*_f3(pos))
+    sd.cam_right = wp.vec3(*_f3(right))
+    sd.cam_up = wp.vec3(*_f3(up))
+    sd.cam_forward = wp.vec3(*_f3(fwd))
+    half_h = math.tan(math.radians(cam.vfov_deg) / 2)
+    sd.half_height = float(half_h)
+    sd.half_width = float(half_h * scene.width / scene.height)
+    sd.aperture = float(cam.aperture_radius)
+    sd.focus_distance = float(cam.focus_distance if cam.focus_distance > 0 else 1.0)
+    sd.shutter_open = float(cam.shutter[0])
+    sd.shutter_close = float(cam.shutter[1])
+
+
+def upload(scene: Scene, device: str) -> SceneData:
+    """Pack a Scene into the kernels' SceneData struct (arrays on `device`)."""
+    initialised_warp()
+    arr = partial(_device_array, device=device)
+    spheres = [s for s in scene.shapes if s.kind == "sphere"]
+    quads = [s for s in scene.shapes if s.kind == "quad"]
+    sd = SceneData()
+    _put_shapes(sd, scene, spheres, quads, arr)
+    _put_materials(sd, scene.materials, arr)
+    _put_lights(sd, scene, spheres, quads, arr)
+    _put_camera(sd, scene)
+    sd.background = wp.vec3(*_f3(scene.background))
+    sd.eps = float(1e-6 * _scene_extent(scene))
+    sd.width = int(scene.width)
+    sd.height = int(scene.height)
+    sd.max_depth = int(scene.max_depth)
+    sd.rr_depth = int(scene.rr_depth)
+    # Whitted's reflect/refract choices, one bit per split (one code when nothing splits).
+    sd.whitted_codes = 1 << splits_for(material_kinds(scene))
+    return sd

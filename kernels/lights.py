@@ -1,12 +1,14 @@
 """Area-light sampling, built per kernel variant.
 
-`make_lights(motion, solid_angle, power_pick)` returns Warp functions callable on their own:
+`make_lights(motion, solid_angle, power_pick, wrong_jacobian)` returns Warp functions callable on
+their own:
     pick_light(sd, u) -> light index;  light_pick_pmf(sd, li) -> its probability
     sample_light(sd, li, x, u, dt) -> LightSample (direction, distance, radiance, solid-angle pdf
         including the light choice)
     light_pdf(sd, li, x, y, ny, dt) -> the density sample_light has of proposing point y from x
 `solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it);
 rectangles are always area-sampled. `power_pick` picks lights proportionally to emitted power.
+`wrong_jacobian` compiles in the tests' fault features.LIGHT_JACOBIAN (no cosine at the light).
 """
 from types import SimpleNamespace
 
@@ -14,7 +16,8 @@ import warp as wp
 
 from drtlab.estimators.warps import (PI, cone_pdf, frame_to_world, square_to_cone,
                                      square_to_uniform_sphere)
-from drtlab.kernels.device_scene import SPHERE, SceneData, make_motion
+from drtlab.kernels.device_scene import SPHERE, SceneData
+from drtlab.kernels.intersect import make_motion
 
 
 @wp.struct
@@ -25,6 +28,16 @@ class LightSample:
     pdf: float          # solid-angle pdf, including the light choice
     valid: int
 
+
+@wp.func
+def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
+    """(1 - cos theta_max, distance to centre); first component <= 0 when x is inside."""
+    dc = wp.length(c - x)
+    if dc <= r * (1.0 + 1.0e-4):
+        return wp.vec2(-1.0, dc)
+    sin2 = (r / dc) * (r / dc)
+    cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
+    return wp.vec2(sin2 / (1.0 + cos_max), dc)
 
 
 def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
@@ -54,16 +67,6 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
         else:
             li = wp.min(int(u * float(sd.n_lights)), sd.n_lights - 1)
         return li
-
-    @wp.func
-    def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
-        """(1 - cos theta_max, distance to centre); first component <= 0 when x is inside."""
-        dc = wp.length(c - x)
-        if dc <= r * (1.0 + 1.0e-4):
-            return wp.vec2(-1.0, dc)
-        sin2 = (r / dc) * (r / dc)
-        cos_max = wp.sqrt(wp.max(0.0, 1.0 - sin2))
-        return wp.vec2(sin2 / (1.0 + cos_max), dc)
 
     @wp.func
     def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, dt: float) -> float:

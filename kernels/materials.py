@@ -1,4 +1,4 @@
-"""BSDFs of the material kinds, built per kernel variant so absent kinds are compiled out.
+"""Materials per kernel variant: kind codes, BSDFs, (checkered) albedo and emission.
 
 `make_bsdf(kinds, lobe)` returns Warp functions that can be called on their own (the tracer, MIS and
 the chi-square tests use the same ones):
@@ -7,6 +7,7 @@ the chi-square tests use the same ones):
     sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter (weight = f|cos|/pdf)
 `lobe` selects the strategy: True samples cosine / Phong lobes / Fresnel, False samples uniform
 hemisphere (sphere for glossy transmission) and picks reflect/refract with probability 1/2.
+`make_albedo(checker)` returns surface_albedo(sd, m, uv); `emitted(sd, h, wo)` is a hit's emission.
 """
 from types import SimpleNamespace
 
@@ -15,14 +16,17 @@ import warp as wp
 from drtlab.estimators.warps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
                                      square_to_cosine_hemisphere, square_to_phong_lobe,
                                      square_to_uniform_hemisphere, square_to_uniform_sphere)
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.geometry import Hit
+from drtlab.kernels.scene import MATERIAL_CODE
 
-# Material kinds, in the order of scene_model.MATERIAL_KINDS.
-DIFFUSE = wp.constant(0)
-GLOSSY = wp.constant(1)
-MIRROR = wp.constant(2)
-DIELECTRIC = wp.constant(3)
-GLOSSY_DIELECTRIC = wp.constant(4)
-EMITTER = wp.constant(5)
+# Material kind codes (SceneData.mat_kind), defined by scene.MATERIAL_KINDS.
+DIFFUSE = wp.constant(MATERIAL_CODE["diffuse"])
+GLOSSY = wp.constant(MATERIAL_CODE["glossy"])
+MIRROR = wp.constant(MATERIAL_CODE["mirror"])
+DIELECTRIC = wp.constant(MATERIAL_CODE["dielectric"])
+GLOSSY_DIELECTRIC = wp.constant(MATERIAL_CODE["glossy_dielectric"])
+EMITTER = wp.constant(MATERIAL_CODE["emitter"])
 
 
 @wp.struct
@@ -32,7 +36,6 @@ class Scatter:
     pdf: float          # solid-angle pdf; 0 for delta lobes
     delta: int
     valid: int
-
 
 
 @wp.struct
@@ -90,30 +93,37 @@ def glossy_dielectric_lobes(it: Interface, wo: wp.vec3, wi: wp.vec3, exponent: f
     return wp.vec2(r, t)
 
 
+@wp.func
+def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                           wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
+    # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
+    # A lobe's part on the wrong side of the surface is not scattering: reflection counts only
+    # above, transmission only below (the sampler's pdf still counts both, see pdf_bsdf).
+    it = interface(n, wo, ior)
+    lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
+    ci = wp.dot(it.nf, wi)
+    r = wp.vec3(0.0)
+    if ci > 0.0:
+        r = wp.vec3(it.F * lobes[0])
+    elif ci < 0.0:
+        r = albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
+    return r
+
+
 def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
+    densities = _make_densities(kinds, lobe)
+    sample_bsdf = _make_sampler(kinds, lobe, densities.eval_bsdf, densities.pdf_bsdf)
+    return SimpleNamespace(eval_bsdf=densities.eval_bsdf, pdf_bsdf=densities.pdf_bsdf,
+                           sample_bsdf=sample_bsdf)
+
+
+def _make_densities(kinds: frozenset, lobe: bool) -> SimpleNamespace:
+    """eval_bsdf (f|cos|) and pdf_bsdf (the density sample_bsdf proposes with) of `kinds`."""
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
-    K_MIRROR = "mirror" in kinds
-    K_DIEL = "dielectric" in kinds
     K_GDIEL = "glossy_dielectric" in kinds
     LOBE = lobe
-
-    @wp.func
-    def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                               wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-        # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
-        # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
-        # A lobe's part on the wrong side of the surface is not scattering: reflection counts only
-        # above, transmission only below (the sampler's pdf still counts both, see pdf_bsdf).
-        it = interface(n, wo, ior)
-        lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
-        ci = wp.dot(it.nf, wi)
-        r = wp.vec3(0.0)
-        if ci > 0.0:
-            r = wp.vec3(it.F * lobes[0])
-        elif ci < 0.0:
-            r = albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
-        return r
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -171,6 +181,18 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                     # The proposal is the Fresnel-weighted mixture of both lobes wherever wi lies.
                     p = it.F * lobes[0] + (1.0 - it.F) * lobes[1]
         return p
+
+    return SimpleNamespace(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf)
+
+
+def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf):
+    """sample_bsdf of `kinds`: delta lobes directly, the others by proposal and eval_bsdf / pdf_bsdf."""
+    K_DIFFUSE = "diffuse" in kinds
+    K_GLOSSY = "glossy" in kinds
+    K_MIRROR = "mirror" in kinds
+    K_DIEL = "dielectric" in kinds
+    K_GDIEL = "glossy_dielectric" in kinds
+    LOBE = lobe
 
     @wp.func
     def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -242,4 +264,30 @@ def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                 s.valid = 1
         return s
 
-    return SimpleNamespace(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+    return sample_bsdf
+
+
+def make_albedo(checker: bool) -> SimpleNamespace:
+    """Albedo at a surface point; checkered materials alternate albedo and albedo2."""
+
+    @wp.func
+    def surface_albedo(sd: SceneData, m: int, uv: wp.vec2) -> wp.vec3:
+        a = sd.mat_albedo[m]
+        if wp.static(checker):
+            c = sd.mat_checker[m]
+            if c[0] > 0.0:
+                iu = int(wp.floor(uv[0] * c[0]))
+                iv = int(wp.floor(uv[1] * c[1]))
+                if (iu + iv) % 2 != 0:
+                    a = sd.mat_albedo2[m]
+        return a
+
+    return SimpleNamespace(surface_albedo=surface_albedo)
+
+
+@wp.func
+def emitted(sd: SceneData, h: Hit, wo: wp.vec3) -> wp.vec3:
+    # Emitters radiate on the side their normal faces (spheres outward, quads edge_u x edge_v).
+    if wp.dot(h.n, wo) > 0.0:
+        return sd.mat_emission[h.material]
+    return wp.vec3(0.0)

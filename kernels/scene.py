@@ -11,7 +11,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 MATERIAL_KINDS = ("diffuse", "glossy", "mirror", "dielectric", "glossy_dielectric", "emitter")
-SHAPE_KINDS = ("sphere", "quad")
+# The integer code of each material kind, as the kernels see it (SceneData.mat_kind).
+MATERIAL_CODE = {kind: code for code, kind in enumerate(MATERIAL_KINDS)}
 INTEGRATORS = ("whitted", "drt", "path")
 
 

@@ -49,10 +49,11 @@ from drtlab.estimators.integrators import INTEGRATORS
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.stratified import _JITTER, grid_columns, place, stratum
 from drtlab.estimators.registry import all_sampler_names, parse_sampler
+from drtlab.experiments.chi2 import sidak
 from drtlab.kernels.scene_file import builtin_names, load_scene
-from drtlab.kernels.device_scene import FAULTS
+from drtlab.kernels.features import FAULTS
 
-from stats_util import ALPHA, FULL, compare, render_estimate, sidak, tier
+from stats_util import ALPHA, FULL, compare, render_estimate, tier
 
 RES = (32, 24)
 BLOCK = 8

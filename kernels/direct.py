@@ -1,0 +1,94 @@
+"""Direct lighting at a surface point, per kernel variant: delta lights, area-light samples, MIS weights.
+
+`make_direct(features, strategy, rays, bsdf, lights)` (rays from make_intersect, bsdf from make_bsdf,
+lights from make_lights) returns Warp functions:
+    direct_delta_lights(sd, kind, albedo, exponent, ior, p, n, wo, dt) -> point and directional light
+    next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, dt) -> beta times one
+        area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
+    hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
+"""
+from types import SimpleNamespace
+
+import warp as wp
+
+from drtlab.estimators.strategies import Strategy
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.features import DROP_COSINE, Features
+from drtlab.kernels.geometry import Hit, offset_origin
+
+
+def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: SimpleNamespace,
+                lights: SimpleNamespace) -> SimpleNamespace:
+    POINTS = f.point_lights
+    DIRS = f.dir_lights
+    MIS = strategy.mis
+    COUNT_HITS = strategy.counts_hits
+    FAULT_DROP_COSINE = DROP_COSINE in f.faults
+    visible = rays.visible
+    eval_bsdf = bsdf.eval_bsdf
+    pdf_bsdf = bsdf.pdf_bsdf
+    pick_light = lights.pick_light
+    light_pdf = lights.light_pdf
+    sample_light = lights.sample_light
+
+    @wp.func
+    def direct_delta_lights(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float,
+                            ior: float, p: wp.vec3, n: wp.vec3, wo: wp.vec3, dt: float) -> wp.vec3:
+        L = wp.vec3(0.0)
+        if wp.static(POINTS):
+            for i in range(sd.n_point_lights):
+                d = sd.pl_position[i] - p
+                dist = wp.length(d)
+                wi = d / dist
+                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                    o = offset_origin(p, n, wi, sd.eps)
+                    if visible(sd, o, wi, wp.length(sd.pl_position[i] - o), dt, -1, -1) == 1:
+                        L += wp.cw_mul(fc, sd.pl_intensity[i]) / (dist * dist)
+        if wp.static(DIRS):
+            for i in range(sd.n_dir_lights):
+                wi = -sd.dl_direction[i]
+                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                    o = offset_origin(p, n, wi, sd.eps)
+                    if visible(sd, o, wi, 1.0e30, dt, -1, -1) == 1:
+                        L += wp.cw_mul(fc, sd.dl_irradiance[i])
+        return L
+
+    @wp.func
+    def next_event(sd: SceneData, beta: wp.vec3, kind: int, albedo: wp.vec3, exponent: float,
+                   ior: float, h: Hit, wo: wp.vec3, u_light: float, u_point: wp.vec2,
+                   dt: float) -> wp.vec3:
+        li = pick_light(sd, u_light)
+        ls = sample_light(sd, li, h.p, u_point, dt)
+        if ls.valid == 1:
+            fc = eval_bsdf(kind, albedo, exponent, ior, h.n, wo, ls.wi)
+            if wp.static(FAULT_DROP_COSINE):
+                fc = fc / wp.abs(wp.dot(h.n, ls.wi))
+            if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                so = offset_origin(h.p, h.n, ls.wi, sd.eps)
+                lk = sd.light_shape_kind[li]
+                if visible(sd, so, ls.wi, ls.dist, dt, lk, sd.light_shape[li]) == 1:
+                    w = float(1.0)
+                    if wp.static(MIS):
+                        pb = pdf_bsdf(kind, exponent, ior, h.n, wo, ls.wi)
+                        w = ls.pdf * ls.pdf / (ls.pdf * ls.pdf + pb * pb)
+                    return wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
+        return wp.vec3(0.0)
+
+    @wp.func
+    def hit_weight(sd: SceneData, h: Hit, prev_delta: int, prev_pdf: float, prev_p: wp.vec3,
+                   dt: float) -> float:
+        # Camera rays and delta bounces see emitters at full weight; after a non-delta bounce
+        # MIS weighs the hit against light sampling, NEE alone counts it through light samples.
+        w = float(1.0)
+        if prev_delta == 0:
+            if wp.static(MIS):
+                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, dt)
+                w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
+            elif wp.static(not COUNT_HITS):
+                w = 0.0
+        return w
+
+    return SimpleNamespace(direct_delta_lights=direct_delta_lights, next_event=next_event,
+                           hit_weight=hit_weight)

@@ -1,0 +1,104 @@
+"""What a scene uses (Features, decided once by features_of): the switches of a kernel variant."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drtlab.kernels.scene import Scene
+
+# Faults a test may compile into a kernel to check that a statistical test rejects a wrong estimator.
+DROP_COSINE = "drop_cosine"         # diffuse/glossy f|cos| loses its cosine (light samples, scattering)
+PDF_HIGH_10PCT = "pdf_high_10pct"   # scattered rays are weighted as if their pdf were 10% higher
+RR_NO_REWEIGHT = "rr_no_reweight"   # roulette kills paths without dividing survivors by their probability
+LIGHT_JACOBIAN = "light_jacobian"   # area light samples reach solid angle without the cosine at the light
+FAULTS = (DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, LIGHT_JACOBIAN)
+
+# Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
+WHITTED_SPLITS = 4
+SPLITTING_KINDS = frozenset({"dielectric", "glossy_dielectric"})
+
+
+def material_kinds(scene: Scene) -> frozenset:
+    """The material kinds the scene's shapes use."""
+    return frozenset(scene.materials[shape.material].kind for shape in scene.shapes)
+
+
+def splits_for(kinds: frozenset) -> int:
+    """How many dielectric interfaces Whitted splits a ray at in a scene of these material kinds."""
+    return WHITTED_SPLITS if kinds & SPLITTING_KINDS else 0
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene uses; one compiled kernel per distinct value (with the sampler)."""
+    integrator: str
+    lens: bool              # thin lens (never for whitted)
+    motion: bool            # moving shapes within an open shutter (never for whitted)
+    spheres: bool
+    quads: bool
+    kinds: frozenset        # material kinds of the shapes
+    checker: bool
+    area_lights: bool
+    point_lights: bool
+    dir_lights: bool
+    roulette: bool          # Russian roulette (path only)
+    background: bool        # escaping rays carry radiance
+    # Deliberately wrong estimators, compiled in only for the tests' negative controls (see FAULTS).
+    faults: frozenset = frozenset()
+
+    def __post_init__(self):
+        if self.roulette and self.integrator != "path":
+            raise ValueError(f"Russian roulette is for the path integrator, not {self.integrator}")
+
+    @property
+    def whitted(self) -> bool:
+        return self.integrator == "whitted"
+
+    @property
+    def drt(self) -> bool:
+        return self.integrator == "drt"
+
+    @property
+    def whitted_splits(self) -> int:
+        """Dielectric interfaces a Whitted ray splits at (0: none, or not Whitted)."""
+        return splits_for(self.kinds) if self.whitted else 0
+
+    @property
+    def light_centres(self) -> bool:
+        """Whitted lights surfaces by shadow rays to the area lights' centres."""
+        return self.area_lights and self.whitted
+
+    @property
+    def sampled_area_lights(self) -> bool:
+        """The stochastic integrators sample area lights (next-event estimation)."""
+        return self.area_lights and not self.whitted
+
+    @property
+    def delta_lights(self) -> bool:
+        """Point or directional lights, evaluated exactly at every non-delta surface."""
+        return self.point_lights or self.dir_lights
+
+    def key(self) -> str:
+        flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
+                             "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
+        key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
+        return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
+
+
+def features_of(scene: Scene, integrator: str) -> Features:
+    """The features `integrator` needs to render `scene`."""
+    return Features(
+        integrator=integrator,
+        lens=scene.camera.has_lens and integrator != "whitted",
+        motion=scene.has_motion and integrator != "whitted",
+        spheres=any(shape.kind == "sphere" for shape in scene.shapes),
+        quads=any(shape.kind == "quad" for shape in scene.shapes),
+        kinds=material_kinds(scene),
+        checker=any(scene.materials[shape.material].checker is not None for shape in scene.shapes),
+        area_lights=bool(scene.emitter_shapes()),
+        point_lights=bool(scene.point_lights),
+        dir_lights=bool(scene.directional_lights),
+        roulette=scene.russian_roulette and integrator == "path",
+        background=bool(np.any(np.asarray(scene.background) > 0)),
+    )
