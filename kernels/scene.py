@@ -1,4 +1,4 @@
-"""In-memory scene model: what the loader (`scene.py`) produces and the tracer (`tracer.py`) consumes.
+"""In-memory scene model: what the loader (`scene_file.py`) produces and `device_scene.upload` copies.
 
 All geometry is in world space, float64 numpy arrays of shape (3,). Boxes are expanded by the loader
 into six quads with outward normals, so the tracer only knows spheres and quads.

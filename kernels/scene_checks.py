@@ -41,9 +41,10 @@ def emitters_facing_nothing(scene: Scene) -> list[str]:
 
 
 def image_warnings(scene: Scene, image: np.ndarray) -> list[str]:
-    """Findings about a rendered image: the scene checks, and an image that is zero everywhere."""
-    found = emitters_facing_nothing(scene)
-    if not np.any(image):
+    """Findings about a rendered image, one line in all: an emitter facing nothing (which explains a
+    black image), else an image that is zero everywhere."""
+    found = emitters_facing_nothing(scene)[:1]
+    if not found and not np.any(image):
         found.append("the image is zero everywhere: the camera sees no light (lights enclosed, "
                      "facing away, or the camera looking at nothing)")
     return found

@@ -98,7 +98,7 @@ def test_closed_form_scenes_share_builtin_kernel_variants():
     # Compile budget: the closed-form scenes compile to the built-ins' kernel variants (scene_util
     # adds invisible feature shapes where needed), so testing them with every sampler costs renders,
     # not compiles.
-    from drtlab.kernels.render import features_of
+    from drtlab.kernels.features import features_of
     from drtlab.kernels.scene_file import load_scene
     pairs = [(su.furnace_box(), "cornell-box"),
              (su.light_over_plane("sphere"), "aa-edges"),

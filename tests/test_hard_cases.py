@@ -180,7 +180,7 @@ def test_closed_forms_are_sane():
     assert su.slab(3.0).truth.mean() < su.slab(1.5).truth.mean() < su.slab(1.0001).truth.mean()
     # Zero velocity still runs the motion code (a mover below the plane switches it on), and the
     # lens cases compile the lens.
-    from drtlab.kernels.render import features_of
+    from drtlab.kernels.features import features_of
     assert features_of(closed_form("zero-velocity-motion").load(), "path").motion
     assert features_of(closed_form("thin-lens-focus-infinity").load(), "path").lens
     near = closed_form("thin-lens-focus-object").truth

@@ -12,9 +12,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from drtlab.errors import InputError
+from drtlab.kernels.scene_tables import box_quads
 from drtlab.kernels.scene_file import (
     BUILTIN_DIR,
-    box_quads,
     builtin_descriptions,
     builtin_names,
     load_scene,

@@ -1,0 +1,374 @@
+"""The tables of a scene file, one validator each: [scene], [camera], [materials.*], [[shapes]],
+[[lights]] -> the in-memory `Scene` (kernels/scene.py). Every check raises one `InputError` naming the
+offending value's dotted path.
+
+Beyond SCENE_FORMAT.md this loader requires `kind` on every shape and light and the position/intensity
+(point) or direction/irradiance (directional) of every light: a light without them is meaningless.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from drtlab import fields
+from drtlab.errors import InputError
+from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
+from drtlab.kernels.scene import (INTEGRATORS, MATERIAL_KINDS, Camera, DirectionalLight, Material,
+                                  PointLight, Scene, Shape)
+
+TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights")
+SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
+              "rr_depth", "background")
+CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
+               "focal_length", "image_distance", "shutter")
+# Keys a material may have, by kind: a key that the kind ignores is an error, not a silent no-op.
+MATERIAL_KEYS = {
+    "diffuse": ("kind", "albedo", "albedo2", "checker", "emission"),
+    "glossy": ("kind", "albedo", "albedo2", "checker", "exponent", "emission"),
+    "mirror": ("kind", "albedo", "emission"),
+    "dielectric": ("kind", "albedo", "ior", "emission"),
+    "glossy_dielectric": ("kind", "albedo", "exponent", "ior", "emission"),
+    "emitter": ("kind", "emission"),
+}
+SHAPE_FILE_KINDS = ("sphere", "quad", "box")   # what a file may say; boxes become quads
+SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity")
+SHAPE_KEYS = {
+    "sphere": SHAPE_COMMON_KEYS + ("center", "radius"),
+    "quad": SHAPE_COMMON_KEYS + ("origin", "edge_u", "edge_v"),
+    "box": SHAPE_COMMON_KEYS + ("min", "max"),
+}
+LIGHT_KEYS = {
+    "point": ("kind", "position", "intensity"),
+    "directional": ("kind", "direction", "irradiance"),
+}
+
+_PARALLEL_TOL = 1e-9        # |a x b| <= tol * |a| |b| counts as parallel
+
+
+# ---------------------------------------------------------------------------------------------------
+# Scene-specific values
+# ---------------------------------------------------------------------------------------------------
+def _vec3(v: Any, field: str) -> np.ndarray:
+    return numbers(v, field, 3)
+
+
+def _color(v: Any, field: str) -> np.ndarray:
+    """Radiance-like colour: any non-negative value."""
+    return numbers(v, field, 3, ">= 0", lambda x: x >= 0.0)
+
+
+def _albedo(v: Any, field: str) -> np.ndarray:
+    """Reflectance-like colour: energy conservation needs every channel in [0, 1]."""
+    return numbers(v, field, 3, "in [0, 1]", lambda x: 0.0 <= x <= 1.0)
+
+
+# ---------------------------------------------------------------------------------------------------
+# The scene, table by table
+# ---------------------------------------------------------------------------------------------------
+
+def build_scene(data: dict, *, name: str, source: str, text: str) -> Scene:
+    # Huge-but-finite inputs may overflow in differences and cross products; the checks below turn
+    # the resulting infinities into InputErrors, so numpy's warnings would only be noise.
+    with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+        return _build_scene_checked(data, name=name, source=source, text=text)
+
+
+def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Scene:
+    for key in data:
+        if key not in TOP_LEVEL_KEYS:
+            raise InputError(key, f"unknown top-level table '{key}'; allowed: {', '.join(TOP_LEVEL_KEYS)}")
+    settings = _parse_settings(data.get("scene", REQUIRED))
+    camera = _parse_camera(data.get("camera", REQUIRED))
+    materials = _parse_materials(data.get("materials", {}))
+    shapes = _parse_shapes(data.get("shapes", []), materials)
+    point_lights, directional_lights = _parse_lights(data.get("lights", []))
+    return Scene(name=name, camera=camera, materials=materials, shapes=shapes,
+                 point_lights=point_lights, directional_lights=directional_lights,
+                 source=source, text=text, **settings)
+
+
+def _parse_settings(value: Any) -> dict:
+    if value is REQUIRED:
+        raise InputError("scene", "the [scene] table is required (description, resolution, spp, ...)")
+    t = Table(value, "scene", "[scene]")
+    t.check_keys(SCENE_KEYS)
+    description = string(t.get("description", REQUIRED, "a one-line string"), t.field("description"))
+    width, height = fields.resolution(t.get("resolution", [96, 72], ""), t.field("resolution"))
+    spp = integer(t.get("spp", 16, ""), t.field("spp"), ">= 1", lambda n: n >= 1)
+    integrator = string(t.get("integrator", "drt", ""), t.field("integrator"), INTEGRATORS)
+    roulette = boolean(t.get("russian_roulette", False, ""), t.field("russian_roulette"))
+    if roulette and integrator != "path":
+        raise InputError(t.field("russian_roulette"), "true is allowed with integrator 'path' only, "
+                                                      f"got integrator '{integrator}'")
+    max_depth = _max_depth(t.get("max_depth", 5, ""), t.field("max_depth"), roulette)
+    rr_depth = integer(t.get("rr_depth", 5, ""), t.field("rr_depth"), ">= 1", lambda n: n >= 1)
+    background = _color(t.get("background", [0, 0, 0], ""), t.field("background"))
+    return dict(description=description, width=width, height=height, spp=spp, integrator=integrator,
+                max_depth=max_depth, rr_depth=rr_depth, russian_roulette=roulette, background=background)
+
+
+def _max_depth(v: Any, field: str, roulette: bool) -> int:
+    """Mitsuba 3 convention: 1 = emitters seen directly, 2 = direct light, -1 = unbounded."""
+    depth = integer(v, field, ">= 1, or -1 (unbounded, path with russian_roulette)",
+                     lambda n: n >= 1 or n == -1)
+    if depth == -1 and not roulette:
+        raise InputError(field, "-1 (unbounded) needs russian_roulette = true (integrator 'path'); "
+                                "otherwise use a depth >= 1")
+    return depth
+
+
+def _parse_camera(value: Any) -> Camera:
+    if value is REQUIRED:
+        raise InputError("camera", "the [camera] table is required (position, look_at, ...)")
+    t = Table(value, "camera", "[camera]")
+    t.check_keys(CAMERA_KEYS)
+    position = _vec3(t.get("position", REQUIRED, "a list of 3 finite numbers"), t.field("position"))
+    look_at = _vec3(t.get("look_at", REQUIRED, "a list of 3 finite numbers"), t.field("look_at"))
+    up = _vec3(t.get("up", [0, 1, 0], ""), t.field("up"))
+    view = look_at - position
+    if not np.all(np.isfinite(view)) or not np.any(view != 0.0):
+        raise InputError(t.field("look_at"), f"must differ from camera.position (a finite view "
+                                             f"direction is needed), got {show(look_at.tolist())}")
+    if _parallel(view, up):
+        raise InputError(t.field("up"), f"must be non-zero and not parallel to the view direction "
+                                        f"look_at - position = {show(view.tolist())}, got {show(up.tolist())}")
+    fov = number(t.get("fov", 40.0, ""), t.field("fov"), "in (0, 180) degrees", lambda x: 0.0 < x < 180.0)
+    aperture, focus = _parse_lens(t)
+    shutter = _parse_shutter(t.get("shutter", [0.0, 0.0], ""), t.field("shutter"))
+    return Camera(position=position, look_at=look_at, up=up, vfov_deg=fov, aperture_radius=aperture,
+                  focus_distance=focus, shutter=shutter)
+
+
+def _parallel(a: np.ndarray, b: np.ndarray) -> bool:
+    """True when a and b are parallel or either is zero (relative test, safe against overflow)."""
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    if na == 0.0 or nb == 0.0 or not (np.isfinite(na) and np.isfinite(nb)):
+        return True
+    return float(np.linalg.norm(np.cross(a / na, b / nb))) <= _PARALLEL_TOL
+
+
+def _parse_lens(t: Table) -> tuple[float, float]:
+    """(aperture_radius, focus_distance) from the thin-lens keys; (0, 1) for a pinhole."""
+    positive = ("> 0", lambda x: x > 0.0)
+    focal = number(t.data["focal_length"], t.field("focal_length"), *positive) \
+        if t.has("focal_length") else None
+
+    # Aperture: aperture_radius XOR f_number (which needs the focal length).
+    if t.has("aperture_radius") and t.has("f_number"):
+        raise InputError(t.field("f_number"), "give either aperture_radius or f_number "
+                                              "(aperture_radius = focal_length / (2 f_number)), not both")
+    if t.has("f_number"):
+        f_number = number(t.data["f_number"], t.field("f_number"), *positive)
+        if focal is None:
+            raise InputError(t.field("f_number"), "needs camera.focal_length > 0 "
+                                                  "(aperture_radius = focal_length / (2 f_number))")
+        aperture = focal / (2.0 * f_number)
+    elif t.has("aperture_radius"):
+        aperture = number(t.data["aperture_radius"], t.field("aperture_radius"), ">= 0 (0 = pinhole)",
+                           lambda x: x >= 0.0)
+    else:
+        aperture = 0.0
+
+    # Focus: focus_distance XOR the Gaussian lens formula 1/di + 1/do = 1/f.
+    if t.has("focus_distance") and t.has("image_distance"):
+        raise InputError(t.field("image_distance"), "give either focus_distance or focal_length + "
+                                                    "image_distance (Gaussian lens formula), not both")
+    if t.has("image_distance"):
+        image = number(t.data["image_distance"], t.field("image_distance"), *positive)
+        if focal is None:
+            raise InputError(t.field("focal_length"), "is required with camera.image_distance: a finite "
+                                                      "number > 0 (focus = 1 / (1/f - 1/di))")
+        if not image > focal:
+            raise InputError(t.field("image_distance"), f"must be > focal_length = {focal:g} (an image "
+                                                        f"inside the focal length focuses nothing), got {image:g}")
+        focus = 1.0 / (1.0 / focal - 1.0 / image)
+        if not (math.isfinite(focus) and focus > 0.0):
+            raise InputError(t.field("image_distance"), f"must be clearly > focal_length = {focal:g}: the "
+                                                        f"focus distance 1 / (1/f - 1/di) is not finite")
+    elif t.has("focus_distance"):
+        focus = number(t.data["focus_distance"], t.field("focus_distance"), *positive)
+    else:
+        focus = None
+
+    if focal is not None and not (t.has("f_number") or t.has("image_distance")):
+        raise InputError(t.field("focal_length"), "is used only with camera.f_number (aperture) or "
+                                                  "camera.image_distance (focus); give one or drop it")
+    if aperture > 0.0 and focus is None:
+        raise InputError(t.field("focus_distance"), f"a lens with aperture {aperture:g} > 0 needs focus: "
+                                                    "focus_distance > 0, or focal_length + image_distance")
+    return aperture, (1.0 if focus is None else focus)
+
+
+def _parse_shutter(v: Any, field: str) -> tuple[float, float]:
+    times = numbers(v, field, 2)
+    if times[1] < times[0]:
+        raise InputError(field, f"must be [open, close] with open <= close, got {show(v)}")
+    return float(times[0]), float(times[1])
+
+
+def _parse_materials(value: Any) -> list[Material]:
+    if not isinstance(value, dict):
+        raise InputError("materials", f"must be a table of named material tables, got {show(value)}")
+    for name in value:
+        if not isinstance(name, str) or not name:
+            raise InputError(f"materials.{name}", f"material names must be non-empty strings, got {show(name)}")
+    return [_parse_material(name, body) for name, body in value.items()]
+
+
+def _parse_material(name: str, value: Any) -> Material:
+    path = f"materials.{name}"
+    t = Table(value, path, f"material '{name}'")
+    kind = string(t.get("kind", "diffuse", ""), t.field("kind"), MATERIAL_KINDS)
+    t.check_keys(MATERIAL_KEYS[kind])
+    m = Material(name=name, kind=kind)
+    m.emission = _color(t.get("emission", [0, 0, 0], ""), t.field("emission"))
+    if kind == "emitter":
+        m.albedo = np.zeros(3)          # an emitter is black apart from what it emits
+        if not m.emissive:
+            raise InputError(t.field("emission"), "an emitter needs emission >= 0 with at least one "
+                                                  f"channel > 0, got {show(m.emission.tolist())}")
+        return m
+    m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
+    if kind in ("glossy", "glossy_dielectric"):
+        m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
+    if kind in ("dielectric", "glossy_dielectric"):
+        m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
+    if t.has("albedo2"):
+        m.albedo2 = _albedo(t.data["albedo2"], t.field("albedo2"))
+        m.checker = _checker(t.get("checker", [8, 8], ""), t.field("checker"))
+    elif t.has("checker"):
+        raise InputError(t.field("checker"), "needs albedo2 (the second checker colour, each channel "
+                                             "in [0, 1])")
+    return m
+
+
+def _checker(v: Any, field: str) -> tuple[int, int]:
+    if (not isinstance(v, (list, tuple)) or len(v) != 2
+            or not all(isinstance(x, int) and not isinstance(x, bool) and x >= 1 for x in v)):
+        raise InputError(field, f"must be a list of 2 integers >= 1 (checks along u and v), got {show(v)}")
+    return int(v[0]), int(v[1])
+
+
+def _parse_shapes(value: Any, materials: list[Material]) -> list[Shape]:
+    if not isinstance(value, list) or not value:
+        raise InputError("shapes", "a scene needs at least one [[shapes]] entry (kind = "
+                                   f"{' | '.join(SHAPE_FILE_KINDS)}), got {show(value)}")
+    index = {m.name: i for i, m in enumerate(materials)}
+    shapes: list[Shape] = []
+    for i, body in enumerate(value):
+        shapes.extend(_parse_shape(i, body, materials, index))
+    return shapes
+
+
+def _parse_shape(i: int, value: Any, materials: list[Material], index: dict[str, int]) -> list[Shape]:
+    path = f"shapes[{i}]"
+    t = Table(value, path, f"shape {i}")
+    kind = string(t.get("kind", REQUIRED, " | ".join(SHAPE_FILE_KINDS)), t.field("kind"), SHAPE_FILE_KINDS)
+    t.check_keys(SHAPE_KEYS[kind])
+    material_name = string(t.get("material", REQUIRED, "the name of a [materials.NAME] table"),
+                            t.field("material"))
+    if material_name not in index:
+        defined = ", ".join(index) or "(none)"
+        raise InputError(t.field("material"), f"unknown material '{material_name}'; defined materials: {defined}")
+    material = index[material_name]
+    name = string(t.get("name", f"{kind}{i}", ""), t.field("name"))
+    velocity = _vec3(t.get("velocity", [0, 0, 0], ""), t.field("velocity"))
+    emissive = materials[material].emissive
+    common = dict(material=material, velocity=velocity)
+
+    if kind == "sphere":
+        center = _vec3(t.get("center", REQUIRED, "a list of 3 finite numbers"), t.field("center"))
+        radius = number(t.get("radius", REQUIRED, "a finite number > 0"), t.field("radius"), "> 0",
+                         lambda x: x > 0.0)
+        shape = Shape(kind="sphere", name=name, center=center, radius=radius, **common)
+        _check_area(shape, t.field("radius"), emissive)
+        return [shape]
+    if kind == "quad":
+        origin = _vec3(t.get("origin", REQUIRED, "a list of 3 finite numbers"), t.field("origin"))
+        edge_u = _vec3(t.get("edge_u", REQUIRED, "a list of 3 finite numbers"), t.field("edge_u"))
+        edge_v = _vec3(t.get("edge_v", REQUIRED, "a list of 3 finite numbers"), t.field("edge_v"))
+        if not np.any(edge_u != 0.0):
+            raise InputError(t.field("edge_u"), "must be a non-zero list of 3 finite numbers, got [0, 0, 0]")
+        if _parallel(edge_u, edge_v):
+            raise InputError(t.field("edge_v"), "must be non-zero and not parallel to edge_u (the normal "
+                                                "normalize(edge_u x edge_v) must exist"
+                                                f"{'; an emitting quad needs area > 0' if emissive else ''})"
+                                                f", got {show(edge_v.tolist())}")
+        shape = Shape(kind="quad", name=name, origin=origin, edge_u=edge_u, edge_v=edge_v, **common)
+        _check_area(shape, t.field("edge_v"), emissive)
+        return [shape]
+    lo = _vec3(t.get("min", REQUIRED, "a list of 3 finite numbers"), t.field("min"))
+    hi = _vec3(t.get("max", REQUIRED, "a list of 3 finite numbers"), t.field("max"))
+    if not np.all(hi > lo):
+        raise InputError(t.field("max"), f"must be > min = {show(lo.tolist())} on every axis, "
+                                         f"got {show(hi.tolist())}")
+    faces = box_quads(lo, hi, material=material, name=name, velocity=velocity)
+    for face in faces:
+        _check_area(face, t.field("max"), emissive)
+    return faces
+
+
+def _check_area(shape: Shape, field: str, emissive: bool) -> None:
+    """Area must be finite and > 0 (an emitter's power is radiance * area * pi)."""
+    try:
+        with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+            area = shape.area()
+    except OverflowError:           # a Python-float radius ** 2 overflows instead of giving inf
+        area = math.inf
+    if not (math.isfinite(area) and area > 0.0):
+        what = "an emitting shape" if emissive else "a shape"
+        raise InputError(field, f"{what} needs a finite area > 0, got area {area:g}")
+
+
+# The six faces of a box as (name suffix, corner, edge_u, edge_v) in units of the box's size d,
+# ordered so that edge_u x edge_v points out of the box.
+_BOX_FACES = (
+    ("px", (1, 0, 0), (0, 1, 0), (0, 0, 1)),
+    ("nx", (0, 0, 0), (0, 0, 1), (0, 1, 0)),
+    ("py", (0, 1, 0), (0, 0, 1), (1, 0, 0)),
+    ("ny", (0, 0, 0), (1, 0, 0), (0, 0, 1)),
+    ("pz", (0, 0, 1), (1, 0, 0), (0, 1, 0)),
+    ("nz", (0, 0, 0), (0, 1, 0), (1, 0, 0)),
+)
+
+
+def box_quads(lo: np.ndarray, hi: np.ndarray, *, material: int, name: str = "",
+              velocity: np.ndarray | None = None) -> list[Shape]:
+    """The axis-aligned box [lo, hi] as six quads with outward normals, named NAME.px, NAME.nx, ..."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    size = hi - lo
+    vel = np.zeros(3) if velocity is None else np.asarray(velocity, dtype=np.float64)
+    return [Shape(kind="quad", material=material, name=f"{name}.{suffix}",
+                  origin=lo + np.array(corner) * size, edge_u=np.array(eu) * size,
+                  edge_v=np.array(ev) * size, velocity=vel.copy())
+            for suffix, corner, eu, ev in _BOX_FACES]
+
+
+def _parse_lights(value: Any) -> tuple[list[PointLight], list[DirectionalLight]]:
+    if not isinstance(value, list):
+        raise InputError("lights", f"must be an array of tables ([[lights]] with kind = "
+                                   f"{' | '.join(LIGHT_KEYS)}), got {show(value)}")
+    points: list[PointLight] = []
+    directionals: list[DirectionalLight] = []
+    for i, body in enumerate(value):
+        t = Table(body, f"lights[{i}]", f"light {i}")
+        kind = string(t.get("kind", REQUIRED, " | ".join(LIGHT_KEYS)), t.field("kind"), tuple(LIGHT_KEYS))
+        t.check_keys(LIGHT_KEYS[kind])
+        if kind == "point":
+            position = _vec3(t.get("position", REQUIRED, "a list of 3 finite numbers"), t.field("position"))
+            intensity = _color(t.get("intensity", REQUIRED, "a list of 3 finite numbers >= 0 (W/sr)"),
+                               t.field("intensity"))
+            points.append(PointLight(position=position, intensity=intensity))
+        else:
+            direction = _vec3(t.get("direction", REQUIRED, "a non-zero list of 3 finite numbers"),
+                              t.field("direction"))
+            norm = float(np.linalg.norm(direction))
+            if not (math.isfinite(norm) and norm > 0.0):
+                raise InputError(t.field("direction"), "must be a non-zero list of 3 finite numbers "
+                                                       f"(the direction light travels), got {show(value[i]['direction'])}")
+            irradiance = _color(t.get("irradiance", REQUIRED, "a list of 3 finite numbers >= 0"),
+                                t.field("irradiance"))
+            directionals.append(DirectionalLight(direction=direction / norm, irradiance=irradiance))
+    return points, directionals
