@@ -127,7 +127,7 @@ def cmd_render(args) -> int:
     from drtlab import __version__
     from drtlab.kernels import CODE_VERSION
     from drtlab.kernels.imageio import write_exr, write_png
-    from drtlab.kernels.render import render_with_stats
+    from drtlab.kernels.render import check_image_size, render_with_stats
     from drtlab.kernels.scene_checks import image_warnings
     from drtlab.kernels.scene_file import load_scene
 
@@ -137,10 +137,14 @@ def cmd_render(args) -> int:
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
     fields.writable_location(out, "--out")
+    if args.res is not None:
+        width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+        check_image_size(width, height, moments=args.variance, field="--res")
     t0 = time.perf_counter()
     stats = render_with_stats(scene, spp=args.spp, sampler=args.sampler, integrator=args.integrator,
                               seed=args.seed, res=args.res, threads=args.threads, tile=args.tile,
-                              device=args.device, progress=_show_progress(args))
+                              device=args.device, progress=_show_progress(args),
+                              variance=args.variance)
     wall = time.perf_counter() - t0
     meta = {"scene": scene.name, "scene_hash": scene.content_hash(), "spp": stats.spp,
             "sampler": stats.sampler, "integrator": stats.integrator, "seed": stats.seed,
@@ -150,7 +154,13 @@ def cmd_render(args) -> int:
             "compile_seconds": round(stats.compile_seconds, 4)}
     write_exr(out, stats.image, meta)
     write_png(out.with_suffix(".png"), stats.image, meta)
-    print(f"wrote {out} and {out.with_suffix('.png').name}: {stats.width}x{stats.height}, "
+    written = [out.with_suffix(".png").name]
+    if stats.variance is not None:
+        se_path = out.with_name(out.stem + ".stderr.exr")
+        write_exr(se_path, stats.stderr, dict(meta, what="standard error of each pixel's mean, "
+                                              "sqrt(sample variance / spp)"))
+        written.append(se_path.name)
+    print(f"wrote {out} and {', '.join(written)}: {stats.width}x{stats.height}, "
           f"{stats.spp} spp, {stats.sampler}, {stats.integrator}, render {stats.render_seconds:.3f} s, "
           f"compile {stats.compile_seconds:.2f} s, {stats.samples_per_second / 1e6:.2f} M samples/s")
     _warn(image_warnings(scene, stats.image))
@@ -312,6 +322,10 @@ def _add_render(sub) -> None:
     r.add_argument("--out", default=None,
                    help="output .exr; a .png preview is written beside it (default: "
                         "results/renders/SCENE-SAMPLER-SPPspp-sSEED.exr)")
+    r.add_argument("--variance", action="store_true",
+                   help="also write OUT.stderr.exr: each pixel's standard error, sqrt(sample "
+                        "variance / spp) of the same samples (exact for independent point sets, an "
+                        "upper bound for stratified ones)")
     r.add_argument("--no-progress", action="store_true",
                    help="no progress bar (there is none either when output goes to a file or pipe)")
     r.set_defaults(func=cmd_render)

@@ -46,6 +46,7 @@ class Features:
     background: bool        # escaping rays carry radiance
     # Deliberately wrong estimators, compiled in only for the tests' negative controls (see FAULTS).
     faults: frozenset = frozenset()
+    moments: bool = False   # also sum each sample's square (a per-pixel variance image)
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -83,6 +84,7 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
+        key += "+moments" if self.moments else ""
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
 
 

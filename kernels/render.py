@@ -46,6 +46,15 @@ class RenderStats:
     variant: str
     threads: int
     device: str
+    # (H, W, 3) unbiased per-pixel variance of one sample (render(..., variance=True)), else None.
+    # Its standard error of the mean, sqrt(variance / spp), is exact for independent point sets and
+    # an upper bound for stratified ones (strata remove variance that the sample variance counts).
+    variance: np.ndarray | None = None
+
+    @property
+    def stderr(self) -> np.ndarray | None:
+        """(H, W, 3) standard error of each pixel's mean, from `variance`."""
+        return None if self.variance is None else np.sqrt(self.variance / self.spp)
 
     @property
     def samples_per_second(self) -> float:
@@ -72,6 +81,27 @@ def get_kernel(features: Features, spec: SamplerSpec, device: str):
     return entry[0], 0.0
 
 
+# Buffers per pixel: the float64 sums (24 bytes, 48 with moments) on the device, and on the host the
+# copy, the mean image and the caller's float32 EXR (about 24 + 24 + 12 bytes more).
+_BYTES_PER_PIXEL = 24 + 24 + 24 + 12
+MAX_PIXELS = 2**28      # a Warp launch's thread count and array shape stay far below int32 limits
+
+
+def check_image_size(width: int, height: int, moments: bool = False, field: str = "res") -> None:
+    """Refuse, before compiling or rendering, an image whose buffers cannot fit in this machine."""
+    pixels = width * height
+    need = pixels * (_BYTES_PER_PIXEL + (48 if moments else 0))
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        memory = 1 << 40
+    if pixels > MAX_PIXELS or need > 0.5 * memory:
+        raise InputError(field, f"{width}x{height} is {pixels:,} pixels and needs about "
+                                f"{need / 2**30:.1f} GiB of image buffers; the limits are "
+                                f"{MAX_PIXELS:,} pixels and half of this machine's "
+                                f"{memory / 2**30:.1f} GiB of memory")
+
+
 def _resolve_scene(scene, res) -> Scene:
     if not isinstance(scene, Scene):
         from drtlab.kernels.scene_file import load_scene
@@ -84,11 +114,12 @@ def _resolve_scene(scene, res) -> Scene:
 
 def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
                       threads=None, tile=None, device="cpu", progress=None,
-                      faults=()) -> RenderStats:
+                      faults=(), variance=False) -> RenderStats:
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
 
     `faults` (names from features.FAULTS) compiles a deliberately wrong estimator: tests use it as
     the negative control that a statistical test must reject. Never set it for real renders.
+    `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
     """
     spec = parse_sampler(sampler)
     scene = _resolve_scene(scene, res)
@@ -112,10 +143,14 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
         if unknown:
             raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(FAULTS)}")
         features = replace(features, faults=frozenset(faults))
+    if variance:
+        features = replace(features, moments=True)
+    check_image_size(scene.width, scene.height, moments=bool(variance))
     kernel, compile_s = get_kernel(features, spec, device)
     sd = upload(scene, device)
     W, H = scene.width, scene.height
     accum = wp.zeros(W * H, dtype=wp.vec3d, device=device)
+    accum2 = wp.zeros(W * H if variance else 1, dtype=wp.vec3d, device=device)
     if device == "cpu":
         tiles = [(x, y, min(tile, W - x), min(tile, H - y))
                  for y in range(0, H, tile) for x in range(0, W, tile)]
@@ -133,7 +168,7 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     def launch(t, index0, count):
         x0, y0, tw, th = t
         wp.launch(kernel, dim=tw * th, device=device,
-                  inputs=[sd, wp.uint32(seed), index0, count, spp, x0, y0, tw, th, accum])
+                  inputs=[sd, wp.uint32(seed), index0, count, spp, x0, y0, tw, th, accum, accum2])
 
     t0 = time.perf_counter()
     pool = ThreadPoolExecutor(max_workers=threads) if device == "cpu" and threads > 1 else None
@@ -156,10 +191,16 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
         if bar is not None:
             bar.close()
     elapsed = time.perf_counter() - t0
-    image = accum.numpy().reshape(H, W, 3) / float(spp)
+    total = accum.numpy().reshape(H, W, 3)
+    image = total / float(spp)
+    var = None
+    if variance:
+        squares = accum2.numpy().reshape(H, W, 3)
+        var = np.maximum(squares - total * image, 0.0) / max(spp - 1, 1) if spp > 1 \
+            else np.full_like(image, np.nan)
     return RenderStats(image=image, render_seconds=elapsed, compile_seconds=compile_s, spp=spp,
                        width=W, height=H, sampler=spec.name, integrator=integ, seed=seed,
-                       variant=features.key(), threads=threads, device=device)
+                       variant=features.key(), threads=threads, device=device, variance=var)
 
 
 def render(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,

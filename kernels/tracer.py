@@ -5,7 +5,8 @@ not use (lens, motion, material kinds, light kinds, shape kinds, roulette, the o
 removed at code generation by `wp.static`, so a scene without motion blur pays nothing for it.
 
 The kernel renders `count` samples (indices index0 ... index0 + count - 1) of every pixel of one tile
-and adds their float64 sum to `accum`. A sample's random numbers come only from the point set keyed by
+and adds their float64 sum to `accum` (and, with `Features.moments`, the sum of their squares to
+`accum2`; otherwise `accum2` is never touched). A sample's random numbers come only from the point set keyed by
 (seed, pixel, sample index, dimension), so tiles, threads and launch order cannot change the image.
 Tracers are loops with a throughput weight (Warp kernels cannot recurse); radiance is traced in
 float32 and summed per pixel in float64.
@@ -42,7 +43,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
 
     @wp.kernel(enable_backward=False, module="unique")
     def render_tile(sd: SceneData, seed: wp.uint32, index0: int, count: int, spp: int,
-                    x0: int, y0: int, tile_w: int, tile_h: int, accum: wp.array(dtype=wp.vec3d)):
+                    x0: int, y0: int, tile_w: int, tile_h: int, accum: wp.array(dtype=wp.vec3d),
+                    accum2: wp.array(dtype=wp.vec3d)):
         tid = wp.tid()
         px = x0 + tid % tile_w
         py = y0 + tid / tile_w
@@ -52,6 +54,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         pix = wp.uint32(pixel)
         uspp = wp.uint32(spp)
         total = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
+        total2 = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
         nx = int(1)
         if wp.static(WHITTED):
             # Whitted samples the same nx x ny sub-pixel grid as the stratified point set.
@@ -64,7 +67,12 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             else:
                 ray = sample_ray(sd, seed, pix, idx, uspp, px, py)
                 Ls = trace(sd, seed, pix, idx, uspp, ray.o, ray.d, ray.dt)
-            total += wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
+            x = wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
+            total += x
+            if wp.static(f.moments):
+                total2 += wp.cw_mul(x, x)
         accum[pixel] = accum[pixel] + total
+        if wp.static(f.moments):
+            accum2[pixel] = accum2[pixel] + total2
 
     return render_tile

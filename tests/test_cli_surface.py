@@ -196,3 +196,40 @@ def test_compare_identical_images_is_zero_and_sizes_must_match(tmp_path, capsys)
     assert_one_line_error(capsys.readouterr().err, "B")
     assert main(["compare", str(a), str(a), "--per-pixel-z"]) == 2
     assert_one_line_error(capsys.readouterr().err, "--per-pixel-z")
+
+
+@pytest.mark.parametrize("res", ["100000x100000", "20000x20000"])
+def test_huge_resolution_is_refused_before_rendering(res, good, capsys, no_render):
+    assert main(["render", str(good), "--res", res, "--spp", "1"]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "--res")
+    assert "GiB" in err and "limits" in err
+
+
+def test_variance_image_matches_independent_renders(good, tmp_path, capsys):
+    """`--variance` writes each pixel's standard error; the mean image is bit-identical to a render
+    without it. Check against 24 independent renders of 16 spp (independent point set, so
+    sqrt(sample variance / spp) is the exact standard error): per pixel (green channel), the
+    predicted variance of the mean and the observed variance of the 24 means are both unbiased for
+    the same value, so the ratio of their sums over pixels is 1: its 99.9% bootstrap interval over
+    independent pixels (one test, level 0.001) must hold 1. Negative control: the per-sample
+    variance (not divided by spp, ratio 16) must fall outside it."""
+    from scipy.stats import bootstrap
+    from drtlab.kernels.imageio import read_exr
+    from drtlab.kernels.render import render, render_with_stats
+    out = tmp_path / "v.exr"
+    args = dict(spp=16, sampler="uniform", res="32x24")
+    assert main(["render", str(good), "--spp", "16", "--sampler", "uniform", "--res", "32x24",
+                 "--variance", "--out", str(out)]) == 0
+    capsys.readouterr()
+    se, _ = read_exr(tmp_path / "v.stderr.exr")
+    plain = render(str(good), **args)
+    assert np.array_equal(plain, render_with_stats(str(good), variance=True, **args).image)
+    reps = np.stack([render(str(good), seed=100 + i, **args) for i in range(24)])
+    observed = reps.var(axis=0, ddof=1)[..., 1].ravel()
+    predicted = np.square(se.astype(np.float64))[..., 1].ravel()
+    ci = bootstrap((predicted, observed), lambda p, o: np.sum(p) / np.sum(o), paired=True,
+                   vectorized=False, confidence_level=0.999, n_resamples=2000,
+                   random_state=np.random.default_rng(5)).confidence_interval
+    assert ci.low < 1.0 < ci.high, ci
+    assert not ci.low < 16.0 < ci.high
