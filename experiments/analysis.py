@@ -260,15 +260,21 @@ def _study_result(study, plan, group_results: dict) -> StudyResult:
 # The experiment
 # ---------------------------------------------------------------------------------------------------
 
-def _noise_floor_warnings(group_results: dict, log: Callable[[str], None]) -> list[str]:
+def _floor_remedy(exp) -> str:
+    """What lowers the reference's noise floor: a larger-reference profile when the file has one."""
+    if "full" in exp.profiles and exp.profile != "full":
+        return "a larger gt_spp (e.g. --profile full) lowers the floor"
+    return "a larger gt_spp in the experiment file lowers the floor"
+
+
+def _noise_floor_warnings(group_results: dict, log: Callable[[str], None], remedy: str) -> list[str]:
     flagged = [(g, v.noise_floor) for g, v in group_results.items() if v.noise_floor.warning]
     if flagged:
         fr = [100 * nf.fraction_of_smallest_mse for _, nf in flagged]
         log(f"warning: in {len(flagged)} of {len(group_results)} scenes "
             f"({', '.join(g[0].label for g, _ in flagged)}) "
             f"the reference's own variance is {min(fr):.1f}-{max(fr):.1f}% of the smallest MSE measured "
-            f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted from every MSE, but a larger "
-            f"gt_spp (e.g. --profile full) lowers the floor")
+            f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted from every MSE, but {remedy}")
     return [f"{group_name(g)}: ground-truth variance is {100 * nf.fraction_of_smallest_mse:.1f}% "
             f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)" for g, nf in flagged]
 
@@ -308,6 +314,6 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     return Summary(
         experiment=exp.name, description=exp.description, profile=exp.profile, studies=studies,
         noise_floor={group_name(g): v.noise_floor for g, v in group_results.items()},
-        warnings=_noise_floor_warnings(group_results, log), chains=_chains(group_results),
+        warnings=_noise_floor_warnings(group_results, log, _floor_remedy(exp)), chains=_chains(group_results),
         ground_truth={group_name(g): {k: v for k, v in info.items() if k != "seeds"}
                       for g, info in gts.items()})

@@ -114,6 +114,7 @@ class Experiment:
     text_hash: str                  # hash of this file and every included file's text
     studies: tuple[Study, ...]
     sources: dict = field(default_factory=dict, compare=False)   # file -> text hash
+    profiles: tuple[str, ...] = ()  # the [profile.NAME] sections of the file and its includes
 
     def scenes(self) -> list[tuple[SceneRef, str, tuple | None]]:
         """Unique (scene, integrator, resolution) triples, in first-seen order."""
@@ -435,4 +436,4 @@ def load_experiment(name_or_path: str | Path | dict, profile: str = DEFAULT_PROF
                     raise InputError(where, f"scene '{sc.name}': {e.field}: {e.message}") from None
     return Experiment(name=path.stem, description=desc, path=str(path), profile=profile,
                       text_hash=short_hash(sorted(sources.items()), 16), studies=tuple(studies),
-                      sources=sources)
+                      sources=sources, profiles=tuple(sorted(profiles_seen)))

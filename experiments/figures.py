@@ -153,8 +153,8 @@ def plot_efficiency(study: StudyResult, path: Path) -> Path:
     ax.set_xticks(xs)
     ax.set_xticklabels([scene.scene for scene in scenes], rotation=20, ha="right")
     ax.set_ylabel(f"efficiency / {study.baseline}'s")
-    ax.set_title(f"{study.name}: efficiency 1/({study.mse_label}·s) at the largest spp "
-                 f"(higher is better)")
+    ax.set_title(f"{study.name}: efficiency 1/({study.mse_label}·s) at the largest spp\n"
+                 f"relative to {study.baseline} (higher is better)")
     ax.legend(frameon=False)
     ax.grid(True, axis="y", which="both", lw=0.3, color="0.8")
     fig.tight_layout()
