@@ -297,6 +297,11 @@ def cmd_compare(args) -> int:
 # The parser
 # ---------------------------------------------------------------------------------------------------
 
+def _add_progress_flag(parser) -> None:
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress bar (there is none either when output goes to a file or pipe)")
+
+
 def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
                        formatter_class=_Help)
@@ -326,8 +331,7 @@ def _add_render(sub) -> None:
                    help="also write OUT.stderr.exr: each pixel's standard error, sqrt(sample "
                         "variance / spp) of the same samples (exact for independent point sets, an "
                         "upper bound for stratified ones)")
-    r.add_argument("--no-progress", action="store_true",
-                   help="no progress bar (there is none either when output goes to a file or pipe)")
+    _add_progress_flag(r)
     r.set_defaults(func=cmd_render)
 
 
@@ -348,8 +352,7 @@ def _add_experiment(sub) -> None:
     p.add_argument("--threads", type=_int_flag(1, 1024), default=None,
                    help="CPU threads per render (default: all cores)")
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
-    p.add_argument("--no-progress", action="store_true",
-                   help="no progress bar (there is none either when output goes to a file or pipe)")
+    _add_progress_flag(p)
     p.set_defaults(func=cmd_experiment)
 
 
@@ -375,8 +378,7 @@ def _add_ground_truth(sub) -> None:
                    help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
     g.add_argument("--threads", type=_int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")
-    g.add_argument("--no-progress", action="store_true",
-                   help="no progress bar (there is none either when output goes to a file or pipe)")
+    _add_progress_flag(g)
     g.set_defaults(func=cmd_ground_truth)
 
 
