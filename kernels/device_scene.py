@@ -96,13 +96,16 @@ def _device_array(values, dtype, empty_shape, device: str):
 
 def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Callable) -> None:
     light_of = {id(scene.shapes[i]): li for li, i in enumerate(scene.emitter_shapes())}
-    sd.sph_center = arr([s.center for s in spheres], wp.vec3, (1, 3))
+    # Shapes move as c + v t in absolute shutter time; the kernels add v (t - open), so the uploaded
+    # positions are those at shutter open (also what a static render, whitted or a closed shutter, shows).
+    t_open = float(scene.camera.shutter[0])
+    sd.sph_center = arr([_at_time(s.center, s.velocity, t_open) for s in spheres], wp.vec3, (1, 3))
     sd.sph_radius = arr([s.radius for s in spheres], float, (1,))
     sd.sph_velocity = arr([s.velocity for s in spheres], wp.vec3, (1, 3))
     sd.sph_material = arr([s.material for s in spheres], int, (1,))
     sd.sph_light = arr([light_of.get(id(s), -1) for s in spheres], int, (1,))
     sd.n_spheres = len(spheres)
-    sd.quad_origin = arr([s.origin for s in quads], wp.vec3, (1, 3))
+    sd.quad_origin = arr([_at_time(s.origin, s.velocity, t_open) for s in quads], wp.vec3, (1, 3))
     sd.quad_u = arr([s.edge_u for s in quads], wp.vec3, (1, 3))
     sd.quad_v = arr([s.edge_v for s in quads], wp.vec3, (1, 3))
     normals = [np.cross(s.edge_u, s.edge_v) for s in quads]
@@ -169,6 +172,11 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     sd.focus_distance = float(cam.focus_distance if cam.focus_distance > 0 else 1.0)
     sd.shutter_open = float(cam.shutter[0])
     sd.shutter_close = float(cam.shutter[1])
+
+
+def _at_time(position, velocity, t: float):
+    """A shape's position at time t (unchanged, bit for bit, at t = 0)."""
+    return position if t == 0.0 else position + velocity * t
 
 
 def upload(scene: Scene, device: str) -> SceneData:
