@@ -8,7 +8,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all ground-truth clean
+        experiment-all ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -43,3 +43,25 @@ ground-truth: venv
 
 clean:
 	rm -rf $(VENV) .warp-cache
+
+# drtlab vs Mitsuba 3 on mi.cornell_box() -> results/bench/compare.json and a Markdown table. Installs
+# the [compare] extra; Mitsuba's llvm_ad_rgb needs LLVM 19 (DRJIT_LIBLLVM_PATH; LLVM 14 crashes it):
+# Debian's libllvm19 is installed when missing and we are root. Without Mitsuba or LLVM 19 the run
+# says why and skips (exit 0). Flags: make bench-compare BENCH_COMPARE_ARGS='--res 64 --spp 64'.
+bench-compare: venv
+	@$(PY) -m pip install -q -e '.[compare]' || echo "bench-compare: pip could not install the [compare] extra (mitsuba==3.9.1); the comparison will skip"
+	@llvm="$${DRJIT_LIBLLVM_PATH:-}"; why=""; \
+	find19() { ls /usr/lib/llvm-19/lib/libLLVM-19.so /usr/lib/*-linux-gnu/libLLVM-19.so 2>/dev/null | head -n 1; }; \
+	if [ -z "$$llvm" ]; then llvm=$$(find19); fi; \
+	if [ -z "$$llvm" ]; then \
+	  if [ "$$(id -u)" != 0 ]; then why="not root, so libllvm19 cannot be apt-get installed here: install it (Debian 12+) or set DRJIT_LIBLLVM_PATH to a libLLVM-19.so"; \
+	  elif ! command -v apt-get >/dev/null 2>&1; then why="no apt-get on this system: install LLVM 19 and set DRJIT_LIBLLVM_PATH to its libLLVM-19.so"; \
+	  else echo "bench-compare: apt-get install -y libllvm19 (for Dr.Jit's LLVM backend)"; \
+	    export DEBIAN_FRONTEND=noninteractive; \
+	    { apt-get install -y -qq libllvm19 >/dev/null 2>&1 || { apt-get update -qq >/dev/null 2>&1 && apt-get install -y -qq libllvm19 >/dev/null 2>&1; }; } \
+	      || why="apt-get install libllvm19 failed (not in this system's package lists?): set DRJIT_LIBLLVM_PATH to a libLLVM-19.so"; \
+	    llvm=$$(find19); \
+	  fi; \
+	  [ -n "$$llvm" ] || echo "bench-compare: no LLVM 19 for Mitsuba's llvm_ad_rgb: $${why:-libllvm19 is installed but no libLLVM-19.so was found}"; \
+	fi; \
+	DRJIT_LIBLLVM_PATH="$$llvm" $(PY) -m drtlab.experiments.bench_compare $(BENCH_COMPARE_ARGS)
