@@ -2,66 +2,16 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 import time
 from pathlib import Path
 
 from drtlab import fields
+from drtlab.cli_args import Help, Parser, int_flag, resolution_flag, run_main
 from drtlab.errors import InputError
-
-EXIT_BAD_INPUT = 2
 DEFAULT_GT_SPP = 16384
 # The render command shows a scene: the lowest-variance estimator (MIS, jittered strata) by default.
 PREVIEW_SAMPLER = "stratified+importance"
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2."""
-
-    def error(self, message: str):
-        m = re.match(r"argument ([^:]+): (.*)", message)
-        if m:
-            raise InputError(m.group(1).split("/")[-1], m.group(2))
-        m = re.match(r"the following arguments are required: (.*)", message)
-        if m:
-            raise InputError(m.group(1), "required")
-        m = re.match(r"unrecognized arguments: (.*)", message)
-        if m:
-            raise InputError(m.group(1).split()[0], f"unknown option; see `{self.prog} --help`")
-        raise InputError("arguments", message)
-
-
-class _Help(argparse.ArgumentDefaultsHelpFormatter):
-    """Shows a flag's default where it has one; defaults that depend on the scene say so in words."""
-
-    def _get_help_string(self, action):
-        if action.default is None or action.default is False or action.default is argparse.SUPPRESS:
-            return action.help
-        return super()._get_help_string(action)
-
-
-def _flag(check, *args):
-    """An argparse `type` from a `drtlab.fields` check; the parser puts the flag's name in front."""
-    def parse(text: str):
-        try:
-            return check(text, "", *args)
-        except InputError as e:
-            raise argparse.ArgumentTypeError(e.message) from None
-    return parse
-
-
-def _int_flag(low: int, high: int | None = None):
-    return _flag(fields.int_text, low, high)
-
-
-def _resolution_text(text: str, field: str) -> str:
-    """`N` or `WxH`, checked now; `N` takes its height from each scene's aspect later."""
-    fields.resolution(text, field, aspect=1.0)
-    return text
-
-
-_res_flag = _flag(_resolution_text)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -304,24 +254,24 @@ def _add_progress_flag(parser) -> None:
 
 def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
-                       formatter_class=_Help)
+                       formatter_class=Help)
     r.add_argument("scene", help="built-in scene name or path to a .toml scene")
-    r.add_argument("--spp", type=_int_flag(1, 2**31 - 1), default=None,
+    r.add_argument("--spp", type=int_flag(1, 2**31 - 1), default=None,
                    help="samples per pixel (default: the scene's)")
     r.add_argument("--sampler", default=PREVIEW_SAMPLER,
                    help="preset (uniform, stratified, importance) or POINTS+STRATEGY; "
                         "`drtlab samplers` lists them")
     r.add_argument("--integrator", default=None,
                    help="whitted, drt or path (default: the scene's)")
-    r.add_argument("--seed", type=_int_flag(0, 2**32 - 1), default=0, help="root seed")
-    r.add_argument("--res", type=_res_flag, default=None,
+    r.add_argument("--seed", type=int_flag(0, 2**32 - 1), default=0, help="root seed")
+    r.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,
                    help="override a scene value, e.g. --set camera.fov=30 --set "
                         "materials.gloss.exponent=50 (repeatable; values are TOML)")
-    r.add_argument("--threads", type=_int_flag(1, 1024), default=None,
+    r.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")
-    r.add_argument("--tile", type=_int_flag(1, 1 << 16), default=None,
+    r.add_argument("--tile", type=int_flag(1, 1 << 16), default=None,
                    help="tile edge in pixels (default: 16)")
     r.add_argument("--device", default="cpu", help="cpu or cuda")
     r.add_argument("--out", default=None,
@@ -338,7 +288,7 @@ def _add_render(sub) -> None:
 def _add_experiment(sub) -> None:
     p = sub.add_parser(
         "experiment", help="run (or resume) an experiment: ground truth, runs, plots, report",
-        formatter_class=_Help,
+        formatter_class=Help,
         description="Run an experiment file (a built-in name such as stratified, importance, uniform, "
                     "all, or a path). Finished runs are kept and skipped on a rerun.")
     p.add_argument("experiment", metavar="NAME_OR_PATH",
@@ -349,7 +299,7 @@ def _add_experiment(sub) -> None:
                    help="output folder (default: results/NAME)")
     p.add_argument("--gt-dir", type=Path, default=None,
                    help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
-    p.add_argument("--threads", type=_int_flag(1, 1024), default=None,
+    p.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads per render (default: all cores)")
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
     _add_progress_flag(p)
@@ -359,24 +309,24 @@ def _add_experiment(sub) -> None:
 def _add_ground_truth(sub) -> None:
     g = sub.add_parser(
         "ground-truth", help="render (or reuse) high-spp references with their standard error",
-        formatter_class=_Help,
+        formatter_class=Help,
         description="Render the reference of one scene, or of every scene of an experiment.")
     g.add_argument("scene", nargs="?", metavar="SCENE", help="built-in scene name or path")
-    g.add_argument("--spp", type=_int_flag(1), default=None,
+    g.add_argument("--spp", type=int_flag(1), default=None,
                    help=f"reference samples per pixel (default: the experiment's gt_spp, or "
                         f"{DEFAULT_GT_SPP})")
-    g.add_argument("--batch-spp", type=_int_flag(1), default=None,
+    g.add_argument("--batch-spp", type=int_flag(1), default=None,
                    help="samples per independent batch (default: the experiment's, or spp / 8 up to 512)")
     g.add_argument("--integrator", default=None,
                    help="drt | path (default: the scene's, or the experiment's)")
-    g.add_argument("--res", type=_res_flag, default=None,
+    g.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width, scene aspect) or WxH (default: the scene's own)")
     g.add_argument("--experiment", default=None, metavar="NAME_OR_PATH",
                    help="render the references every scene of this experiment needs")
     g.add_argument("--profile", default="quick", help="profile of --experiment to use")
     g.add_argument("--gt-dir", type=Path, default=None,
                    help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
-    g.add_argument("--threads", type=_int_flag(1, 1024), default=None,
+    g.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")
     _add_progress_flag(g)
     g.set_defaults(func=cmd_ground_truth)
@@ -384,11 +334,11 @@ def _add_ground_truth(sub) -> None:
 
 def _add_image_tools(sub) -> None:
     i = sub.add_parser("info", help="resolution, channel statistics, NaN/Inf/negative counts and "
-                                    "drtlab metadata of an EXR", formatter_class=_Help)
+                                    "drtlab metadata of an EXR", formatter_class=Help)
     i.add_argument("file", metavar="FILE", help="an EXR (or any image OpenImageIO reads)")
     i.set_defaults(func=cmd_info)
     c = sub.add_parser("compare", help="error metrics of A against B, and error images",
-                       formatter_class=_Help,
+                       formatter_class=Help,
                        description="RMSE, relMSE, MAE, CIEDE2000 and mean signed error of A against "
                                    "B (or of A and B against --ref); writes a signed-difference EXR "
                                    "and a false-colour error PNG of A - B.")
@@ -406,11 +356,11 @@ def _add_image_tools(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="drtlab", formatter_class=_Help,
+    p = Parser(prog="drtlab", formatter_class=Help,
                 description="Monte Carlo estimator studies for distribution ray tracing (Warp kernels).")
     from drtlab import __version__
     p.add_argument("--version", action="version", version=f"drtlab {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     sub.add_parser("scenes", help="list built-in scenes").set_defaults(func=cmd_scenes)
     sub.add_parser("samplers", help="list point sets, strategies, presets, integrators") \
         .set_defaults(func=cmd_samplers)
@@ -422,15 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    try:
-        args = build_parser().parse_args(argv)
-        return args.func(args)
-    except InputError as e:
-        print(f"drtlab: {e.field}: {e.message}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("drtlab: interrupted", file=sys.stderr)
-        return 130
+    return run_main(build_parser, argv)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,77 @@
+"""Command-line plumbing shared by every drtlab command (and `python -m drtlab.experiments.*`
+tools): an argparse parser whose usage errors are one `InputError` line, help that shows defaults,
+flag types built from `drtlab.fields` checks, and the `main` wrapper that prints bad input as
+`drtlab: FIELD: message` with exit code 2."""
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+
+from drtlab import fields
+from drtlab.errors import InputError
+
+EXIT_BAD_INPUT = 2
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2."""
+
+    def error(self, message: str):
+        m = re.match(r"argument ([^:]+): (.*)", message)
+        if m:
+            raise InputError(m.group(1).split("/")[-1], m.group(2))
+        m = re.match(r"the following arguments are required: (.*)", message)
+        if m:
+            raise InputError(m.group(1), "required")
+        m = re.match(r"unrecognized arguments: (.*)", message)
+        if m:
+            raise InputError(m.group(1).split()[0], f"unknown option; see `{self.prog} --help`")
+        raise InputError("arguments", message)
+
+
+class Help(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows a flag's default where it has one; defaults that depend on the scene say so in words."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False or action.default is argparse.SUPPRESS:
+            return action.help
+        return super()._get_help_string(action)
+
+
+def flag(check, *args):
+    """An argparse `type` from a `drtlab.fields` check; the parser puts the flag's name in front."""
+    def parse(text: str):
+        try:
+            return check(text, "", *args)
+        except InputError as e:
+            raise argparse.ArgumentTypeError(e.message) from None
+    return parse
+
+
+def int_flag(low: int, high: int | None = None):
+    return flag(fields.int_text, low, high)
+
+
+def _resolution_text(text: str, field: str) -> str:
+    """`N` or `WxH`, checked now; `N` takes its height from each scene's aspect later."""
+    fields.resolution(text, field, aspect=1.0)
+    return text
+
+
+resolution_flag = flag(_resolution_text)
+
+
+
+
+def run_main(build_parser, argv: list[str] | None = None) -> int:
+    """Parse and run a command; bad input is one stderr line and exit 2, Ctrl-C exit 130."""
+    try:
+        args = build_parser().parse_args(argv)
+        return args.func(args)
+    except InputError as e:
+        print(f"drtlab: {e.field}: {e.message}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("drtlab: interrupted", file=sys.stderr)
+        return 130
