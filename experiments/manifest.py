@@ -29,9 +29,9 @@ def git_info(cwd: Path | None = None) -> dict:
     return {"sha": sha or None, "dirty": dirty}
 
 
-def package_versions() -> dict:
+def package_versions(packages=PACKAGES) -> dict:
     out = {}
-    for p in PACKAGES:
+    for p in packages:
         try:
             out[p] = metadata.version(p)
         except metadata.PackageNotFoundError:
@@ -39,15 +39,20 @@ def package_versions() -> dict:
     return out
 
 
-def machine_info() -> dict:
-    cpu = platform.processor()
+def cpu_model() -> str | None:
+    """The first `model name` of /proc/cpuinfo; None where there is none (not Linux, or ARM)."""
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
+                return line.split(":", 1)[1].strip()
     except OSError:
         pass
+    return None
+
+
+def machine_info() -> dict:
+    model = cpu_model()
+    cpu = platform.processor() if model is None else model
     try:
         affinity = len(os.sched_getaffinity(0))
     except AttributeError:
