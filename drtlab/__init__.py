@@ -5,7 +5,8 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     import drtlab
     scene = drtlab.load_scene("glossy", {"scene.resolution": [64, 48]})
     image = drtlab.render(scene, spp=64, sampler="stratified+importance")      # (H, W, 3) float64
-    summary = drtlab.run_experiment(drtlab.load_experiment("stratified"))
+    result = drtlab.run_experiment("stratified")          # or a dict shaped like an experiment file
+    result.cells, result.slopes, result.plot_convergence()
 
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
 `drtlab.experiments` (see pyproject.toml).
@@ -19,10 +20,13 @@ def render(*args, **kwargs):
     return _render(*args, **kwargs)
 
 
-def load_scene(*args, **kwargs):
-    """`drtlab.kernels.scene_file.load_scene`: a built-in name or .toml path -> a validated Scene."""
-    from drtlab.kernels.scene_file import load_scene as _load_scene
-    return _load_scene(*args, **kwargs)
+def load_scene(scene, overrides: dict | None = None):
+    """A validated Scene from a built-in name, a .toml path, or a dict shaped like a scene file,
+    with dotted-key `overrides` ({"camera.fov": 30, "shapes[0].radius": 0.5})."""
+    from drtlab.kernels.scene_file import load_scene as _load_scene, scene_from_dict
+    if isinstance(scene, dict):
+        return scene_from_dict(scene, overrides=overrides)
+    return _load_scene(scene, overrides)
 
 
 def load_experiment(*args, **kwargs):
@@ -31,7 +35,17 @@ def load_experiment(*args, **kwargs):
     return _load_experiment(*args, **kwargs)
 
 
-def run_experiment(*args, **kwargs):
-    """`drtlab.experiments.runner.run_experiment`: ground truth, runs, analysis, report."""
+def run_experiment(experiment, profile: str = "quick", name: str = "inline", **kwargs):
+    """Run (or resume) an experiment: ground truth, runs, analysis, report.
+
+    `experiment` is an `Experiment` (from `load_experiment`), a built-in name, a .toml path, or a dict
+    shaped like the TOML file (then called `name`; its results go to results/NAME unless `out_dir`).
+    Returns an `ExperimentResult`: `.runs`, `.cells`, `.slopes` (pandas DataFrames, one row per run /
+    cell / fit), `.plot_convergence()`, and `["studies"]` (summary.json's content). Other keyword
+    arguments go to `drtlab.experiments.runner.run_experiment` (out_dir, gt_root, threads, fresh,
+    progress)."""
+    from drtlab.experiments.config import Experiment
     from drtlab.experiments.runner import run_experiment as _run_experiment
-    return _run_experiment(*args, **kwargs)
+    if not isinstance(experiment, Experiment):
+        experiment = load_experiment(experiment, profile, name=name)
+    return _run_experiment(experiment, **kwargs)

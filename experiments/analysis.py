@@ -2,8 +2,11 @@
 
 A cell is (scene, sampler, spp) over its repetitions. Error statistics use the noise-floor-corrected
 MSE (MSE - Var_GT); the RMSE of a cell is sqrt(mean corrected MSE), whose 95% CI is the square root
-of the Student-t interval of the corrected MSEs. The time of a cell is the median render time of its
-repetitions (compile excluded): robust to a run slowed down by other work on the machine.
+of a log-scale t interval of the corrected MSEs (`intervals.rmse_ci`: positive quantities get
+intervals that stay positive). The slope of a sampler is that of the RMSE itself
+(`slopes.fit_rmse_slope`, a gamma likelihood of per-run MSEs), reported beside the slope of the
+typical (geometric-mean) error. The time of a cell is the median render time of its repetitions
+(compile excluded): robust to a run slowed down by other work on the machine.
 
 `analyze` returns a `results.Summary`; the report, summary.json and the CLI read that.
 """
@@ -25,12 +28,15 @@ from drtlab.experiments.results import (
 )
 from drtlab.experiments.run_store import load_run_image
 from drtlab.experiments.seeds import short_hash
-from drtlab.experiments.slopes import fit_slope
+from drtlab.experiments.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
+from drtlab.experiments.slopes import fit_rmse_slope, fit_typical_slope
 
 NOISE_FLOOR_FRACTION = 0.01
 ERRATIC_SIGMA = 0.25        # log-error scatter above which a sampler's errors are called heavy-tailed
 CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
                 "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
+SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
+PRECISION = 0.1                       # cells say how many repetitions a ±10% mean MSE would need
 NAN = float("nan")
 
 
@@ -38,10 +44,8 @@ NAN = float("nan")
 # Small statistics
 # ---------------------------------------------------------------------------------------------------
 
-def _sqrt_ci(ci: Interval) -> Interval:
-    f = lambda v: math.sqrt(v) if v is not None and math.isfinite(v) and v > 0 else 0.0  # noqa: E731
-    return Interval(f(ci.mean), f(ci.lo) if math.isfinite(ci.lo) else NAN,
-                    f(ci.hi) if math.isfinite(ci.hi) else NAN, ci.n)
+def _interval(metric: str, values: list) -> Interval:
+    return Interval.of(mean_ci(values) if metric in SIGNED_METRICS else positive_mean_ci(values))
 
 
 def _interp_loglog(x0, y0, x1, y1, y):
@@ -126,15 +130,17 @@ def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: G
     acc = CellAccumulator()
     for r in cell_runs:                       # one image in memory at a time
         acc.add(load_run_image(out_dir, r.run_id))
-    stats = {m: Interval.of(mean_ci([rec[m] for rec in recs])) for m in CELL_METRICS}
+    stats = {m: _interval(m, [rec[m] for rec in recs]) for m in CELL_METRICS}
     b = acc.bias(gt.mean, gt.stderr, [rec["mean_error"] for rec in recs])
     bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))
     # Time per cell: the median over repetitions, robust to a run slowed by other load.
     seconds = float(np.median([rec["render_seconds"] for rec in recs]))
     efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, seconds) for m in METRICS.values()}
     return Cell(sampler=sampler, spp=spp, n=len(recs), **stats,
-                rmse_of_mean_mse=_sqrt_ci(stats["mse_corrected"]),
-                rrmse_of_mean_relmse=_sqrt_ci(stats["relmse_corrected"]),
+                rmse_of_mean_mse=Interval.of(rmse_ci([rec["mse_corrected"] for rec in recs])),
+                rrmse_of_mean_relmse=Interval.of(rmse_ci([rec["relmse_corrected"] for rec in recs])),
+                repetitions_for_10pct={m: repetitions_for_precision(
+                    [rec[METRICS[m].mse] for rec in recs], PRECISION)["repetitions"] for m in METRICS},
                 bias=bias, seconds=seconds, **efficiency)
 
 
@@ -146,13 +152,21 @@ def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
                       warning=bool(min_mse > 0 and gt.variance > NOISE_FLOOR_FRACTION * min_mse))
 
 
-def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict) -> tuple:
-    """The `fit_slope` call for one sampler's runs (every repetition a point), with a fixed seed."""
+def fit_slopes(spp: list, mse: list, errors: list, seed: int, floor: float | None) -> tuple:
+    """(RMSE-slope fit of the per-run MSEs, typical-error fit of the per-run errors)."""
+    return (fit_rmse_slope(spp, mse, seed=seed, floor=floor, nsteps=1500, burn=300),
+            fit_typical_slope(spp, errors, seed=seed))
+
+
+def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict, floor: float) -> tuple:
+    """The `fit_slopes` call for one sampler's runs (every repetition a point), with a fixed seed.
+    The MSE's noise floor is the reference's variance; relMSE has no such scale (floor left out)."""
     fit_seed = int(short_hash([g[0].key, g[1], sampler] + ([metric] if metric != "mse" else []), 8),
                    16) & 0x7FFFFFFF
-    return (fit_slope, ([r.spp for r in sampler_runs],
-                        [_run_error(records[r.run_id], metric) for r in sampler_runs]),
-            {"seed": fit_seed})
+    recs = [records[r.run_id] for r in sampler_runs]
+    return (fit_slopes, ([r.spp for r in sampler_runs], [rec[METRICS[metric].mse] for rec in recs],
+                         [_run_error(rec, metric) for rec in recs], fit_seed,
+                         floor if metric == "mse" else None), {})
 
 
 def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",)) -> tuple:
@@ -167,7 +181,8 @@ def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",
         for spp in sorted({r.spp for r in sampler_runs}):
             cell_runs = [r for r in sampler_runs if r.spp == spp]
             cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt)
-        fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records)) for metric in metrics]
+        fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records, gt.variance))
+                      for metric in metrics]
     return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir)), fit_calls
 
 
@@ -306,10 +321,10 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
         group_results[g], calls = analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"],
                                                 tuple(metrics_of[g]))
         fit_calls += [(g, metric, s, call) for metric, s, call in calls]
-    for (g, metric, s, _), fit in zip(fit_calls, pmap([call for *_, call in fit_calls])):
+    for (g, metric, s, _), (fit, typical) in zip(fit_calls, pmap([call for *_, call in fit_calls])):
         # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):
         # the errors are heavy-tailed (rare, very bright samples), and so is every number built on them.
-        group_results[g].slopes[metric][s] = SlopeFit.of(fit, ERRATIC_SIGMA)
+        group_results[g].slopes[metric][s] = SlopeFit.of(fit, ERRATIC_SIGMA, typical)
     studies = [_study_result(study, plan, group_results) for study in exp.studies]
     return Summary(
         experiment=exp.name, description=exp.description, profile=exp.profile, studies=studies,

@@ -59,9 +59,10 @@ def _errbar(ax, xs, intervals: list[Interval], style, label):
 Draw = Callable[..., None]      # draw(ax, scene, sampler, cells, style): one sampler in one panel
 
 
-def _panels(study: StudyResult, path: Path, draw: Draw, *, title: str, xlabel: str, ylabel: str,
-            xscale: dict, extra: Callable[..., None] | None = None) -> Path:
-    """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`."""
+def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xlabel: str, ylabel: str,
+            xscale: dict, extra: Callable[..., None] | None = None):
+    """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`;
+    saved to `path` (returned), or without a path the matplotlib Figure itself (for a notebook)."""
     plt = _plt()
     scenes = study.scenes
     rows, cols = _grid(len(scenes))
@@ -85,12 +86,14 @@ def _panels(study: StudyResult, path: Path, draw: Draw, *, title: str, xlabel: s
         axes[k // cols][k % cols].axis("off")
     fig.suptitle(title)
     fig.tight_layout()
+    if path is None:
+        return fig
     fig.savefig(path)
     plt.close(fig)
     return path
 
 
-def plot_error_vs_spp(study: StudyResult, path: Path) -> Path:
+def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
     """Error against spp, log-log, with the fitted line and its 95% credible band."""
     def draw(ax, scene: SceneResult, s: str, cells: list[Cell], style: dict) -> None:
         fit = scene.fit(s)
@@ -107,7 +110,7 @@ def plot_error_vs_spp(study: StudyResult, path: Path) -> Path:
                          f"lines: fit ± 95% CrI)")
 
 
-def plot_error_vs_seconds(study: StudyResult, path: Path) -> Path:
+def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
     """Error against render seconds, with the scene's target error."""
     def draw(ax, scene: SceneResult, s: str, cells: list[Cell], style: dict) -> None:
         xs = [c.seconds for c in cells]

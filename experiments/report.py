@@ -18,7 +18,9 @@ INTRO = (
     "compared with a high-sample reference (the *ground truth*). The error is the RMSE over pixels and "
     "colour channels, after subtracting the reference's own noise. A convergence slope *b* says how "
     "fast the error falls: RMSE ∝ N^b, so b = −0.5 is plain Monte Carlo and a more negative b is "
-    "faster. Brackets are 95% intervals (confidence intervals over repetitions for measured values, "
+    "faster; it is fitted to the RMSE itself (the root of the mean MSE over repetitions), and the "
+    "*typical-error* slope (of the geometric mean of the runs' errors, what most single runs show) "
+    "stands beside it where heavy tails make the two differ. Brackets are 95% intervals (confidence intervals over repetitions for measured values, "
     "credible intervals for fitted slopes). *Speed-up* compares the render time each sampler needs to "
     "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
     "efficiency means the same quality in half the time.\n")
@@ -125,6 +127,8 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     slope = fmt_ci(fit.slope, fit.slope_lo, fit.slope_hi) if fit else "–"
     if fit and fit.erratic:
         slope += " ‡"
+    typical = fmt_ci(fit.typical_slope, fit.typical_slope_lo, fit.typical_slope_hi) \
+        if fit and fit.typical_slope is not None else "–"
     top = scene.cell(s, top_n)
     error = _ci(top.error(study.metric)) if top else "–"
     vs = scene.comparison(s, top_n)
@@ -138,16 +142,16 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
         t_txt += " (extrap.)" if time_to.how == "extrapolated" else " (≤)"
     speedup = scene.speed.speedup_vs_baseline.get(s)
     eff = scene.efficiency[s].relative if s in scene.efficiency else None
-    return (f"| {scene.scene} | `{s}` | {slope} | {error} | {mse_ratio} | {t_txt} | "
+    return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mse_ratio} | {t_txt} | "
             f"{_bound(scene, s, base)}{fmt(speedup)}× | {fmt(eff)}× |")
 
 
 def _study_table(study: StudyResult) -> list[str]:
     E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
-    lines = [f"| Scene | Sampler | Slope b [95% CrI] | {E} at N={top_n} [95% CI] | "
+    lines = [f"| Scene | Sampler | Slope b [95% CrI] | Typical-error slope | {E} at N={top_n} [95% CI] | "
              f"{M} ÷ {base}'s at N={top_n} | Time to target (s) | Speed-up vs {base} | "
              f"Efficiency vs {base} |",
-             "|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|"]
     lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
     lines.append("")
     if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):
@@ -183,16 +187,28 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
     return txt
 
 
+def _repetitions_needed(study: StudyResult, scene: SceneResult, samplers: list[str]) -> str:
+    """How many repetitions the heavy-tailed cells would need for a ±10% mean MSE (a lower bound:
+    a small sample usually misses its own rare, huge values)."""
+    counts = [c.repetitions_for_10pct.get(study.metric) for c in scene.cells if c.sampler in samplers]
+    counts = [n for n in counts if n]
+    if not counts:
+        return ""
+    return (f"; a ±10% {study.mse_label} per cell would need at least {min(counts)}–{max(counts)} "
+            f"repetitions (now {study.repetitions})")
+
+
 def _findings(study: StudyResult) -> list[str]:
     lines = ["**Findings.**\n"]
     for scene in study.scenes:
         bits = [_finding(study, scene, s) for s in study.samplers if s != study.baseline]
         erratic = [s for s in study.samplers if s in scene.slopes and scene.slopes[s].erratic]
         if erratic:
+            need = _repetitions_needed(study, scene, erratic)
             bits.append(f"**heavy tails**: the errors of {', '.join(f'`{s}`' for s in erratic)} scatter "
                         f"far more than pixel noise explains (rare, very bright samples), so a few "
                         f"repetitions cannot pin this scene's slope or ratios down; trust the intervals, "
-                        f"not the point estimates")
+                        f"not the point estimates" + need)
         biased = [f"{c.sampler}@{c.spp}" for c in scene.cells if c.bias.significant]
         b_txt = (f" Bias screen: mean error differs from 0 at 95% in {', '.join(biased)} "
                  f"(expected in ~5% of cells by chance)." if biased else "")
@@ -257,14 +273,19 @@ def _noise_floor_section(summary: Summary) -> list[str]:
 def _diagnostics_section(summary: Summary) -> list[str]:
     ch = summary.chains
     lines = ["## Slope-fit diagnostics\n",
-             f"Model: log RMSE = a + b·log N + ε, ε ~ Normal(0, σ²), flat priors on a, b and log σ, fitted "
-             f"with emcee (differential-evolution moves, fixed seed). {ch.converged} of {ch.fits} fits pass "
+             f"Model (`slopes.fit_rmse_slope`): each run's MSE is Gamma-distributed with mean "
+             f"A·N^(2b) and a coefficient of variation that changes smoothly (log-linearly) with N, so b is "
+             f"the slope of the RMSE itself, the root of the mean MSE, whatever the shape of the per-run "
+             f"law (heavy tails included); runs below the reference's noise floor count as censored. Flat "
+             f"priors, emcee (differential-evolution moves, fixed seed). Lack of fit: an F test of the "
+             f"cell means against one slope. The typical-error slope fits log RMSE = a + b·log N + ε per "
+             f"run. {ch.converged} of {ch.fits} fits pass "
              f"the chain checks (mean acceptance fraction in [0.15, 0.8], chain longer than 50 "
              f"autocorrelation times); acceptance fractions {fmt(ch.acceptance_fraction_range[0])}–"
              f"{fmt(ch.acceptance_fraction_range[1])}, largest autocorrelation time "
              f"{fmt(ch.max_autocorr_time)} steps.\n",
-             "| Scene | Sampler | Error | b | σ | Acceptance | τ (a, b, log σ) | Converged | Points (dropped) |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| Scene | Sampler | Error | b | Lack of fit p | σ | Acceptance | τ | Converged | Points (dropped) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     seen = set()
     for study in summary.studies:
         for scene in study.scenes:
@@ -273,7 +294,8 @@ def _diagnostics_section(summary: Summary) -> list[str]:
                     continue
                 seen.add((scene.scene, s, study.metric))
                 lines.append(
-                    f"| {scene.scene} | `{s}` | {study.metric_label} | {f.slope:.3f} | {fmt(f.sigma)} | "
+                    f"| {scene.scene} | `{s}` | {study.metric_label} | {f.slope:.3f} | "
+                    f"{fmt(f.lack_of_fit_p)} | {fmt(f.sigma)} | "
                     f"{f.acceptance_fraction:.2f} | {', '.join(f'{t:.1f}' for t in f.autocorr_time)} | "
                     f"{'yes' if f.converged else 'NO'} | {f.n_points} ({f.dropped}) |")
     lines.append("")

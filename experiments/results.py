@@ -8,6 +8,7 @@ turns them into null).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, is_dataclass
+from pathlib import Path
 
 
 def to_json(o):
@@ -87,6 +88,11 @@ class Bias:
     significant: bool
 
 
+# Cell fields that summarise one number per run over the repetitions (named run_X in summary.json).
+PER_RUN = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
+           "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
+
+
 @dataclass(frozen=True)
 class Cell:
     """One (scene, sampler, spp) over its repetitions: every metric's mean [95% CI], and more."""
@@ -108,6 +114,7 @@ class Cell:
     rmse_of_mean_mse: Interval          # sqrt of the corrected-MSE interval
     rrmse_of_mean_relmse: Interval      # sqrt of the corrected-relMSE interval
     bias: Bias
+    repetitions_for_10pct: dict         # per metric: repetitions a ±10% mean (95%) would need
     seconds: float                      # median render seconds of the repetitions
     efficiency: float                   # 1 / (corrected MSE x seconds)
     efficiency_relmse: float            # 1 / (corrected relMSE x seconds)
@@ -122,15 +129,19 @@ class Cell:
         return getattr(self, METRICS[metric].efficiency)
 
     def to_json(self, metric: str | None = None) -> dict:
-        """With `metric` (a study's), also the study's view of it: `err`, `err_mse` and `eff`."""
+        """Per-run statistics are `run_X` (the mean [95% CI] over repetitions of each run's X); the
+        estimator's error is `rmse_of_mean_mse` (the root of the mean MSE); with `metric` (a study's)
+        also the study's view of it: `study_error`, `study_error_mse`, `study_efficiency`."""
         out = {}
         for f in fields(self):
-            out[f.name] = to_json(getattr(self, f.name))
+            key = f"run_{f.name}" if f.name in PER_RUN else f.name
+            out[key] = to_json(getattr(self, f.name))
             if f.name == "bias":
                 out["pixel_variance"] = self.bias.pixel_variance
         if metric is not None:
-            out.update(err=self.error(metric).to_json(), err_mse=self.error_mse(metric).to_json(),
-                       eff=self.efficiency_of(metric))
+            out.update(study_error=self.error(metric).to_json(),
+                       study_error_mse=self.error_mse(metric).to_json(),
+                       study_efficiency=self.efficiency_of(metric))
         return out
 
 
@@ -145,13 +156,17 @@ class FitLine:
 
 @dataclass(frozen=True)
 class SlopeFit:
-    """A convergence-slope fit (`slopes.fit_slope`): log error = a + b log N + noise. Without `ok`,
-    only the point counts and `reason` are set."""
+    """The slope b of a sampler's error (error ∝ N^b) with its credible interval: of the RMSE itself
+    (`slopes.fit_rmse_slope`, `estimand` "rmse"), with the typical-error slope (geometric mean of the
+    runs' errors, `slopes.fit_typical_slope`) beside it. Without `ok`, only the point counts and
+    `reason` are set."""
     n_points: int
     dropped: int
     level: float
     ok: bool
     reason: str | None = None
+    estimand: str | None = None
+    model: str | None = None
     slope: float | None = None
     slope_lo: float | None = None
     slope_hi: float | None = None
@@ -160,6 +175,12 @@ class SlopeFit:
     intercept_hi: float | None = None
     sigma: float | None = None
     ols_slope: float | None = None
+    cv_slope: float | None = None
+    lack_of_fit_f: float | None = None
+    lack_of_fit_p: float | None = None
+    floor: float | None = None
+    censored: int | None = None
+    cells: list | None = None
     acceptance_fraction: float | None = None
     autocorr_time: list | None = None
     steps: int | None = None
@@ -169,18 +190,31 @@ class SlopeFit:
     converged: bool | None = None
     seed: int | None = None
     line: FitLine | None = None
+    typical_slope: float | None = None
+    typical_slope_lo: float | None = None
+    typical_slope_hi: float | None = None
     erratic: bool = False               # log-error scatter far above pixel noise: heavy tails
 
     @classmethod
-    def of(cls, fit: dict, erratic_sigma: float) -> "SlopeFit":
+    def of(cls, fit: dict, erratic_sigma: float, typical: dict | None = None) -> "SlopeFit":
         kw = dict(fit)
         if kw.get("line") is not None:
             kw["line"] = FitLine(**kw["line"])
+        if typical is not None and typical.get("ok"):
+            kw.update(typical_slope=typical["slope"], typical_slope_lo=typical["slope_lo"],
+                      typical_slope_hi=typical["slope_hi"])
         kw["erratic"] = bool(fit.get("ok") and fit["sigma"] > erratic_sigma)
         return cls(**kw)
 
     def to_json(self) -> dict:
         return _fields_json(self, skip_none=True)
+
+    def table_row(self) -> dict:
+        return {"ok": self.ok, "slope": self.slope, "slope_lo": self.slope_lo,
+                "slope_hi": self.slope_hi, "typical_slope": self.typical_slope,
+                "typical_slope_lo": self.typical_slope_lo, "typical_slope_hi": self.typical_slope_hi,
+                "heavy_tailed": self.erratic, "converged": self.converged,
+                "lack_of_fit_p": self.lack_of_fit_p}
 
 
 @dataclass(frozen=True)
@@ -313,13 +347,65 @@ class Summary:
 
 @dataclass
 class ExperimentResult:
-    """What `run_experiment` returns: the run counts, the wall time, and the summary (None when the
-    sweep ran without analysis). Indexing it reads summary.json's content: `result["studies"]`."""
+    """What `run_experiment` returns: the run counts, the wall time, the summary (None when the
+    sweep ran without analysis) and the output folder. Indexing it reads summary.json's content
+    (`result["studies"]`); `runs`, `cells` and `slopes` are tidy pandas DataFrames, and
+    `plot_convergence()` redraws the error-vs-samples figures."""
     stats: dict                         # runs_planned, runs_new, runs_reused, runs_refreshed, rows
     wall_seconds: float
     summary: Summary | None = None
+    out_dir: Path | None = None
 
     def __getitem__(self, key: str):
         if self.summary is None:
             raise KeyError(key)
         return self.summary.to_json()[key]
+
+    def _studies(self) -> list[StudyResult]:
+        if self.summary is None:
+            raise ValueError("the experiment ran without analysis (analyze=False): no cells or slopes")
+        return self.summary.studies
+
+    @property
+    def runs(self):
+        """One row per run (runs.csv): scene, sampler, spp, rep, seed, per-run errors, timings."""
+        import pandas as pd
+        return pd.read_csv(Path(self.out_dir) / "runs.csv")
+
+    @property
+    def cells(self):
+        """One row per (study, scene, sampler, spp): the estimator's RMSE (root of the mean MSE over
+        repetitions) with its interval, the mean per-run RMSE, bias, median seconds, efficiency."""
+        import pandas as pd
+        rows = []
+        for study in self._studies():
+            for scene in study.scenes:
+                for c in scene.cells:
+                    err = c.error(study.metric)
+                    rows.append({"study": study.name, "scene": scene.scene, "sampler": c.sampler,
+                                 "spp": c.spp, "repetitions": c.n, "metric": study.metric,
+                                 "error": err.mean, "error_lo": err.lo, "error_hi": err.hi,
+                                 "rmse_of_mean_mse": c.rmse_of_mean_mse.mean,
+                                 "mean_run_rmse": c.rmse.mean, "bias": c.bias.signed,
+                                 "bias_significant": c.bias.significant, "seconds": c.seconds,
+                                 "efficiency": c.efficiency_of(study.metric)})
+        return pd.DataFrame(rows)
+
+    @property
+    def slopes(self):
+        """One row per (study, scene, sampler): the fitted slope b (error ∝ N^b) and its interval."""
+        import pandas as pd
+        rows = [{"study": study.name, "scene": scene.scene, "sampler": sampler, **fit.table_row()}
+                for study in self._studies() for scene in study.scenes
+                for sampler, fit in scene.slopes.items()]
+        return pd.DataFrame(rows)
+
+    def plot_convergence(self, study: str | None = None):
+        """The error-vs-samples figure of one study (by name; default the first) as a matplotlib
+        Figure, drawn from the results alone (no renders)."""
+        from drtlab.experiments.figures import plot_error_vs_spp
+        studies = self._studies()
+        chosen = next((s for s in studies if s.name == study), None) if study else studies[0]
+        if chosen is None:
+            raise ValueError(f"no study {study!r}; studies: {', '.join(s.name for s in studies)}")
+        return plot_error_vs_spp(chosen)

@@ -316,4 +316,5 @@ def _analyse_and_report(exp, sweep: _Sweep, analyze: bool, argv, t_start: float)
     if analyze:
         manifest.write_manifest(out_dir, exp, sweep.backend, plan, records, sweep.gts, sweep.stats,
                                 wall, argv)
-    return ExperimentResult(stats=sweep.stats, wall_seconds=wall, summary=summary)
+    return ExperimentResult(stats=sweep.stats, wall_seconds=wall, summary=summary,
+                            out_dir=sweep.out_dir)

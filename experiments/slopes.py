@@ -1,12 +1,35 @@
-"""Convergence-slope fits: log RMSE = a + b log N + eps, eps ~ Normal(0, sigma^2), sampled with emcee.
+"""Convergence-slope fits, sampled with emcee. Two estimands, reported side by side:
 
-Priors are flat in a and b (a wide box) and flat in log sigma (the scale-invariant prior), under which
+RMSE slope (`fit_rmse_slope`): the slope b of RMSE(N) = sqrt(E[MSE at N]) ∝ N^b, the quantity the
+variance theory speaks of (plain Monte Carlo: E[MSE] = Var / N exactly, so b = -0.5 in every scene).
+Model, on the per-run MSEs m_{N,r} (noise floor already removed):
+
+    m_{N,r} ~ Gamma(mean mu_N, shape k_N),   log mu_N = a + 2 b log N,
+    1 / k_N = CV^2 of a run's MSE at N = exp(d0 + d1 log N).
+
+Priors are flat in (a, b, d0, d1) within wide boxes. The likelihood is parameterized by the mean: for
+given k_N its score for (a, b) is sum k_N (m / mu_N - 1) (1, log N), which has expectation zero
+whatever the true law of m, so b estimates the slope of the mean MSE and not of a typical run's MSE. Heavy tails (rare, very bright samples: most runs at small N have small error,
+a few a huge one) show as a large CV^2 at small N. The dispersion is a smooth law in N, fitted jointly
+(for independent sampling CV^2 = c1 / N + c0 exactly, which a log-linear law follows over a ladder), so
+a small-N cell where no rare sample happened to land cannot claim a precision its own spread suggests:
+it inherits the dispersion the other cells reveal, and gets little weight. Values at or below `floor`
+(a corrected MSE <= 0: below the noise floor) are left-censored there. `lack_of_fit_p` is an F test
+of the cell means' scatter about the power law against the runs' scatter within cells: a small value
+(< 0.001; about 1% of calibrated ladders reach 0.01) means no single slope describes the ladder, e.g.
+a plateau from a bias. A single end cell off the line is instead absorbed by the dispersion law (and
+gets little weight): a cell at the noise floor shows in `censored` and in the noise-floor check.
+
+Typical-error slope (`fit_typical_slope`, also `fit_slope`): log RMSE_run = a + b log N + eps,
+eps ~ Normal(0, sigma^2), over the per-run RMSEs: the slope of the geometric mean of the error, what a
+single run typically shows. Priors are flat in a and b (a wide box) and flat in log sigma, under which
 the marginal posterior of b is the Student-t of ordinary least squares: the 95% credible interval is
-then also a 95% confidence interval, which `tests/test_slope_fit.py` checks by coverage.
+then also a 95% confidence interval. With heavy tails it is not the RMSE slope (it is far shallower).
 
 Every fit uses a fixed seed, so reports are reproducible. The chains are checked: the mean acceptance
 fraction should lie in [0.15, 0.8] and the chain should be longer than 50 integrated autocorrelation
-times (emcee's own criterion); `converged` says whether both hold.
+times (emcee's own criterion); `converged` says whether both hold. `tests/test_slope_fit.py` checks
+both fits' interval coverage on synthetic ladders with known slopes, Gaussian and heavy-tailed.
 """
 from __future__ import annotations
 
@@ -15,10 +38,14 @@ import math
 import warnings
 
 import numpy as np
+from scipy import special, stats
 
 A_BOX = 100.0
 B_BOX = 10.0
 LOG_SIGMA_BOX = (-12.0, 4.0)
+LOG_DISP_BOX = (-25.0, 10.0)     # log CV^2 of a run's MSE, in every cell (shape k up to e^25)
+DISP_SLOPE_BOX = 5.0             # |d log CV^2 / d log N|
+LOG_CDF_MIN = -700.0             # log P(m <= floor) is clipped here (gammainc underflows to 0)
 
 
 def _log_prob(theta: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -40,15 +67,62 @@ def ols(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     return float(coef[0]), float(coef[1]), float(math.sqrt(max(np.sum(resid ** 2) / dof, 1e-300)))
 
 
-def fit_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int = 1000, burn: int = 200,
-              level: float = 0.95, line_points: int = 24) -> dict:
-    """Fit log RMSE = a + b log N with a fitted noise term; returns the posterior summary.
+def _sample(log_prob, p0: np.ndarray, args: tuple, *, nsteps: int, burn: int, seed: int) -> dict:
+    """Run emcee from `p0` (walkers x dims) and return the flat chain with its diagnostics."""
+    import emcee
+
+    nwalkers, ndim = p0.shape
+    # Differential-evolution proposals mix about 3x faster than the default stretch move on these
+    # nearly Gaussian low-dimensional posteriors (integrated autocorrelation time ~11 steps vs ~30).
+    moves = [(emcee.moves.DEMove(), 0.9), (emcee.moves.StretchMove(), 0.1)]
+    sampler = emcee.EnsembleSampler(nwalkers, ndim, log_prob, args=args, vectorize=True, moves=moves)
+    sampler.random_state = np.random.RandomState(seed).get_state()
+    sampler.run_mcmc(p0, nsteps, progress=False)
+    chain = sampler.get_chain(discard=burn, flat=True)
+    acc = float(np.mean(sampler.acceptance_fraction))
+    log = logging.getLogger("emcee.autocorr")   # a short chain is reported via `converged` instead
+    level_before = log.level
+    log.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            tau = sampler.get_autocorr_time(discard=burn, quiet=True)
+    except Exception:                                    # noqa: BLE001 - reported, not fatal
+        tau = np.full(ndim, np.nan)
+    finally:
+        log.setLevel(level_before)
+    kept = nsteps - burn
+    tau_max = float(np.nanmax(tau)) if np.any(np.isfinite(tau)) else float("nan")
+    ok_tau = math.isfinite(tau_max) and tau_max > 0
+    return {
+        "chain": chain,
+        "acceptance_fraction": acc,
+        "autocorr_time": [float(t) for t in tau],
+        "steps": nsteps, "burn": burn, "walkers": nwalkers,
+        "effective_samples": float(nwalkers * kept / tau_max) if ok_tau else float("nan"),
+        "converged": bool(0.15 <= acc <= 0.8 and ok_tau and kept >= 50 * tau_max),
+        "seed": seed,
+    }
+
+
+def _quantiles(level: float) -> list[float]:
+    return [50.0 * (1 - level), 50.0, 100.0 - 50.0 * (1 - level)]
+
+
+def _band(lines: np.ndarray, grid: np.ndarray, level: float) -> dict:
+    """Median and credible band of fitted log-RMSE lines (rows: posterior draws) on log-N `grid`."""
+    l_lo, l_med, l_hi = np.percentile(lines, _quantiles(level), axis=0)
+    return {"n": np.exp(grid).tolist(), "median": np.exp(l_med).tolist(),
+            "lo": np.exp(l_lo).tolist(), "hi": np.exp(l_hi).tolist()}
+
+
+def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int = 1000,
+                      burn: int = 200, level: float = 0.95, line_points: int = 24) -> dict:
+    """Typical-error slope: fit log RMSE = a + b log N over per-run RMSEs, with a fitted noise term.
 
     `n` and `rmse` are per-run values (repetitions included); non-positive or non-finite RMSE values
     (a corrected MSE below zero) are dropped and counted in `dropped`.
     """
-    import emcee
-
     n = np.asarray(n, dtype=np.float64)
     rmse = np.asarray(rmse, dtype=np.float64)
     keep = np.isfinite(rmse) & (rmse > 0) & np.isfinite(n) & (n > 0)
@@ -64,54 +138,180 @@ def fit_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int = 1000,
     p0 = np.stack([a0 + 1e-3 * rng.standard_normal(nwalkers),
                    b0 + 1e-3 * rng.standard_normal(nwalkers),
                    np.log(max(s0, 1e-5)) + 1e-2 * rng.standard_normal(nwalkers)], axis=1)
-    # Differential-evolution proposals mix about 3x faster than the default stretch move on this
-    # nearly Gaussian 3-parameter posterior (integrated autocorrelation time ~11 steps vs ~30).
-    moves = [(emcee.moves.DEMove(), 0.9), (emcee.moves.StretchMove(), 0.1)]
-    sampler = emcee.EnsembleSampler(nwalkers, 3, _log_prob, args=(x, y_all), vectorize=True,
-                                    moves=moves)
-    sampler.random_state = np.random.RandomState(seed).get_state()
-    sampler.run_mcmc(p0, nsteps, progress=False)
-    chain = sampler.get_chain(discard=burn, flat=True)
-    acc = float(np.mean(sampler.acceptance_fraction))
-    log = logging.getLogger("emcee.autocorr")   # a short chain is reported via `converged` instead
-    level_before = log.level
-    log.setLevel(logging.ERROR)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            tau = sampler.get_autocorr_time(discard=burn, quiet=True)
-    except Exception:                                    # noqa: BLE001 - reported, not fatal
-        tau = np.full(3, np.nan)
-    finally:
-        log.setLevel(level_before)
-    kept = nsteps - burn
-    tau_max = float(np.nanmax(tau)) if np.any(np.isfinite(tau)) else float("nan")
-    converged = bool(0.15 <= acc <= 0.8 and math.isfinite(tau_max) and kept >= 50 * tau_max)
-
+    run = _sample(_log_prob, p0, (x, y_all), nsteps=nsteps, burn=burn, seed=seed)
+    chain = run.pop("chain")
     a_c, b, ls = chain[:, 0], chain[:, 1], chain[:, 2]
     a = a_c - b * xm
-    q = [50.0 * (1 - level), 50.0, 100.0 - 50.0 * (1 - level)]
+    q = _quantiles(level)
     b_lo, b_med, b_hi = np.percentile(b, q)
     a_lo, a_med, a_hi = np.percentile(a, q)
-    s_med = float(np.median(np.exp(ls)))
     # Fitted line with its credible band, on a grid spanning the data (for plots).
     grid = np.linspace(x_all.min(), x_all.max(), line_points)
     sub = chain[rng.choice(len(chain), size=min(len(chain), 2000), replace=False)]
     lines = (sub[:, 0:1] - sub[:, 1:2] * xm) + sub[:, 1:2] * grid[None, :]
-    l_lo, l_med, l_hi = np.percentile(lines, q, axis=0)
     out.update({
         "ok": True,
         "slope": float(b_med), "slope_lo": float(b_lo), "slope_hi": float(b_hi),
         "intercept": float(a_med), "intercept_lo": float(a_lo), "intercept_hi": float(a_hi),
-        "sigma": s_med,
+        "sigma": float(np.median(np.exp(ls))),
         "ols_slope": float(b0),
-        "acceptance_fraction": acc,
-        "autocorr_time": [float(t) for t in tau],
-        "steps": nsteps, "burn": burn, "walkers": nwalkers,
-        "effective_samples": float(nwalkers * kept / tau_max) if math.isfinite(tau_max) and tau_max > 0 else float("nan"),
-        "converged": converged,
-        "seed": seed,
-        "line": {"n": np.exp(grid).tolist(), "median": np.exp(l_med).tolist(),
-                 "lo": np.exp(l_lo).tolist(), "hi": np.exp(l_hi).tolist()},
+        **run,
+        "line": _band(lines, grid, level),
+    })
+    return out
+
+
+fit_slope = fit_typical_slope     # the name analysis.py and older reports use
+
+
+# ---------------------------------------------------------------------------------------------------
+# RMSE slope
+# ---------------------------------------------------------------------------------------------------
+
+def _gamma_loglik(log_mu: np.ndarray, log_cv2: np.ndarray, cells: dict) -> np.ndarray:
+    """Log-likelihood of the runs, rows of (k, cells) arrays of log mean and log CV^2 per cell.
+
+    Per uncensored run, log Gamma(m; mean mu, shape k) up to a constant (-log m) is
+    k (log r - r + 1) + k log k - k - lgamma(k) with r = m / mu; `cells` holds per-cell sums.
+    A censored run adds log P(m <= floor).
+    """
+    log_k = -np.clip(log_cv2, *LOG_DISP_BOX)
+    k = np.exp(log_k)
+    u = cells["uncensored"]
+    fit = cells["sum_log"] - u * log_mu - cells["sum"] * np.exp(-log_mu) + u
+    lp = np.sum(k * fit + u * (k * log_k - k - special.gammaln(k)), axis=1)
+    if cells["any_censored"]:
+        with np.errstate(divide="ignore"):
+            cdf = np.log(special.gammainc(k, k * np.exp(cells["log_floor"] - log_mu)))
+        lp = lp + np.sum(cells["censored"] * np.maximum(cdf, LOG_CDF_MIN), axis=1)
+    return lp
+
+
+def _gamma_log_prob(theta: np.ndarray, x: np.ndarray, cells: dict) -> np.ndarray:
+    """Vectorized over walkers: theta (k, 4) = (a, b, d0, d1); log mu_N = a + 2 b x, log CV^2 = d0 + d1 x."""
+    a, b, d0, d1 = theta[:, 0:1], theta[:, 1:2], theta[:, 2:3], theta[:, 3:4]
+    log_cv2 = d0 + d1 * x[None, :]
+    ok = ((np.abs(a[:, 0]) < 2 * A_BOX) & (np.abs(b[:, 0]) < B_BOX) & (np.abs(d1[:, 0]) < DISP_SLOPE_BOX)
+          & np.all((log_cv2 > LOG_DISP_BOX[0]) & (log_cv2 < LOG_DISP_BOX[1]), axis=1))
+    lp = _gamma_loglik(a + 2.0 * b * x[None, :], log_cv2, cells)    # log CV^2 clipped where not ok
+    return np.where(ok, lp, -np.inf)
+
+
+def _cells(n: np.ndarray, m: np.ndarray, floor: float) -> dict:
+    """Per-sample-count sufficient statistics of the (scaled) per-run MSEs; values <= floor censored."""
+    ladder = np.unique(n)
+    cen = m <= floor
+    by = [n == v for v in ladder]
+    mu = np.where(cen, 1.0, m)
+    return {
+        "n": ladder, "x": np.log(ladder),
+        "runs": np.array([s.sum() for s in by], dtype=np.float64),
+        "uncensored": np.array([(s & ~cen).sum() for s in by], dtype=np.float64),
+        "censored": np.array([(s & cen).sum() for s in by], dtype=np.float64),
+        "sum": np.array([m[s & ~cen].sum() for s in by]),
+        "sum_log": np.array([np.log(mu[s & ~cen]).sum() for s in by]),
+        "mean": np.array([m[s].mean() for s in by]),
+        "var": np.array([m[s].var(ddof=1) if s.sum() > 1 else np.nan for s in by]),
+        "ss": np.array([np.sum((m[s] - m[s].mean()) ** 2) for s in by]),
+        "any_censored": bool(cen.any()), "log_floor": math.log(floor),
+    }
+
+
+def _rmse_start(c: dict, x: np.ndarray, floor: float, nwalkers: int, rng) -> np.ndarray:
+    """Walkers around a moment estimate: OLS of log cell-mean MSE, and of log cell CV^2, on log N."""
+    mean = np.maximum(c["mean"], floor)
+    w = np.sqrt(c["runs"])
+    b2, a0 = np.polyfit(x, np.log(mean), 1, w=w)
+    cv2 = c["var"] / mean ** 2
+    good = np.isfinite(cv2) & (cv2 > 0)
+    cv2 = np.clip(cv2[good], math.exp(LOG_DISP_BOX[0] + 1), math.exp(LOG_DISP_BOX[1] - 1))
+    if good.sum() >= 2 and np.unique(x[good]).size >= 2:
+        d1, d0 = np.polyfit(x[good], np.log(cv2), 1)
+        d1 = float(np.clip(d1, -0.9 * DISP_SLOPE_BOX, 0.9 * DISP_SLOPE_BOX))
+    else:
+        d1, d0 = 0.0, float(np.log(cv2).mean()) if good.any() else 0.0
+    theta = np.array([a0, b2 / 2.0, d0, d1])
+    return theta + 1e-2 * rng.standard_normal((nwalkers, 4))
+
+
+def _lack_of_fit(c: dict, x: np.ndarray, theta: np.ndarray) -> tuple[float, float]:
+    """Between- against within-cell scatter (an F test, as in a one-way analysis of variance): the
+    cell means' squared relative deviations from the fitted power law, and the runs' from their cell
+    means, each weighted by the fitted CV^2 law's shape (its scale cancels). Returns (F, p-value on
+    (cells - 2, runs - cells) degrees of freedom); a small p means no single slope fits the means."""
+    C, n = x.size, float(c["runs"].sum())
+    if C < 3 or n <= C:
+        return float("nan"), float("nan")
+    mu = np.exp(theta[0] + 2.0 * theta[1] * x)
+    w = np.exp(-theta[3] * x)
+    between = float(np.sum(c["runs"] * w * (c["mean"] / mu - 1.0) ** 2)) / (C - 2)
+    within = float(np.sum(w * c["ss"] / mu ** 2)) / (n - C)
+    if not within > 0:
+        return float("inf"), 0.0
+    f = between / within
+    return f, float(stats.f.sf(f, C - 2, n - C))
+
+
+def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2500,
+                   burn: int = 500, level: float = 0.95, line_points: int = 24,
+                   floor: float | None = None) -> dict:
+    """RMSE slope: fit mean MSE(N) = A N^(2b) to per-run MSEs; b is the slope of RMSE = sqrt(mean MSE).
+
+    `n` and `mse` are per-run values (repetitions included; MSE with the noise floor removed, so it
+    may be slightly negative). Non-finite values are dropped (`dropped`); values at or below `floor`
+    are left-censored there (`censored`). `floor` defaults to 1% of the smallest cell's median
+    positive MSE; pass the ground truth's variance (the correction's scale) when known.
+    Returns `fit_typical_slope`'s keys (`intercept`: log RMSE at N = 1; `sigma`: the model's sd of a
+    run's log RMSE at the ladder's geometric centre, comparable to the typical fit's; `ols_slope`:
+    least squares on log sqrt(cell-mean MSE); `autocorr_time`: 4 parameters) and `cells` (per N: runs,
+    mean MSE, RMSE, fitted RMSE, the fitted CV of a run's MSE), `cv_slope` (d log CV / d log N),
+    `lack_of_fit_f` / `lack_of_fit_p`, `floor`, `censored`, `model`, `estimand` ("rmse").
+    """
+    n = np.asarray(n, dtype=np.float64)
+    m = np.asarray(mse, dtype=np.float64)
+    keep = np.isfinite(m) & np.isfinite(n) & (n > 0)
+    n, m = n[keep], m[keep]
+    out: dict = {"n_points": int(keep.sum()), "dropped": int((~keep).sum()), "level": level,
+                 "estimand": "rmse", "model": "gamma, mean-parameterized, log-linear CV^2"}
+    pos = m > 0
+    if pos.sum() < 3 or np.unique(n[pos]).size < 2:
+        out.update({"ok": False, "reason": "fewer than 3 usable points on at least 2 sample counts"})
+        return out
+    if floor is None or not floor > 0:
+        floor = 0.01 * min(float(np.median(m[(n == v) & pos])) for v in np.unique(n[pos]))
+    scale = math.exp(float(np.mean(np.log(m[pos]))))
+    c = _cells(n, m / scale, floor / scale)
+    xm = float(np.mean(np.log(n)))
+    x = c["x"] - xm
+    rng = np.random.default_rng(seed)
+    p0 = _rmse_start(c, x, floor / scale, nwalkers, rng)
+    run = _sample(_gamma_log_prob, p0, (x, c), nsteps=nsteps, burn=burn, seed=seed)
+    chain = run.pop("chain")
+    med = np.median(chain, axis=0)
+    b = chain[:, 1]
+    a = 0.5 * (chain[:, 0] + math.log(scale)) - b * xm        # log RMSE at N = 1
+    q = _quantiles(level)
+    b_lo, b_med, b_hi = np.percentile(b, q)
+    a_lo, a_med, a_hi = np.percentile(a, q)
+    grid = np.linspace(c["x"].min(), c["x"].max(), line_points)
+    sub = rng.choice(len(chain), size=min(len(chain), 2000), replace=False)
+    lines = a[sub, None] + b[sub, None] * grid[None, :]
+    f_fit, p_fit = _lack_of_fit(c, x, med)
+    cv = np.sqrt(np.exp(med[2] + med[3] * x))
+    fitted = np.exp(float(a_med) + float(b_med) * c["x"])
+    out.update({
+        "ok": True,
+        "slope": float(b_med), "slope_lo": float(b_lo), "slope_hi": float(b_hi),
+        "intercept": float(a_med), "intercept_lo": float(a_lo), "intercept_hi": float(a_hi),
+        "sigma": 0.5 * math.sqrt(float(special.polygamma(1, math.exp(-med[2])))),
+        "ols_slope": float(ols(c["x"], 0.5 * np.log(np.maximum(c["mean"], floor / scale)))[1]),
+        **run,
+        "cv_slope": float(med[3]) / 2.0,
+        "lack_of_fit_f": f_fit, "lack_of_fit_p": p_fit,
+        "floor": float(floor), "censored": int(c["censored"].sum()),
+        "cells": [{"n": float(v), "runs": int(r), "mse_mean": float(mm * scale),
+                   "rmse": math.sqrt(max(mm * scale, 0.0)), "fitted_rmse": float(f), "cv": float(s)}
+                  for v, r, mm, f, s in zip(c["n"], c["runs"], c["mean"], fitted, cv)],
+        "line": _band(lines, grid, level),
     })
     return out

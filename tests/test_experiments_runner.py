@@ -88,10 +88,11 @@ def test_end_to_end_on_fake_renderer(tmp_path):
         assert sc["efficiency"]["stratified"]["relative"] > 2
         assert len(sc["cells"]) == 8
         c = sc["cells"][0]
-        assert {"rmse", "relmse", "mae", "ciede2000", "bias", "pixel_variance", "efficiency"} <= set(c)
-        assert c["rmse"]["lo"] <= c["rmse"]["mean"] <= c["rmse"]["hi"]
+        assert {"run_rmse", "run_relmse", "run_mae", "run_ciede2000", "rmse_of_mean_mse", "bias",
+                "pixel_variance", "efficiency"} <= set(c)
+        assert c["run_rmse"]["lo"] <= c["run_rmse"]["mean"] <= c["run_rmse"]["hi"]
     rel = summary["studies"][1]
-    assert rel["metric"] == "relmse" and rel["scenes"][0]["cells"][0]["err"] == \
+    assert rel["metric"] == "relmse" and rel["scenes"][0]["cells"][0]["study_error"] == \
         rel["scenes"][0]["cells"][0]["rrmse_of_mean_relmse"]
     f = rel["scenes"][0]["slopes"]["stratified"]
     assert f["slope_lo"] - 0.03 <= -0.75 <= f["slope_hi"] + 0.03
@@ -262,7 +263,7 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
     assert (gt_dirs[0] / "mean.exr").is_file() and (gt_dirs[0] / "stderr.exr").is_file()
     from drtlab.kernels import CODE_VERSION
     assert man["code_version"] == CODE_VERSION
-    assert s["studies"][0]["scenes"][0]["cells"][0]["rmse"]["mean"] > 0
+    assert s["studies"][0]["scenes"][0]["cells"][0]["run_rmse"]["mean"] > 0
 
 
 def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
