@@ -5,8 +5,11 @@ MSE (MSE - Var_GT); the RMSE of a cell is sqrt(mean corrected MSE), whose 95% CI
 of a log-scale t interval of the corrected MSEs (`intervals.rmse_ci`: positive quantities get
 intervals that stay positive). The slope of a sampler is that of the RMSE itself
 (`slopes.fit_rmse_slope`, a gamma likelihood of per-run MSEs), reported beside the slope of the
-typical (geometric-mean) error. The time of a cell is the median render time of its repetitions
-(compile excluded): robust to a run slowed down by other work on the machine.
+typical (geometric-mean) error. The time of a cell is its calibrated cost (`run_store.CostModel`):
+overhead + per-sample cost x pixels x spp, the per-sample cost from the runner's long calibration
+renders (95% t interval over them), the overhead from the median residual of the group's runs;
+speed-ups carry a bootstrap interval (repetitions resampled, per-sample cost drawn from its t law,
+overhead residuals resampled), efficiency ratios a delta-method one.
 
 `analyze` returns a `results.Summary`; the report, summary.json and the CLI read that.
 """
@@ -26,7 +29,7 @@ from drtlab.experiments.results import (
     METRICS, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, NoiseFloor, RatioCI,
     SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
 )
-from drtlab.experiments.run_store import load_run_image
+from drtlab.experiments.run_store import SYSTEMATIC, CostModel, fit_cost_models, load_run_image
 from drtlab.experiments.seeds import short_hash
 from drtlab.experiments.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
 from drtlab.experiments.slopes import fit_rmse_slope, fit_typical_slope
@@ -38,6 +41,8 @@ CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "rel
 SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
 PRECISION = 0.1                       # cells say how many repetitions a ±10% mean MSE would need
 NAN = float("nan")
+TIMING_RESOLUTION = 0.02    # measured render seconds below which a cell's timing is not resolved
+BOOTSTRAP = 400             # bootstrap replicates of each speed-up (repetitions x cost)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -97,6 +102,24 @@ def _ratio_ci(a: Interval, b: Interval) -> RatioCI:
                    r * math.exp(1.96 * s) if math.isfinite(s) else NAN)
 
 
+def _log_sd(x: Interval | None) -> float:
+    return math.sqrt(_rel_var(x)) if x is not None else NAN
+
+
+def _efficiency_ratio(c, b, metric: str) -> tuple:
+    """(ratio, lo, hi): c's efficiency over b's, 95% delta-method interval on the log scale from
+    both cells' squared errors and calibrated costs."""
+    e, be = c.efficiency_of(metric), b.efficiency_of(metric)
+    if c is b and math.isfinite(e) and e > 0:
+        return 1.0, 1.0, 1.0
+    if not (be and math.isfinite(be) and math.isfinite(e) and e > 0):
+        return NAN, NAN, NAN
+    r = e / be
+    s = math.sqrt(sum(_log_sd(x) ** 2 for x in (c.error_mse(metric), b.error_mse(metric),
+                                                  c.seconds_ci, b.seconds_ci)))
+    return (r, r * math.exp(-1.96 * s), r * math.exp(1.96 * s)) if math.isfinite(s) else (r, NAN, NAN)
+
+
 def _efficiency(mse: float, seconds: float) -> float:
     return 1.0 / (mse * seconds) if mse > 0 and seconds > 0 else NAN
 
@@ -111,6 +134,8 @@ class GroupResult:
     cells: dict                     # (sampler, spp) -> Cell
     slopes: dict                    # metric -> sampler -> SlopeFit
     noise_floor: NoiseFloor
+    costs: dict = None              # sampler -> run_store.CostModel
+    mse_runs: dict = None           # (sampler, spp) -> metric -> per-run squared errors (bootstrap)
 
 
 def group_name(g) -> str:
@@ -125,7 +150,20 @@ def _run_error(rec: dict, metric: str) -> float:
     return rec["rmse_corrected"]
 
 
-def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: GroundTruth) -> Cell:
+def _cost_cell(cost: CostModel, spp: int, recs: list) -> dict:
+    """A cell's calibrated cost, its interval and the measured median it replaces."""
+    measured = float(np.median([rec["render_seconds"] for rec in recs]))
+    seconds, h, n = cost.seconds(spp), cost.t_halfwidth(), cost.per_sample.size
+    work = cost.pixels * spp
+    sd = h / 1.96 * math.sqrt(n) * work if n > 1 else None     # so that sd/sqrt(n) is h's
+    ci = Interval(seconds, cost.seconds(spp, cost.mean - h) if math.isfinite(h) else NAN,
+                  cost.seconds(spp, cost.mean + h) if math.isfinite(h) else NAN, int(n), sd)
+    return {"seconds": seconds, "seconds_ci": ci, "measured_seconds": measured,
+            "timing_below_resolution": bool(measured < TIMING_RESOLUTION)}
+
+
+def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: GroundTruth,
+          cost: CostModel) -> Cell:
     recs = [records[r.run_id] for r in cell_runs]
     acc = CellAccumulator()
     for r in cell_runs:                       # one image in memory at a time
@@ -133,15 +171,15 @@ def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: G
     stats = {m: _interval(m, [rec[m] for rec in recs]) for m in CELL_METRICS}
     b = acc.bias(gt.mean, gt.stderr, [rec["mean_error"] for rec in recs])
     bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))
-    # Time per cell: the median over repetitions, robust to a run slowed by other load.
-    seconds = float(np.median([rec["render_seconds"] for rec in recs]))
-    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, seconds) for m in METRICS.values()}
+    # Time per cell: the calibrated cost at this spp (a 2-14 ms timing does not reproduce).
+    timing = _cost_cell(cost, spp, recs)
+    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, timing["seconds"]) for m in METRICS.values()}
     return Cell(sampler=sampler, spp=spp, n=len(recs), **stats,
                 rmse_of_mean_mse=Interval.of(rmse_ci([rec["mse_corrected"] for rec in recs])),
                 rrmse_of_mean_relmse=Interval.of(rmse_ci([rec["relmse_corrected"] for rec in recs])),
                 repetitions_for_10pct={m: repetitions_for_precision(
                     [rec[METRICS[m].mse] for rec in recs], PRECISION)["repetitions"] for m in METRICS},
-                bias=bias, seconds=seconds, **efficiency)
+                bias=bias, **efficiency, **timing)
 
 
 def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
@@ -154,7 +192,7 @@ def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
 
 def fit_slopes(spp: list, mse: list, errors: list, seed: int, floor: float | None) -> tuple:
     """(RMSE-slope fit of the per-run MSEs, typical-error fit of the per-run errors)."""
-    return (fit_rmse_slope(spp, mse, seed=seed, floor=floor, nsteps=1500, burn=300),
+    return (fit_rmse_slope(spp, mse, seed=seed, floor=floor, nsteps=2000, burn=400),
             fit_typical_slope(spp, errors, seed=seed))
 
 
@@ -169,29 +207,63 @@ def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict, floor
                          floor if metric == "mse" else None), {})
 
 
-def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",)) -> tuple:
+def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",),
+                  calibration: dict | None = None) -> tuple:
     """(GroupResult, fits to run) of one (scene, integrator, resolution). Its slope fits (one per
     sampler and metric) come back as (metric, sampler, call) for `analyze` to run together, in
     parallel; the GroupResult's `slopes` are empty until then."""
     gt = load_ground_truth(gt_dir)
     cells: dict = {}
+    mse_runs: dict = {}
     fit_calls: list = []
-    for s in dict.fromkeys(r.sampler for r in runs):
-        sampler_runs = [r for r in runs if r.sampler == s and r.run_id in records]
+    samplers = list(dict.fromkeys(r.sampler for r in runs))
+    done = {s: [r for r in runs if r.sampler == s and r.run_id in records] for s in samplers}
+    costs = fit_cost_models({s: [records[r.run_id] for r in rs] for s, rs in done.items() if rs},
+                            calibration or {}, group_name(g))
+    for s in samplers:
+        sampler_runs = done[s]
         for spp in sorted({r.spp for r in sampler_runs}):
             cell_runs = [r for r in sampler_runs if r.spp == spp]
-            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt)
+            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt, costs[s])
+            mse_runs[(s, spp)] = {m: np.array([records[r.run_id][METRICS[m].mse] for r in cell_runs])
+                                  for m in METRICS}
         fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records, gt.variance))
                       for metric in metrics]
-    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir)), fit_calls
+    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), costs,
+                       mse_runs), fit_calls
 
 
 # ---------------------------------------------------------------------------------------------------
 # One study: its view of each scene's group (its samplers, its ladder, its metric)
 # ---------------------------------------------------------------------------------------------------
 
-def _speed(study, by_sampler: dict) -> Speed:
-    """Time to a common target error and the speed-up over the baseline that gives."""
+def _speedup_draws(study, by_sampler: dict, group: GroupResult, target: float, seed: int) -> dict:
+    """Bootstrap replicates of each sampler's speed-up over the baseline at the fixed target: each
+    cell's repetitions resampled, each per-sample cost drawn from its t law, the pooled overhead
+    residuals resampled (one overhead per replicate, shared by the samplers)."""
+    rng = np.random.default_rng(seed)
+    key = study.metric
+    resid = next(iter(group.costs.values())).overhead_samples
+    draws: dict = {s: [] for s in by_sampler}
+    for _ in range(BOOTSTRAP):
+        o = max(float(np.percentile(rng.choice(resid, resid.size), 25)), 0.0) if resid.size else None
+        times = {}
+        for s, cells in by_sampler.items():
+            cost = group.costs[s]
+            ps = cost.draw_per_sample(rng)
+            errs = [math.sqrt(max(float(np.mean(rng.choice(v, v.size))), 0.0))
+                    for v in (group.mse_runs[(s, c.spp)][key] for c in cells)]
+            o_s = None if o is None else o * (1 + SYSTEMATIC / 1.96 * float(rng.standard_normal()))
+            times[s] = time_to_target([cost.seconds(c.spp, ps, o_s) for c in cells], errs, target)["seconds"]
+        tb = times.get(study.baseline, NAN)
+        for s, t in times.items():
+            draws[s].append(tb / t if t and math.isfinite(t) and math.isfinite(tb) else NAN)
+    return draws
+
+
+def _speed(study, by_sampler: dict, group: GroupResult | None = None) -> Speed:
+    """Time to a common target error and the speed-up over the baseline that gives, with a 95%
+    bootstrap interval."""
     metric = study.metric
     best = {s: min((c.error(metric).mean for c in cells if c.error(metric).mean > 0), default=NAN)
             for s, cells in by_sampler.items()}
@@ -208,7 +280,15 @@ def _speed(study, by_sampler: dict) -> Speed:
     tb = time_to[study.baseline].seconds if study.baseline in time_to else NAN
     speedup = {s: (tb / t.seconds) if t.seconds and math.isfinite(t.seconds) and math.isfinite(tb) else NAN
                for s, t in time_to.items()}
-    return Speed(target_rmse=target, target_auto=auto, time_to_target=time_to, speedup_vs_baseline=speedup)
+    lo, hi = {s: NAN for s in speedup}, {s: NAN for s in speedup}
+    if group is not None and group.costs and math.isfinite(target) and study.baseline in by_sampler:
+        seed = int(short_hash([study.name, [c.spp for cs in by_sampler.values() for c in cs]], 8), 16)
+        for s, d in _speedup_draws(study, by_sampler, group, target, seed).items():
+            d = np.array([x for x in d if math.isfinite(x)])
+            if d.size >= BOOTSTRAP // 2:
+                lo[s], hi[s] = (float(x) for x in np.percentile(d, [2.5, 97.5]))
+    return Speed(target_rmse=target, target_auto=auto, time_to_target=time_to,
+                 speedup_vs_baseline=speedup, speedup_lo=lo, speedup_hi=hi)
 
 
 def _vs_baseline(study, cells: dict) -> dict:
@@ -220,11 +300,10 @@ def _vs_baseline(study, cells: dict) -> dict:
         for n in study.settings.spp:
             if (s, n) in cells and (base, n) in cells:
                 c, b = cells[(s, n)], cells[(base, n)]
-                b_eff = b.efficiency_of(metric)
+                r, lo, hi = _efficiency_ratio(c, b, metric)
                 rows.append(BaselineComparison(
                     spp=n, mse_ratio=_ratio_ci(b.error_mse(metric), c.error_mse(metric)),
-                    efficiency_ratio=(c.efficiency_of(metric) / b_eff)
-                    if b_eff and math.isfinite(b_eff) else NAN))
+                    efficiency_ratio=r, efficiency_ratio_lo=lo, efficiency_ratio_hi=hi))
         out[s] = rows
     return out
 
@@ -235,10 +314,14 @@ def _top_efficiency(study, cells: dict) -> dict:
     for s in study.samplers:
         n = max((n for n in study.settings.spp if (s, n) in cells), default=None)
         if n is not None:
-            top[s] = (n, cells[(s, n)].efficiency_of(study.metric))
-    be = top[study.baseline][1] if study.baseline in top else NAN
-    return {s: TopEfficiency(spp=n, efficiency=e, relative=e / be if be and math.isfinite(be) else NAN)
-            for s, (n, e) in top.items()}
+            top[s] = (n, cells[(s, n)])
+    b = top[study.baseline][1] if study.baseline in top else None
+    out = {}
+    for s, (n, c) in top.items():
+        r, lo, hi = _efficiency_ratio(c, b, study.metric) if b is not None else (NAN, NAN, NAN)
+        out[s] = TopEfficiency(spp=n, efficiency=c.efficiency_of(study.metric), relative=r,
+                               relative_lo=lo, relative_hi=hi)
+    return out
 
 
 def _scene_result(study, scene_ref, group: GroupResult) -> SceneResult:
@@ -250,7 +333,7 @@ def _scene_result(study, scene_ref, group: GroupResult) -> SceneResult:
         scene=scene_ref.label, scene_name=scene_ref.name, overrides=scene_ref.overrides_dict,
         cells=[c for s in samplers for c in by_sampler[s]],
         slopes={s: slopes[s] for s in samplers if s in slopes},
-        noise_floor=group.noise_floor, speed=_speed(study, by_sampler),
+        noise_floor=group.noise_floor, speed=_speed(study, by_sampler, group),
         vs_baseline=_vs_baseline(study, cells), efficiency=_top_efficiency(study, cells))
 
 
@@ -305,8 +388,11 @@ def _chains(group_results: dict) -> ChainDiagnostics:
         max_autocorr_time=max((max(f.autocorr_time) for f in ok), default=NAN))
 
 
-def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[str], None]) -> Summary:
-    """The summary of a sweep: `gts` is the runner's ground-truth info per group (its `dir` read)."""
+def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[str], None],
+            calibration: dict | None = None) -> Summary:
+    """The summary of a sweep: `gts` is the runner's ground-truth info per group (its `dir` read);
+    `calibration` the runner's cost calibration entries (calibration.json; without them the cost
+    comes from the sweep's own timings)."""
     groups: dict = {}
     for r in plan:
         groups.setdefault(r.group, []).append(r)
@@ -319,7 +405,7 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     fit_calls: list = []
     for g, runs in groups.items():
         group_results[g], calls = analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"],
-                                                tuple(metrics_of[g]))
+                                                tuple(metrics_of[g]), calibration)
         fit_calls += [(g, metric, s, call) for metric, s, call in calls]
     for (g, metric, s, _), (fit, typical) in zip(fit_calls, pmap([call for *_, call in fit_calls])):
         # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):

@@ -126,7 +126,7 @@ def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
                         va="bottom", fontsize=6, color="0.3")
 
     return _panels(study, path, draw, extra=target, xscale={},
-                   xlabel="render seconds (median of repetitions, compile excluded)",
+                   xlabel="render seconds (calibrated cost, compile excluded)",
                    ylabel=study.metric_label, title=f"{study.name}: {study.metric_label} vs time")
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from drtlab.experiments.analysis import ERRATIC_SIGMA
+from drtlab.experiments.analysis import ERRATIC_SIGMA, TIMING_RESOLUTION
 from drtlab.experiments.figures import plot_study, slug, strip_job
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
@@ -23,7 +23,16 @@ INTRO = (
     "stands beside it where heavy tails make the two differ. Brackets are 95% intervals (confidence intervals over repetitions for measured values, "
     "credible intervals for fitted slopes). *Speed-up* compares the render time each sampler needs to "
     "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
-    "efficiency means the same quality in half the time.\n")
+    "efficiency means the same quality in half the time.\n\n"
+    "**Render time is a calibrated cost, not a stopwatch reading of each cell.** A render of a few "
+    "milliseconds does not time reproducibly, so after the sweep each (scene, sampler) is rendered a "
+    "few more times for about 0.15 s each (compile excluded; the samplers take turns), and a cell's "
+    "seconds are cost(N) = overhead + per-sample cost × pixels × N: the per-sample cost from those "
+    "long renders (95% t interval over them, plus 5% for run-to-run drift), the overhead from the "
+    "scene's short renders. On the CPU backend the clock is the render call's CPU time (all threads), "
+    "which other jobs on the machine do not inflate. Speed-ups carry a 95% bootstrap interval "
+    "(repetitions resampled, the cost drawn from its interval); efficiency ratios a delta-method 95% "
+    "interval from both errors and both costs.\n")
 
 
 def fmt(x, digits=3) -> str:
@@ -41,6 +50,15 @@ def fmt_ci(m, lo, hi, digits=3) -> str:
     if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
         return fmt(m, digits)
     return f"{fmt(m, digits)} [{fmt(lo, digits)}, {fmt(hi, digits)}]"
+
+
+def _ratio(x, lo, hi) -> str:
+    """A ratio with its interval, as `2.1× [1.8, 2.4]`."""
+    if x is None or not math.isfinite(x):
+        return "–"
+    txt = f"{fmt(x)}×"
+    return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if lo is not None and math.isfinite(lo)
+                  and hi is not None and math.isfinite(hi) else "")
 
 
 def _ci(iv: Interval) -> str:
@@ -140,17 +158,19 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     t_txt = fmt(time_to.seconds if time_to else None)
     if time_to and time_to.how in ("extrapolated", "at_most"):
         t_txt += " (extrap.)" if time_to.how == "extrapolated" else " (≤)"
-    speedup = scene.speed.speedup_vs_baseline.get(s)
-    eff = scene.efficiency[s].relative if s in scene.efficiency else None
+    sp = scene.speed
+    speedup = _ratio(sp.speedup_vs_baseline.get(s), sp.speedup_lo.get(s), sp.speedup_hi.get(s))
+    e = scene.efficiency.get(s)
+    eff = _ratio(e.relative, e.relative_lo, e.relative_hi) if e else "–"
     return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mse_ratio} | {t_txt} | "
-            f"{_bound(scene, s, base)}{fmt(speedup)}× | {fmt(eff)}× |")
+            f"{_bound(scene, s, base)}{speedup} | {eff} |")
 
 
 def _study_table(study: StudyResult) -> list[str]:
     E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
     lines = [f"| Scene | Sampler | Slope b [95% CrI] | Typical-error slope | {E} at N={top_n} [95% CI] | "
-             f"{M} ÷ {base}'s at N={top_n} | Time to target (s) | Speed-up vs {base} | "
-             f"Efficiency vs {base} |",
+             f"{M} ÷ {base}'s at N={top_n} | Time to target (s) | Speed-up vs {base} [95% CI] | "
+             f"Efficiency vs {base} [95% CI] |",
              "|---|---|---|---|---|---|---|---|---|"]
     lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
     lines.append("")
@@ -182,8 +202,10 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
                 f"(95% CI {fmt(1 / r.hi)}–{fmt(1 / r.lo)})")
     if math.isfinite(speedup) and speedup > 0:
         bound = {"≥": "at least ", "≤": "at most "}.get(_bound(scene, s, base), "")
-        txt += (f", and it reaches the target error {bound}{fmt(speedup)}× faster" if speedup >= 1 else
-                f", but it needs {fmt(1 / speedup)}× more render time to reach the target error")
+        lo, hi = scene.speed.speedup_lo.get(s, float("nan")), scene.speed.speedup_hi.get(s, float("nan"))
+        ci = f" (95% CI {fmt(lo)}–{fmt(hi)}×)" if math.isfinite(lo) and math.isfinite(hi) else ""
+        txt += (f", and it reaches the target error {bound}{fmt(speedup)}× faster{ci}" if speedup >= 1 else
+                f", but it needs {fmt(1 / speedup)}× more render time to reach the target error{ci}")
     return txt
 
 
@@ -231,11 +253,31 @@ def _figure_links(study: StudyResult, study_cfg, plots: dict, strips: dict, out_
     return lines
 
 
+RESOLUTION_NOTE = (f"† timing below resolution (measured render < {1000 * TIMING_RESOLUTION:.0f} ms): "
+                   f"cost from calibration.")
+
+
+def _seconds(c) -> str:
+    ci = c.seconds_ci
+    return fmt_ci(c.seconds, ci.lo, ci.hi) if ci is not None else fmt(c.seconds)
+
+
+def _resolution_warning(study: StudyResult) -> list[str]:
+    low = [f"{scene.scene}/{c.sampler}@{c.spp}" for scene in study.scenes for c in scene.cells
+           if c.timing_below_resolution]
+    if not low:
+        return []
+    return [f"**Timing below resolution** in {len(low)} of {sum(len(sc.cells) for sc in study.scenes)} "
+            f"cells (measured render < {1000 * TIMING_RESOLUTION:.0f} ms: "
+            f"{', '.join(low[:8])}{', ...' if len(low) > 8 else ''}): cost from calibration.\n"]
+
+
 def _cell_table(study: StudyResult) -> list[str]:
     lines = ["<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n",
              f"| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
-             f"Render s (median) | Efficiency 1/({study.mse_label}·s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"Render s (calibrated cost [95% CI]) | Measured s (median) | "
+             f"Efficiency 1/({study.mse_label}·s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene in study.scenes:
         for c in scene.cells:
             b = c.bias
@@ -243,8 +285,9 @@ def _cell_table(study: StudyResult) -> list[str]:
                 f"| {scene.scene} | `{c.sampler}` | {c.spp} | {_ci(c.rmse_of_mean_mse)} | "
                 f"{_ci(c.relmse_corrected)} | {_ci(c.mae)} | {_ci(c.ciede2000)} | "
                 f"{fmt_ci(b.signed, b.lo, b.hi)}{' ⚠' if b.significant else ''} | "
-                f"{fmt(b.pixel_variance)} | {fmt(c.seconds)} | {fmt(c.efficiency_of(study.metric))} |")
-    lines.append("\n</details>\n")
+                f"{fmt(b.pixel_variance)} | {_seconds(c)} | {fmt(c.measured_seconds)}"
+                f"{' †' if c.timing_below_resolution else ''} | {fmt(c.efficiency_of(study.metric))} |")
+    lines.append("\n" + RESOLUTION_NOTE + "\n\n</details>\n")
     return lines
 
 
@@ -319,6 +362,7 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
         lines += _study_intro(study)
         lines += _study_table(study)
         lines += _findings(study)
+        lines += _resolution_warning(study)
         lines += _figure_links(study, study_cfg, plots[study.name], strips, out_dir)
         lines += _cell_table(study)
     lines += _noise_floor_section(summary)

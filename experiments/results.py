@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
 
+NAN = float("nan")
+
 
 def to_json(o):
     """A result (dataclass, dict, list, tuple or plain value) as plain JSON-ready Python values."""
@@ -115,9 +117,12 @@ class Cell:
     rrmse_of_mean_relmse: Interval      # sqrt of the corrected-relMSE interval
     bias: Bias
     repetitions_for_10pct: dict         # per metric: repetitions a ±10% mean (95%) would need
-    seconds: float                      # median render seconds of the repetitions
+    seconds: float                      # calibrated cost at this spp (analysis.CostModel)
     efficiency: float                   # 1 / (corrected MSE x seconds)
     efficiency_relmse: float            # 1 / (corrected relMSE x seconds)
+    seconds_ci: Interval | None = None  # 95% CI of the calibrated cost (t on the per-sample cost)
+    measured_seconds: float = NAN       # median measured render seconds of the repetitions
+    timing_below_resolution: bool = False   # measured_seconds below analysis.TIMING_RESOLUTION
 
     def error(self, metric: str) -> Interval:
         return getattr(self, METRICS[metric].error)
@@ -232,6 +237,8 @@ class Speed:
     target_auto: bool                   # the target is the lowest error every sampler reached
     time_to_target: dict[str, TimeToTarget]
     speedup_vs_baseline: dict[str, float]
+    speedup_lo: dict[str, float] = field(default_factory=dict)    # 95% bootstrap interval
+    speedup_hi: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -247,6 +254,8 @@ class BaselineComparison:
     spp: int
     mse_ratio: RatioCI                  # baseline's squared error / this sampler's
     efficiency_ratio: float
+    efficiency_ratio_lo: float = NAN    # 95% delta-method interval (error and cost)
+    efficiency_ratio_hi: float = NAN
 
 
 @dataclass(frozen=True)
@@ -255,6 +264,8 @@ class TopEfficiency:
     spp: int
     efficiency: float
     relative: float
+    relative_lo: float = NAN            # 95% delta-method interval (error and cost)
+    relative_hi: float = NAN
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,8 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -79,3 +81,111 @@ def write_runs_csv(path: Path, plan: list, records: dict) -> int:
             n += 1
     atomic_write_text(path, buf.getvalue())
     return n
+
+
+# ---------------------------------------------------------------------------------------------------
+# Cost calibration: `calibration.json`, and the cost model fitted from it and the runs' timings
+# ---------------------------------------------------------------------------------------------------
+
+CALIBRATION_FILE = "calibration.json"
+# Run-to-run drift of the per-sample cost that repeats within one run cannot see (CPU clock, caches):
+# fresh reruns of bitcheck/tiny.toml on the 2-core dev VM differed by 2-4%; the cost's 95% interval
+# adds this relative half-width in quadrature.
+SYSTEMATIC = 0.05
+
+
+def load_calibration(out_dir: Path) -> dict:
+    """key -> calibration entry (see `runner._calibrate`); {} when there is none."""
+    try:
+        return json.loads((Path(out_dir) / CALIBRATION_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def save_calibration(out_dir: Path, entries: dict) -> None:
+    atomic_write_json(Path(out_dir) / CALIBRATION_FILE, entries)
+
+
+def calibration_key(group_name: str, sampler: str) -> str:
+    return f"{group_name}__{sampler}"
+
+
+@dataclass
+class CostModel:
+    """cost(spp) = overhead + per_sample * pixels * spp. `per_sample` holds one value per calibration
+    render of the faster half of the calibration renders (the t interval of their mean is the cost's);
+    `overhead` is the lower quartile of the residuals `overhead_samples` pooled over the group's
+    samplers (the launch cost does not depend on them; load from other jobs only adds time)."""
+    per_sample: np.ndarray
+    pixels: int
+    overhead: float = 0.0
+    overhead_samples: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    calibrated: bool = False
+    clock: str = "wall"                  # "cpu": CPU seconds of the render call (see runner)
+
+    @property
+    def mean(self) -> float:
+        return float(np.mean(self.per_sample))
+
+    def t_halfwidth(self) -> float:
+        """95% half-width of the mean per-sample cost: t over the renders, and `SYSTEMATIC`."""
+        n = self.per_sample.size
+        if n < 2:
+            return float("nan")
+        from scipy import stats
+        h = float(stats.t.ppf(0.975, n - 1)) * float(np.std(self.per_sample, ddof=1)) / math.sqrt(n)
+        return math.hypot(h, SYSTEMATIC * self.mean)
+
+    def seconds(self, spp: int, per_sample: float | None = None, overhead: float | None = None) -> float:
+        ps = self.mean if per_sample is None else per_sample
+        return (self.overhead if overhead is None else overhead) + ps * self.pixels * spp
+
+    def draw_per_sample(self, rng) -> float:
+        """A draw of the mean per-sample cost from its t law (parametric bootstrap)."""
+        n = self.per_sample.size
+        if n < 2:
+            return self.mean
+        sd = float(np.std(self.per_sample, ddof=1)) / math.sqrt(n)
+        sys_sd = SYSTEMATIC / 1.96 * self.mean
+        return max(self.mean + sd * float(rng.standard_t(n - 1)) + sys_sd * float(rng.standard_normal()),
+                   1e-3 * self.mean)
+
+
+def _faster_half(values) -> list:
+    """The faster half of repeated timings (at least 2): load from other jobs only slows a render
+    down, so the faster renders are the ones that measure the code."""
+    v = sorted(values)
+    return v[:max(2, (len(v) + 1) // 2)] if len(v) > 2 else v
+
+
+def _per_sample(entry: dict | None, recs: list, overhead: float) -> tuple[np.ndarray, bool]:
+    if entry and entry.get("seconds"):
+        work = entry["pixels"] * entry["spp"]
+        # CPU seconds do not grow with other jobs' load: every render counts; wall times: the faster half.
+        ts = entry["seconds"] if entry.get("clock") == "cpu" else _faster_half(entry["seconds"])
+        return np.array([max(t - overhead, 1e-3 * t) / work for t in ts]), True
+    top = max(rec["spp"] for rec in recs)            # no calibration: the sweep's top cell
+    return np.array([max(rec["render_seconds"] - overhead, 1e-3 * rec["render_seconds"])
+                     / (rec["width"] * rec["height"] * rec["spp"]) for rec in recs if rec["spp"] == top]), False
+
+
+def fit_cost_models(recs_by_sampler: dict, calibration: dict, group_name: str) -> dict:
+    """sampler -> CostModel of one (scene, integrator, resolution) group, from its runs' records
+    (sampler -> list of records) and the calibration entries."""
+    entries = {s: calibration.get(calibration_key(group_name, s)) for s in recs_by_sampler}
+    overhead = 0.0
+    for _ in range(3):                               # per-sample and overhead, alternately
+        ps = {s: _per_sample(entries[s], recs, overhead) for s, recs in recs_by_sampler.items()}
+        # CPU-clock calibrations (see runner) pool only their own low-spp renders: the runs are wall.
+        resid = [rec["render_seconds"] - float(np.mean(ps[s][0])) * rec["width"] * rec["height"] * rec["spp"]
+                 for s, recs in recs_by_sampler.items() for rec in recs
+                 if not (entries[s] and entries[s].get("clock") == "cpu")]
+        for s, e in entries.items():
+            if e and e.get("low_seconds"):
+                resid += [t - float(np.mean(ps[s][0])) * e["pixels"] * e["low_spp"] for t in e["low_seconds"]]
+        resid_a = np.array(resid)
+        overhead = max(float(np.percentile(resid_a, 25)), 0.0) if resid_a.size else 0.0
+        cpu = any(e and e.get("clock") == "cpu" for e in entries.values())
+    pixels = {s: recs[0]["width"] * recs[0]["height"] for s, recs in recs_by_sampler.items()}
+    return {s: CostModel(ps[s][0], pixels[s], overhead, resid_a, ps[s][1], "cpu" if cpu else "wall")
+            for s in recs_by_sampler}

@@ -10,6 +10,7 @@ and can never leave a torn file or a duplicate row.
 """
 from __future__ import annotations
 
+import math
 import shutil
 import sys
 import time
@@ -26,11 +27,17 @@ from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.metrics import _lab, image_metrics
 from drtlab.experiments.results import ExperimentResult
-from drtlab.experiments.run_store import (load_records, load_run_image, save_record, save_run,
+from drtlab.experiments.run_store import (calibration_key, load_calibration, load_records,
+                                          load_run_image, save_calibration, save_record, save_run,
                                           write_runs_csv)
 from drtlab.experiments.seeds import run_seed, short_hash
 
-OUTPUT_NAMES = ("runs", "runs.csv", "summary.json", "report.md", "plots", "images", "manifest.json")
+OUTPUT_NAMES = ("runs", "runs.csv", "summary.json", "report.md", "plots", "images", "manifest.json",
+                "calibration.json")
+CAL_SECONDS = 0.15          # target length of one calibration render
+CAL_REPEATS = 8             # calibration renders per (scene, sampler) at that length
+CAL_LOW_REPEATS = 6         # and at the ladder's smallest spp (overhead)
+CAL_BUDGET = 3.0            # most seconds of calibration renders per (scene, sampler)
 
 
 @dataclass(frozen=True)
@@ -190,6 +197,8 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
                        records=load_records(out_dir / "runs"))
         sweep.run(gt_req, progress)
+        if analyze:
+            sweep.calibrate()
         return _analyse_and_report(exp, sweep, analyze, argv, t_start)
     finally:
         lock.close()
@@ -300,6 +309,70 @@ class _Sweep:
         self.bar.update(r.spp * r.resolution[0] * r.resolution[1],
                         f"{r.scene.label} {r.sampler} {r.spp}spp", run_done=True)
 
+    def calibrate(self) -> None:
+        """Cost calibration of every (scene, sampler) of the plan, after the sweep (the kernel variants
+        are compiled), stored in calibration.json keyed by backend, code version and threads: a rerun
+        reuses it (`--fresh` recalibrates). Per group, the samplers take turns (round robin) so that
+        load from other jobs hits them alike: `CAL_REPEATS` renders each of about `CAL_SECONDS` (spp
+        from a probe render, itself sized from the sweep's own per-sample time) and `CAL_LOW_REPEATS`
+        at the ladder's smallest spp (the overhead)."""
+        from drtlab.experiments.analysis import group_name
+        cal = load_calibration(self.out_dir)
+        fp = short_hash({"code": self.backend.code_version, "backend": self.backend.name,
+                         "threads": self.threads, "repeats": CAL_REPEATS, "clock": 4}, 16)
+        t0 = time.perf_counter()
+        todo: dict = {}
+        for r in self.plan:
+            if r.run_id in self.records:
+                todo.setdefault(r.group, {}).setdefault(r.sampler, []).append(self.records[r.run_id])
+        for g, by_sampler in todo.items():
+            keys = {s: calibration_key(group_name(g), s) for s in by_sampler}
+            if all(cal.get(k, {}).get("fingerprint") == fp for k in keys.values()):
+                continue
+            scene = self.backend.load_scene(g[0].name, g[0].overrides_dict or None)
+            for s, entry in self._calibrate_group(scene, g, by_sampler).items():
+                cal[keys[s]] = {"fingerprint": fp, **entry}
+            save_calibration(self.out_dir, cal)
+        self.stats["calibration_seconds"] = time.perf_counter() - t0
+
+    def _calibrate_group(self, scene, g, by_sampler: dict) -> dict:
+        res = g[2]
+        pixels = res[0] * res[1]
+
+        # CPU backend: cost in CPU seconds of the render call (process_time, all threads: blind to
+        # other jobs' load, which doubles wall times on a busy 2-core VM); render_seconds otherwise.
+        cpu = self.backend.name == "warp-cpu"
+
+        def render(sampler, spp, i):
+            c0 = time.process_time()
+            result = self.backend.render(
+                scene, spp=spp, sampler=sampler, integrator=g[1], res=res, threads=self.threads,
+                seed=run_seed(0xCA11B, g[0].key, sampler, g[1], res, spp, 10_000 + i))
+            c1 = time.process_time()
+            return c1 - c0 if cpu else float(result.render_seconds)
+
+        entries = {}
+        for s, recs in by_sampler.items():       # spp of about CAL_SECONDS per render
+            top = max(rec["spp"] for rec in recs)
+            per = float(np.median([rec["render_seconds"] for rec in recs if rec["spp"] == top])) / (pixels * top)
+            spp = max(1, int(math.ceil(CAL_SECONDS / max(per * pixels, 1e-12))))
+            for _ in range(3):                   # the sweep's estimate includes overhead: correct it
+                t = render(s, spp, 0)
+                if t >= 0.6 * CAL_SECONDS:
+                    break
+                spp = int(math.ceil(spp * min(CAL_SECONDS / max(t, 1e-6), 64.0)))
+            repeats = max(3, min(CAL_REPEATS, int(CAL_BUDGET / max(t, 1e-9)) - 1))
+            entries[s] = {"spp": spp, "pixels": pixels, "seconds": [], "repeats": repeats,
+                          "clock": "cpu" if cpu else "render_seconds",
+                          "low_spp": min(rec["spp"] for rec in recs), "low_seconds": []}
+        for i in range(max(e["repeats"] for e in entries.values())):     # round robin
+            for s, e in entries.items():
+                if i < e["repeats"]:
+                    e["seconds"].append(render(s, e["spp"], i + 1))
+                if i < CAL_LOW_REPEATS:
+                    e["low_seconds"].append(render(s, e["low_spp"], 100 + i))
+        return entries
+
 
 def _analyse_and_report(exp, sweep: _Sweep, analyze: bool, argv, t_start: float) -> ExperimentResult:
     out_dir, plan = sweep.out_dir, sweep.plan
@@ -309,7 +382,8 @@ def _analyse_and_report(exp, sweep: _Sweep, analyze: bool, argv, t_start: float)
     sweep.stats["rows"] = write_runs_csv(out_dir / "runs.csv", plan, records)
     summary = None
     if analyze:
-        summary = analysis.analyze(exp, plan, records, out_dir, sweep.gts, log=sweep.log)
+        summary = analysis.analyze(exp, plan, records, out_dir, sweep.gts, log=sweep.log,
+                                   calibration=load_calibration(out_dir))
         atomic_write_json(out_dir / "summary.json", summary.to_json())
         report.write_report(exp, summary, plan, records, out_dir, sweep.gts)
     wall = time.time() - t_start

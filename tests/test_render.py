@@ -94,8 +94,10 @@ def scenes(tmp_path_factory) -> dict[str, Path]:
         "pinhole": write_scene(d, "pinhole"),
         "zero-aperture": write_scene(d, "zero-aperture", "aperture_radius = 0.0\nfocus_distance = 4.0"),
         "lens": write_scene(d, "lens", "aperture_radius = 0.1\nfocus_distance = 4.0"),
-        "static": write_scene(d, "static", "shutter = [0.5, 0.5]"),
-        "zero-shutter": write_scene(d, "zero-shutter", "shutter = [0.5, 0.5]",
+        # A closed shutter at t = 0: shapes at c + v * 0 = c exactly (test_closed_forms checks
+        # c + v t at other times).
+        "static": write_scene(d, "static", "shutter = [0.0, 0.0]"),
+        "zero-shutter": write_scene(d, "zero-shutter", "shutter = [0.0, 0.0]",
                                     "velocity = [1.0, 0.5, -0.25]"),
         "moving": write_scene(d, "moving", "shutter = [0.0, 1.0]", "velocity = [1.0, 0.5, -0.25]"),
     }
