@@ -151,19 +151,10 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     W, H = scene.width, scene.height
     accum = wp.zeros(W * H, dtype=wp.vec3d, device=device)
     accum2 = wp.zeros(W * H if variance else 1, dtype=wp.vec3d, device=device)
-    if device == "cpu":
-        tiles = [(x, y, min(tile, W - x), min(tile, H - y))
-                 for y in range(0, H, tile) for x in range(0, W, tile)]
-    else:
-        tiles = [(0, 0, W, H)]
+    tiles = _tiles(W, H, tile, device)
     passes = [(i, min(PASS_SAMPLES, spp - i)) for i in range(0, spp, PASS_SAMPLES)]
-    if progress is None:
-        progress = W * H * spp > 4_000_000
-    bar = None
-    if progress:
-        from tqdm import tqdm
-        bar = tqdm(total=len(passes) * len(tiles), desc=f"render {scene.name}", unit="tile",
-                   leave=False)
+    bar = _progress_bar(W * H * spp > 4_000_000 if progress is None else progress,
+                        len(passes) * len(tiles), scene.name)
 
     def launch(t, index0, count):
         x0, y0, tw, th = t
@@ -193,14 +184,33 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     elapsed = time.perf_counter() - t0
     total = accum.numpy().reshape(H, W, 3)
     image = total / float(spp)
-    var = None
-    if variance:
-        squares = accum2.numpy().reshape(H, W, 3)
-        var = np.maximum(squares - total * image, 0.0) / max(spp - 1, 1) if spp > 1 \
-            else np.full_like(image, np.nan)
+    var = _sample_variance(total, accum2.numpy().reshape(H, W, 3), spp) if variance else None
     return RenderStats(image=image, render_seconds=elapsed, compile_seconds=compile_s, spp=spp,
                        width=W, height=H, sampler=spec.name, integrator=integ, seed=seed,
                        variant=features.key(), threads=threads, device=device, variance=var)
+
+
+def _progress_bar(show: bool, launches: int, name: str):
+    """A tqdm bar over the launches, or None."""
+    if not show:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=launches, desc=f"render {name}", unit="tile", leave=False)
+
+
+def _tiles(width: int, height: int, tile: int, device: str) -> list[tuple]:
+    """(x0, y0, w, h) of each tile: square tiles on the CPU's thread pool, one launch on a GPU."""
+    if device != "cpu":
+        return [(0, 0, width, height)]
+    return [(x, y, min(tile, width - x), min(tile, height - y))
+            for y in range(0, height, tile) for x in range(0, width, tile)]
+
+
+def _sample_variance(total: np.ndarray, squares: np.ndarray, spp: int) -> np.ndarray:
+    """Unbiased per-pixel variance of one sample from the sums of the samples and of their squares."""
+    if spp < 2:
+        return np.full_like(total, np.nan)
+    return np.maximum(squares - total * (total / float(spp)), 0.0) / (spp - 1)
 
 
 def render(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
