@@ -247,6 +247,13 @@ def cmd_compare(args) -> int:
 # The parser
 # ---------------------------------------------------------------------------------------------------
 
+def _add_cache_and_threads(parser) -> None:
+    parser.add_argument("--gt-dir", type=Path, default=None,
+                        help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
+    parser.add_argument("--threads", type=int_flag(1, 1024), default=None,
+                        help="CPU threads per render (default: all cores)")
+
+
 def _add_progress_flag(parser) -> None:
     parser.add_argument("--no-progress", action="store_true",
                         help="no progress bar (there is none either when output goes to a file or pipe)")
@@ -297,10 +304,7 @@ def _add_experiment(sub) -> None:
                    help="profile section of the file to use (e.g. quick, full)")
     p.add_argument("--out", type=Path, default=None,
                    help="output folder (default: results/NAME)")
-    p.add_argument("--gt-dir", type=Path, default=None,
-                   help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
-    p.add_argument("--threads", type=int_flag(1, 1024), default=None,
-                   help="CPU threads per render (default: all cores)")
+    _add_cache_and_threads(p)
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
     _add_progress_flag(p)
     p.set_defaults(func=cmd_experiment)
@@ -324,10 +328,7 @@ def _add_ground_truth(sub) -> None:
     g.add_argument("--experiment", default=None, metavar="NAME_OR_PATH",
                    help="render the references every scene of this experiment needs")
     g.add_argument("--profile", default="quick", help="profile of --experiment to use")
-    g.add_argument("--gt-dir", type=Path, default=None,
-                   help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
-    g.add_argument("--threads", type=int_flag(1, 1024), default=None,
-                   help="CPU threads (default: all cores)")
+    _add_cache_and_threads(g)
     _add_progress_flag(g)
     g.set_defaults(func=cmd_ground_truth)
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from scene_pieces import camera_dict
 from stats_util import Estimate, region_values
 
 
@@ -106,14 +107,8 @@ class Screen:
         return np.array([dX * p, -dY * p, 0.0])
 
     def camera(self, aperture: float = 0.0, focus: float | None = None, shutter=None) -> dict:
-        cam = {"position": [0.0, 0.0, 0.0], "look_at": [0.0, 0.0, -1.0], "up": [0.0, 1.0, 0.0],
-               "fov": float(self.fov)}
-        if aperture > 0:
-            cam["aperture_radius"] = float(aperture)
-            cam["focus_distance"] = float(focus)
-        if shutter is not None:
-            cam["shutter"] = [float(shutter[0]), float(shutter[1])]
-        return cam
+        return camera_dict((0.0, 0.0, 0.0), (0.0, 0.0, -1.0), self.fov, aperture=aperture,
+                           focus=focus, shutter=shutter)
 
     def facing_quad(self, corner_xy, edge_a_xy, edge_b_xy, material: str, **kw) -> dict:
         """A quad on the plane given in pixel units (corner and two edges), oriented so that it
