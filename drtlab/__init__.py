@@ -49,3 +49,10 @@ def run_experiment(experiment, profile: str = "quick", name: str = "inline", **k
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment, profile, name=name)
     return _run_experiment(experiment, **kwargs)
+
+
+def points(*args, **kwargs):
+    """`drtlab.estimators.points.points`: an (n, dims) array of exactly the values the kernels use
+    for a point set (scipy.stats.qmc style): points("sobol", 256, 2, seed=0, pixel=0)."""
+    from drtlab.estimators.points import points as _points
+    return _points(*args, **kwargs)

@@ -5,12 +5,13 @@ Adding a point set: one file in `pointsets/` defining POINTSET, and one entry in
 from dataclasses import dataclass
 
 from drtlab.estimators.integrators import INTEGRATORS, Integrator
-from drtlab.estimators.pointsets import independent, stratified
+from drtlab.estimators.pointsets import (cmj, halton, independent, lhs, pmj02, sobol, stratified,
+                                         zsobol)
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
 from drtlab.errors import InputError
 
-_POINTSET_MODULES = (independent, stratified)
+_POINTSET_MODULES = (independent, stratified, lhs, cmj, halton, sobol, zsobol, pmj02)
 POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
 
 # preset name -> (point set, strategy)

@@ -9,7 +9,7 @@ import warp as wp
 from drtlab.kernels.colour import luminance
 from drtlab.kernels.features import material_kinds, splits_for
 from drtlab.kernels.scene import MATERIAL_CODE, Scene
-from drtlab.kernels.warp_runtime import warp as initialised_warp
+from drtlab.warp_runtime import warp as initialised_warp
 
 # Shape kinds (Hit.kind, SceneData.light_shape_kind).
 SPHERE = wp.constant(0)

@@ -20,7 +20,7 @@ from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
 from drtlab.kernels.features import FAULTS, Features, features_of
 from drtlab.kernels.scene import Scene
-from drtlab.kernels.warp_runtime import warp as _wp
+from drtlab.warp_runtime import warp as _wp
 
 # Samples per pixel per launch: bounds a launch's duration (progress, responsiveness) and fixes the
 # float64 summation order independently of threads and tiles.

@@ -21,9 +21,11 @@ Scenes (closed forms derived in tests/scene_util.py):
                      (quadrature) says; glossy_dielectric has no closed form: it must not gain energy
                      (<= 1) and its two unbiased estimators must agree.
 
-Tiers: the fast tier runs every sampler on the furnace (the variants cornell-box compiles) and the
-three presets on the other scenes; the full tier runs every sampler everywhere with 2x the runs and
-4x the spp.
+Tiers: the fast tier runs on the furnace (the variants cornell-box compiles) every sampler of the
+independent and stratified point sets with both integrators and the other point sets with the
+importance strategy and path tracing (the cornell-box variants test_unbiased's fast tier compiles
+too), and the three presets on the other scenes; the full tier runs every sampler everywhere with
+2x the runs and 4x the spp.
 """
 from __future__ import annotations
 
@@ -65,14 +67,33 @@ M_TESTS = (sum(len(furnace_depths(s, i)) for s in SAMPLERS for i in INTEGRATORS)
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 
+FAST_ALL_POINTSETS = ("independent", "stratified")
+FAST_MODERN = ("importance", "path")      # the other point sets' (strategy, integrator) in fast
+
+
+def in_fast_furnace(sampler: str, integrator: str) -> bool:
+    spec = registry.parse_sampler(sampler)
+    return (spec.pointset.name in FAST_ALL_POINTSETS
+            or (spec.strategy.name, integrator) == FAST_MODERN)
+
+
+def slow_marks():
+    return [pytest.mark.slow, pytest.mark.skipif(not FULL, reason="full tier only")]
+
+
 def samplers_for(fast_all: bool):
     """All samplers in the full tier; in the fast tier all (fast_all) or the presets."""
     out = []
     for s in SAMPLERS:
         keep = fast_all or s in PRESETS
-        out.append(pytest.param(s, marks=[] if keep else [
-            pytest.mark.slow, pytest.mark.skipif(not FULL, reason="full tier only")]))
+        out.append(pytest.param(s, marks=[] if keep else slow_marks()))
     return out
+
+
+def furnace_cases():
+    """(sampler, integrator) of the white furnace: fast as in_fast_furnace says, else full tier."""
+    return [pytest.param(s, i, id=f"{s}-{i}", marks=[] if in_fast_furnace(s, i) else slow_marks())
+            for s in SAMPLERS for i in INTEGRATORS]
 
 
 def check(cf: su.ClosedForm, sampler: str, integrator: str, spp: int = SPP, runs: int = RUNS):
@@ -90,8 +111,10 @@ def check(cf: su.ClosedForm, sampler: str, integrator: str, spp: int = SPP, runs
 
 
 def test_family_size():
-    assert M_TESTS == 8 * 5 - 4 + 8 * 2 * 3 + 1 + 5 + 1
-    assert len(SAMPLERS) == 8
+    n = len(registry.POINTSETS) * len(registry.STRATEGIES)
+    nee_only = len(registry.POINTSETS) * len(NEE_ONLY)
+    assert M_TESTS == n * 5 - nee_only + n * 2 * 3 + 1 + 5 + 1
+    assert len(SAMPLERS) == n == 32 and nee_only == 16
 
 
 def test_closed_form_scenes_share_builtin_kernel_variants():
@@ -124,8 +147,7 @@ def test_furnace_closed_form_values():
 # White furnace: every sampler, both integrators, several depths
 # ---------------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("integrator", INTEGRATORS)
-@pytest.mark.parametrize("sampler", samplers_for(fast_all=True))
+@pytest.mark.parametrize("sampler,integrator", furnace_cases())
 def test_white_furnace(sampler, integrator):
     # The camera sees only the middle of one wall (EDGE_FREE_VIEW) so that direct light sampled
     # from the walls' area has finite variance (scene_util.furnace_box).

@@ -10,7 +10,7 @@ import pytest
 import warp as wp
 
 from drtlab.kernels.geometry import hit_quad, hit_sphere
-from drtlab.kernels.warp_runtime import warp as _wp
+from drtlab.warp_runtime import warp as _wp
 from drtlab.kernels.scene_tables import box_quads
 
 TMAX = np.float32(1.0e30)

@@ -40,7 +40,7 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.independent import independent_1d
 from drtlab.estimators.pointsets.stratified import stratified_1d, stratified_2d
 from drtlab.estimators.registry import POINTSETS
-from drtlab.kernels.warp_runtime import warp as _wp
+from drtlab.warp_runtime import warp as _wp
 
 ALPHA = 0.01
 SEED = 20240607
@@ -81,9 +81,19 @@ FAKE_CORRELATED = PointSet("fake-correlated", "dimension d+1 copies dimension d"
 FAKE_HALF = PointSet("fake-half", "stratified, but every value in [0, 0.5)", half_1d, half_2d)
 
 # What uniformity each registered set promises; any other set must not be worse than i.i.d.
-EXPECT = {"independent": "iid", "stratified": "better"}
+EXPECT = {"independent": "iid", "stratified": "better", "cmj": "better", "sobol": "better",
+          "zsobol": "better", "pmj02": "better"}
 
-KNOWN_DEFECTS: dict = {}
+KNOWN_DEFECTS: dict = {
+    # pbrt-v4's ZSobolSampler, faithfully: each dimension permutes the base-4 digits of the sample
+    # index by a nested (hierarchical) permutation, so samples that are index siblings in one
+    # dimension are siblings in every other: within a pixel two dimensions correlate more than
+    # independent ones, (spp - 1) E[r^2] ~ 1.29 at spp = 64 (unbiased all the same: every sample
+    # is uniform and the pooled and joint tests pass). sobol and pmj02 pair dimensions by a random
+    # permutation instead and pass (estimators/pointsets/zsobol.py, sobol.py).
+    ("per_pixel_correlation", "zsobol"): "pbrt-v4 ZSobol's nested digit permutations pair the "
+                                         "samples of two dimensions hierarchically",
+}
 
 
 def registered(test: str):
@@ -283,11 +293,14 @@ def joint_uniformity_failures(name: str) -> list[str]:
     u = generate(name, POOLED_SPP, POOLED_PIXELS, 1)
     level = 1.0 - (1.0 - ALPHA) ** (1.0 / (2 * len(PAIRS)))
     out = []
+    # 32 x 32 counts once per pair; the 8 x 8 ones are their 4 x 4 block sums (floor(8u) is
+    # floor(32u) // 4 exactly), which halves the cost of this test.
+    q = np.ascontiguousarray(np.minimum((u * 32).astype(np.int32), 31).T)
+    fine = {(a, b): np.bincount(q[a] * 32 + q[b], minlength=32 * 32) for a, b in PAIRS}
     for g in (8, 32):
-        q = np.ascontiguousarray(np.minimum((u * g).astype(np.int32), g - 1).T)
         for a, b in PAIRS:
-            counts = np.bincount(q[a] * g + q[b], minlength=g * g)
-            p = stats.chisquare(counts).pvalue
+            counts = fine[a, b] if g == 32 else fine[a, b].reshape(8, 4, 8, 4).sum(axis=(1, 3))
+            p = stats.chisquare(counts.ravel()).pvalue
             if p < level:
                 out.append(f"{LABELS[a]} x {LABELS[b]} on {g}x{g}: p = {p:.2g} (level {level:.2g})")
     return out

@@ -14,7 +14,7 @@ from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.stratified import grid_columns, place
 from drtlab.estimators.registry import POINTSETS
-from drtlab.kernels.warp_runtime import warp as _wp
+from drtlab.warp_runtime import warp as _wp
 
 _KERNELS: dict = {}
 

@@ -6,15 +6,21 @@ RES = 32 x 24, each reduced to 12 region values (8 x 8-pixel regions, mean of R 
 reference is REF_RUNS renders with the `importance` sampler (independent points, MIS) at REF_SPP and
 other seeds. Per region a Welch t -> equal-p normal deviate; X = sum z^2 ~ chi-square(12) under
 "no bias". Multiple-test correction: Sidak over the full matrix, m = 9 scenes x 2 integrators x
-8 samplers = 144, so each test runs at alpha_test = 1 - 0.99^(1/144) = 6.98e-5 and the family-wise
-false-alarm rate of the whole matrix is <= 0.01. The fast tier runs a subset of the matrix at the
-same alpha_test (its family-wise rate is then below 0.01 too).
+32 samplers (8 point sets x 4 strategies) = 576, so each test runs at alpha_test = 1 - 0.99^(1/576)
+= 1.74e-5 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
+a subset of the matrix at the same alpha_test (its family-wise rate is then below 0.01 too).
 
 Coverage. Full tier (DRTLAB_TEST_TIER=full): all 144 combinations, RUNS x SPP = 32 x 128 (the
 reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt, path} x the three
-presets (uniform, stratified, importance) plus all 8 samplers on cornell-box and veach-mis, minus
-the HEAVY combinations: 62 combinations. Every kernel variant the fast tier compiles is shared with
-the other test files (test_render compiles the same built-in x preset variants).
+presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
+point sets on cornell-box and veach-mis, minus the HEAVY combinations (62 combinations), plus each
+of the six other point sets (lhs, cmj, halton, sobol, zsobol, pmj02) with the importance strategy
+on two representative scene x integrator pairs (FAST_MODERN): cornell-box with path tracing (to
+depth 8, through every per-bounce dimension) and drt-showcase with drt (lens, shutter time, glossy
+reflection and transmission, area light): 12 combinations, 12 kernel variants (a variant costs a
+few seconds to compile; the full tier runs the other 540). The presets' kernel variants are shared
+with the other test files (test_render compiles the same built-in x preset variants), and the new
+sets' cornell-box path variants with test_analytic's white furnace.
 
 Heavy tails. Where an estimator's samples are dominated by rare huge values, the t statistic of a
 few runs is skewed (the mean usually misses the spikes and so does the variance) and the test fires
@@ -69,7 +75,11 @@ UNBIASED = [name for name, integ in INTEGRATORS.items() if not integ.biased]
 SAMPLERS = all_sampler_names()
 PRESETS = [name for name in registry.PRESETS]
 FAST_ALL_SAMPLERS = ("cornell-box", "veach-mis")
-M_TESTS = 9 * 2 * 8
+FAST_ALL_POINTSETS = ("independent", "stratified")     # every strategy on FAST_ALL_SAMPLERS
+# (scene, integrator) on which the other point sets run in the fast tier, with FAST_MODERN_STRATEGY.
+FAST_MODERN = (("cornell-box", "path"), ("drt-showcase", "drt"))
+FAST_MODERN_STRATEGY = "importance"
+M_TESTS = 9 * 2 * 32
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 # (scene, integrator or None for both, strategy): heavy-tailed estimators, HEAVY_SPP (module doc).
@@ -90,6 +100,15 @@ LOWERED = {
 
 def strategy_of(sampler: str) -> str:
     return parse_sampler(sampler).strategy.name
+
+
+def in_fast_tier(scene: str, integrator: str, sampler: str) -> bool:
+    spec = parse_sampler(sampler)
+    if sampler in PRESETS:
+        return True
+    if spec.pointset.name in FAST_ALL_POINTSETS:
+        return scene in FAST_ALL_SAMPLERS
+    return (scene, integrator) in FAST_MODERN and spec.strategy.name == FAST_MODERN_STRATEGY
 
 
 def is_heavy(scene: str, integrator: str, sampler: str) -> bool:
@@ -129,7 +148,7 @@ def matrix():
     for scene in SCENES:
         for integrator in UNBIASED:
             for sampler in SAMPLERS:
-                fast = sampler in PRESETS or scene in FAST_ALL_SAMPLERS
+                fast = in_fast_tier(scene, integrator, sampler)
                 lowered = "-exponents-lowered-to-10" if overrides_for(scene, sampler) else ""
                 marks = []
                 if not fast:
@@ -146,7 +165,11 @@ def matrix():
 def test_matrix_is_the_whole_product():
     assert len(matrix()) == M_TESTS == len(SCENES) * len(UNBIASED) * len(SAMPLERS)
     assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf"}
-    assert {parse_sampler(s).pointset.name for s in SAMPLERS} == {"independent", "stratified"}
+    assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.POINTSETS) == {
+        "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02"}
+    fast = [p.values for p in matrix() if not p.marks]
+    modern = [c for c in fast if parse_sampler(c[2]).pointset.name not in FAST_ALL_POINTSETS]
+    assert len(fast) == 62 + 12 and len(modern) == 12
 
 
 def test_biased_integrators_are_labelled_and_excluded():

@@ -13,7 +13,7 @@ from drtlab.estimators.hashing import hash_key, unit_float
 from drtlab.experiments.chi2.harness import PdfFunc, SampleFunc
 from drtlab.kernels.device_scene import SPHERE, SceneData
 from drtlab.kernels.scene import MATERIAL_CODE, MATERIAL_KINDS
-from drtlab.kernels.warp_runtime import warp as _wp
+from drtlab.warp_runtime import warp as _wp
 
 
 @wp.func

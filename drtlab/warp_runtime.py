@@ -1,4 +1,4 @@
-"""Warp, imported and initialised once and quietly: its banner and the missing-driver notice of a
+"""Warp, imported and initialised once and quietly, for every layer (a leaf module like errors.py): its banner and the missing-driver notice of a
 machine without a GPU would otherwise precede every line the CLI prints."""
 import os
 import threading

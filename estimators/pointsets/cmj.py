@@ -1,0 +1,64 @@
+"""Correlated multi-jittered points (Kensler 2013, "Correlated Multi-Jittered Sampling").
+
+2D: spp = m x n cells, m = the largest divisor of spp not above sqrt(spp) (the grid `stratified`
+uses: 16 -> 4 x 4, 8 -> 2 x 4, 12 -> 3 x 4, a prime p -> 1 x p), n = spp / m. Sample s (after
+Kensler's shuffle s = permute(i, spp)) sits in cell (s mod m, s div m); inside its column it is
+offset by sy = permute(s div m, n) of n sub-columns and inside its row by sx = permute(s mod m, m)
+of m sub-rows, one permutation for all columns and one for all rows (the "correlated" of the
+name), then jittered uniformly inside its 1/spp x 1/spp sub-cell:
+    x = (s mod m + (sy + jx) / n) / m,    y = (s div m + (sx + jy) / m) / n.
+So every count is exactly multi-jittered: one point per cell of the m x n grid (the 2D jitter
+strata) and one per 1/spp stratum in x and in y (Latin). Kensler's hash permutation is
+`hashing.permute` here (a keyed Feistel bijection with cycle-walking, like his). Kensler picks
+m = round(sqrt(spp * aspect)) and n = ceil(spp / m), leaving cells empty when m n > spp; m n = spp
+keeps every count fully stratified, at the cost of thin grids for counts with no divisor near
+sqrt(spp) (a prime p: 1 x p cells, still Latin in both axes).
+
+1D: the jittered Latin points of the same construction (one point per 1/spp stratum, permuted).
+Permutations and jitter are keyed per (seed, pixel, dimension, block); indices past spp start a
+new block of spp samples.
+"""
+import warp as wp
+
+from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
+from drtlab.estimators.pointsets.base import PointSet
+from drtlab.estimators.pointsets.stratified import grid_columns, place
+
+# Kensler's per-pattern multipliers (the shuffle, sx, sy, jx, jy), masked below 2^31.
+_SHUFFLE = wp.constant(wp.uint32(0x51633E2D))
+_KX = wp.constant(wp.uint32(0x2511E9B3))
+_KY = wp.constant(wp.uint32(0x63D83595))
+_JX = wp.constant(wp.uint32(0x2399D265))
+_JY = wp.constant(wp.uint32(0x711AD6A5))
+_ONE_D = wp.constant(wp.uint32(0x0CD1D1D1))
+
+
+@wp.func
+def cmj_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+           spp: wp.uint32) -> float:
+    n = wp.max(spp, wp.uint32(1))
+    p = hash_key(seed ^ _ONE_D, pixel, index / n, dim)
+    s = permute(index % n, n, mix32(p ^ _SHUFFLE))
+    return place(s, unit_float(mix32(p ^ _JX ^ mix32(s))), n)
+
+
+@wp.func
+def cmj_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+           spp: wp.uint32) -> wp.vec2:
+    N = wp.max(spp, wp.uint32(1))
+    m = grid_columns(N)
+    n = N / m
+    p = hash_key(seed, pixel, index / N, dim)
+    s = permute(index % N, N, mix32(p ^ _SHUFFLE))
+    col = s % m
+    row = s / m
+    sx = permute(col, m, mix32(p ^ _KX))
+    sy = permute(row, n, mix32(p ^ _KY))
+    jx = unit_float(mix32(p ^ _JX ^ mix32(s)))
+    jy = unit_float(mix32(p ^ _JY ^ mix32(s)))
+    # x = (col + (sy + jx) / n) / m = (col * n + sy + jx) / N, placed so floor(x * N) is exact.
+    return wp.vec2(place(col * n + sy, jx, N), place(row * m + sx, jy, N))
+
+
+POINTSET = PointSet("cmj", "correlated multi-jittered (Kensler 2013): m x n = spp cells, Latin in "
+                           "x and y; any spp (m the largest divisor <= sqrt(spp))", cmj_1d, cmj_2d)

@@ -1,0 +1,118 @@
+"""Z-ordered Owen-scrambled Sobol' (Ahmed & Wonka 2020, "Screen-Space Blue-Noise Diffusion of Monte
+Carlo Sampling Error via Hierarchical Ordering of Pixels"; pbrt-v4's `ZSobolSampler`).
+
+One global Sobol' (0,2)-sequence is shared by all pixels: pixel key P and sample index i give the
+global index (P << k) | i with k = log2(spp); its base-4 digits are permuted per dimension by a
+hash of the digits above them (pbrt-v4's `GetSampleIndex`; with k odd the lowest digit is a single
+bit, flipped by a hash), which maps every aligned block of 4^j pixels onto an aligned block of the
+sequence, and differently per dimension (the dimensions decorrelate). The point is the Sobol'
+point of that index (`digital.sobol_bits`: dims 0 and 1 for get2d, dim 0 for get1d), Owen-scrambled
+with a per-dimension seed (not per pixel: the sequence is global). Index bits above 32 (large keys
+times large spp) select the Owen seed, so they cannot alias pixels either.
+
+Pixel key. The blue-noise diffusion needs P = Morton(px, py), so that 4 neighbouring pixels own 4
+consecutive blocks (a (0, k+2, 2)-net together, 16 a (0, k+4, 2)-net, ...). The renderer passes
+`pixel` = py * width + px and get1d/get2d see nothing else, so the hierarchy here runs along the
+scanline (pixel pairs, quads, ... of one row share nets): the error diffuses along rows only. The
+Z-curve needs one change outside the point set: the kernel computing the key as `morton2(px, py)`
+(`digital.morton2`, 16-bit coordinates; `zsobol_pixel_key` below) - e.g. an optional
+`PointSet.pixel_key` function (px, py, width) -> uint32, default py * width + px, that
+kernels/tracer.py calls for `pix` instead of its inline `py * sd.width + px` (the accumulation
+index stays linear). Per pixel everything else is unchanged either way.
+
+Sample counts: spp must be a power of 2 for the per-pixel nets. At spp = 2^k each pixel's points
+are a (0,k,2)-net in every 2D dimension (one point per 1/spp stratum in 1D). At any other spp the
+index space is rounded up, k = ceil(log2 spp): each pixel owns a block of 2^k global indices and
+uses the first spp of them (before the digit permutation), so its points are spp of the 2^k points
+of its net - unbiased, but not stratified into spp strata, and 2^k - spp indices per pixel of the
+global sequence stay unused (spp = 12: 12 of each pixel's 16-point net; the first 12 of what
+spp = 16 gives). Indices past spp start a new block: index = b * spp + i takes local index i with
+an Owen seed keyed by b.
+"""
+import warp as wp
+
+from drtlab.estimators.hashing import hash_key, mix32, unit_float
+from drtlab.estimators.pointsets.base import PointSet
+from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_scramble, sobol_bits
+
+
+def _packed_permutations() -> list[int]:
+    """The 24 permutations of (0, 1, 2, 3), each packed as 4 x 2 bits (entry d at bits 2d)."""
+    from itertools import permutations
+    return [sum(p[d] << (2 * d) for d in range(4)) for p in permutations(range(4))]
+
+
+_PERM4 = wp.constant(wp.types.vector(length=24, dtype=wp.uint32)(*_packed_permutations()))
+_SALT_DIGITS = wp.constant(wp.uint32(0x2D1B5A0F))
+_SALT_OWEN = wp.constant(wp.uint32(0x7A3C11E5))
+_SY = wp.constant(wp.uint32(0x4F6CDD1D))
+
+
+@wp.func
+def _digit_hash(higher: wp.uint64, dkey: wp.uint32) -> wp.uint32:
+    # wp.uint32(u64) keeps the low 32 bits (a literal 0xFFFFFFFF mask would be emitted as int32 -1).
+    return mix32(wp.uint32(higher) ^ mix32(wp.uint32(higher >> wp.uint64(32)) ^ dkey))
+
+
+@wp.func
+def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
+                 dim: wp.uint32) -> wp.uint64:
+    """The digit-permuted global index of sample `local` (< 2^k) of pixel key `pixel`."""
+    m = (wp.uint64(pixel) << wp.uint64(k)) | wp.uint64(local)
+    dkey = hash_key(seed, _SALT_DIGITS, wp.uint32(0), dim)
+    odd = k % 2
+    n4 = 16 + k / 2
+    out = wp.uint64(0)
+    for t in range(n4):
+        shift = 2 * (n4 - 1 - t) + odd
+        digit = wp.uint32((m >> wp.uint64(shift)) & wp.uint64(3))
+        higher = wp.uint64(0)
+        if shift + 2 < 64:                  # k = 32 (spp > 2^31) would shift by 64
+            higher = m >> wp.uint64(shift + 2)
+        p = (_digit_hash(higher, dkey) >> wp.uint32(8)) % wp.uint32(24)
+        digit = (_PERM4[int(p)] >> (wp.uint32(2) * digit)) & wp.uint32(3)
+        out = out | (wp.uint64(digit) << wp.uint64(shift))
+    if odd == 1:
+        flip = _digit_hash(m >> wp.uint64(1), dkey ^ wp.uint32(1)) & wp.uint32(1)
+        out = out | ((m & wp.uint64(1)) ^ wp.uint64(flip))
+    return out
+
+
+@wp.func
+def zsobol_seed(seed: wp.uint32, index: wp.uint32, spp: wp.uint32, dim: wp.uint32,
+                g: wp.uint64) -> wp.uint32:
+    n = wp.max(spp, wp.uint32(1))
+    return hash_key(seed ^ _SALT_OWEN, wp.uint32(g >> wp.uint64(32)), index / n, dim)
+
+
+@wp.func
+def zsobol_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+              spp: wp.uint32) -> float:
+    n = wp.max(spp, wp.uint32(1))
+    g = zsobol_index(seed, pixel, index % n, ceil_log2(n), dim)
+    s = zsobol_seed(seed, index, n, dim, g)
+    return unit_float(owen_scramble(sobol_bits(wp.uint32(g), 0), s))
+
+
+@wp.func
+def zsobol_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+              spp: wp.uint32) -> wp.vec2:
+    n = wp.max(spp, wp.uint32(1))
+    g = zsobol_index(seed, pixel, index % n, ceil_log2(n), dim)
+    s = zsobol_seed(seed, index, n, dim, g)
+    low = wp.uint32(g)
+    return wp.vec2(unit_float(owen_scramble(sobol_bits(low, 0), s)),
+                   unit_float(owen_scramble(sobol_bits(low, 1), mix32(s ^ _SY))))
+
+
+@wp.func
+def zsobol_pixel_key(px: int, py: int, width: int) -> wp.uint32:
+    """The pixel key the Z-curve needs (not called yet: see the module docstring)."""
+    return morton2(wp.uint32(px), wp.uint32(py))
+
+
+POINTSET = PointSet(
+    "zsobol", "Sobol' along pixel order (Ahmed & Wonka 2020, pbrt-v4 ZSobol): base-4 digits "
+              "permuted per dimension, Owen-scrambled; spp a power of 2 (else rounded up: spp of "
+              "the 2^k net); pixel order = renderer's linear id (scanline, not Morton)",
+    zsobol_1d, zsobol_2d)
