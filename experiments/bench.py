@@ -36,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     from drtlab import __version__
     from drtlab.kernels import CODE_VERSION
     from drtlab.kernels.render import get_kernel, features_of, render_with_stats
-    from drtlab.kernels.warp_runtime import warp as _wp
+    from drtlab.warp_runtime import warp as _wp
     from drtlab.estimators.registry import parse_sampler
     from drtlab.kernels.scene_file import builtin_names, load_scene
 
