@@ -43,6 +43,28 @@ def unit_float(h: wp.uint32) -> float:
 
 
 @wp.func
+def bit_length(x: wp.uint32) -> int:
+    """Bits needed to write x (0 for 0), by binary search: no loop."""
+    b = int(0)
+    if x >= wp.uint32(65536):
+        x = x >> wp.uint32(16)
+        b += 16
+    if x >= wp.uint32(256):
+        x = x >> wp.uint32(8)
+        b += 8
+    if x >= wp.uint32(16):
+        x = x >> wp.uint32(4)
+        b += 4
+    if x >= wp.uint32(4):
+        x = x >> wp.uint32(2)
+        b += 2
+    if x >= wp.uint32(2):
+        x = x >> wp.uint32(1)
+        b += 1
+    return b + int(x)
+
+
+@wp.func
 def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
     if n <= wp.uint32(1):
         return wp.uint32(0)
@@ -50,20 +72,31 @@ def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
     # permutation (Luby-Rackoff); cycle-walking restricts it to [0, n) (under 4 rounds of walking
     # on average). Simpler keyed bijections (xor-multiply chains) give a family of permutations so
     # small that the strata of two dimensions of one pixel correlate.
-    bits = int(0)
-    while (wp.uint32(1) << wp.uint32(bits)) < n:
-        bits += 1
+    bits = bit_length(n - wp.uint32(1))     # the smallest bits with 2**bits >= n
     half = wp.uint32((bits + 1) / 2)
     hmask = (wp.uint32(1) << half) - wp.uint32(1)
+    # The round keys depend on the key alone: computed once, not per cycle-walking step.
+    k0 = mix32(key ^ _M1)
+    k1 = mix32(key ^ (_M1 + wp.uint32(1)))
+    k2 = mix32(key ^ (_M1 + wp.uint32(2)))
+    k3 = mix32(key ^ (_M1 + wp.uint32(3)))
     x = i
     done = int(0)
     while done == 0:
         left = x >> half
         right = x & hmask
-        for r in range(4):
-            t = left ^ (mix32(right ^ mix32(key ^ (_M1 + wp.uint32(r)))) & hmask)
-            left = right
-            right = t
+        t = left ^ (mix32(right ^ k0) & hmask)
+        left = right
+        right = t
+        t = left ^ (mix32(right ^ k1) & hmask)
+        left = right
+        right = t
+        t = left ^ (mix32(right ^ k2) & hmask)
+        left = right
+        right = t
+        t = left ^ (mix32(right ^ k3) & hmask)
+        left = right
+        right = t
         x = (left << half) | right
         if x < n:
             done = 1

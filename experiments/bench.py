@@ -1,9 +1,15 @@
-"""`make bench`: render speed and compile time of every built-in scene -> results/bench/render.json.
+"""`make bench`: render speed and compile time of every built-in scene, and how speed scales with
+resolution, spp, path depth and threads -> results/bench/render.json.
 
 Compile times are cold: Warp's kernel cache is pointed at an empty temporary folder, so each scene's
-variant is built from source (the first one also builds Warp's precompiled header, reported apart).
-Speed is samples per second after compilation, best of `--repeats`, on 1 thread and on all cores.
-Peak RSS of this process is reported, and of the default experiment if its manifest records it.
+variant is built from source (the first one also builds Warp's precompiled header, reported apart);
+a scene whose variant an earlier scene already built (they differ only in runtime switches,
+`Features.code_key`) reports which one (`kernel_shared_with`) instead of a compile time.
+Speed is samples per second after compilation (the launches alone), best of `--repeats`, on 1 thread
+and on all cores. The scaling tables (one scene, `--scaling-scene`) also give each render's whole
+call time, upload and image readback included: at low spp and small images that per-run overhead,
+not the tracing, bounds a convergence study's speed. Peak RSS of this process is reported, and of the
+default experiment if its manifest records it.
 """
 from __future__ import annotations
 
@@ -11,15 +17,114 @@ import argparse
 import json
 import os
 import platform
-import resource
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+from drtlab.experiments.manifest import peak_rss_mib as _peak_rss_mib
 
-def _peak_rss_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+# The scaling sweeps: each varies one setting of --scaling-scene, the others at their defaults.
+RESOLUTIONS = (32, 64, 128, 256, 512)           # square images, SCALING_SPP samples per pixel
+SPPS = (1, 4, 16, 64, 256, 1024, 4096)          # at SCALING_RES^2 pixels
+DEPTHS = (1, 2, 4, 8, 16)                       # max_depth at SCALING_RES^2, SCALING_SPP
+SCALING_RES = 32
+SCALING_SPP = 16
+THREADS_RES, THREADS_SPP = 128, 64              # the thread sweep's image
+
+
+def _best(render, repeats: int):
+    """(best RenderStats by render seconds, best whole-call seconds) over `repeats` renders."""
+    best, best_call = None, float("inf")
+    for rep in range(repeats):
+        t0 = time.perf_counter()
+        st = render(seed=rep)
+        best_call = min(best_call, time.perf_counter() - t0)
+        best = st if best is None or st.render_seconds < best.render_seconds else best
+    return best, best_call
+
+
+def _row(setting: str, value, st, call_s: float) -> dict:
+    return {setting: value, "resolution": f"{st.width}x{st.height}", "spp": st.spp,
+            "threads": st.threads, "render_seconds": round(st.render_seconds, 5),
+            "call_seconds": round(call_s, 5),
+            "msamples_per_second": round(st.samples_per_second / 1e6, 4),
+            "msamples_per_second_whole_call":
+                round(st.width * st.height * st.spp / max(call_s, 1e-12) / 1e6, 4)}
+
+
+def scaling(scene_name: str, sampler: str, repeats: int, threads_all: int) -> dict:
+    """Samples/s of `scene_name` against resolution, spp, max depth and thread count."""
+    from drtlab.kernels.render import render_with_stats
+    from drtlab.kernels.scene_file import load_scene
+    base = load_scene(scene_name)
+
+    def measure(setting, value, scene=base, res=SCALING_RES, spp=SCALING_SPP, threads=1):
+        render_with_stats(scene, spp=1, sampler=sampler, res=8, threads=1, progress=False)
+        st, call_s = _best(lambda seed: render_with_stats(
+            scene, spp=spp, sampler=sampler, res=res, threads=threads, seed=seed,
+            progress=False), repeats)
+        return _row(setting, value, st, call_s)
+
+    return {
+        "scene": scene_name, "sampler": sampler, "repeats": repeats,
+        "resolution": [measure("width", r, res=r) for r in RESOLUTIONS],
+        "spp": [measure("spp", s, spp=s) for s in SPPS],
+        "max_depth": [measure("max_depth", d, scene=load_scene(scene_name, {"scene.max_depth": d}))
+                      for d in DEPTHS],
+        "threads": [measure("threads", t, res=THREADS_RES, spp=THREADS_SPP, threads=t)
+                    for t in sorted({1, 2, threads_all})],
+    }
+
+
+def scene_rows(spp: int, sampler: str, repeats: int, threads_all: int) -> list[dict]:
+    """Per built-in scene: cold compile seconds and samples/s on 1 thread and on all cores."""
+    from drtlab.estimators.registry import parse_sampler
+    from drtlab.kernels.render import features_of, get_kernel, render_with_stats
+    from drtlab.kernels.scene_file import builtin_names, load_scene
+    rows = []
+    spec = parse_sampler(sampler)
+    first_of = {}       # kernel variant (code_key) -> the scene that compiled it
+    for name in builtin_names():
+        scene = load_scene(name)
+        features = features_of(scene, scene.integrator)
+        _, compile_s = get_kernel(features, spec, "cpu")
+        shared = first_of.setdefault(features.code_key(), name)
+        speeds = {}
+        for threads in sorted({1, threads_all}):
+            speeds[threads], _ = _best(lambda seed: render_with_stats(
+                scene, spp=spp, sampler=sampler, seed=seed, threads=threads, progress=False),
+                repeats)
+        one, many = speeds[1], speeds[threads_all]
+        rows.append({
+            "scene": name, "integrator": scene.integrator, "sampler": one.sampler,
+            "resolution": f"{scene.width}x{scene.height}", "spp": spp,
+            "variant": one.variant, "compile_seconds_cold": round(compile_s, 3),
+            "kernel_shared_with": shared if shared != name else None,
+            "render_seconds_1_thread": round(one.render_seconds, 4),
+            f"render_seconds_{threads_all}_threads": round(many.render_seconds, 4),
+            "msamples_per_second_1_thread": round(one.samples_per_second / 1e6, 3),
+            f"msamples_per_second_{threads_all}_threads": round(many.samples_per_second / 1e6, 3),
+            "thread_speedup": round(one.render_seconds / max(many.render_seconds, 1e-12), 2),
+        })
+        compiled = f"{compile_s:5.2f} s" if shared == name else f"= {shared[:5]:5s}"
+        print(f"{name:14s} compile {compiled}   1 thread {rows[-1]['msamples_per_second_1_thread']:6.2f}"
+              f"   {threads_all} threads {rows[-1][f'msamples_per_second_{threads_all}_threads']:6.2f}"
+              f" M samples/s   x{rows[-1]['thread_speedup']:.2f}", flush=True)
+    return rows
+
+
+def print_scaling(sc: dict) -> None:
+    print(f"\nscaling: {sc['scene']}, sampler {sc['sampler']}, best of {sc['repeats']}, 1 thread unless "
+          f"the table varies threads; M samples/s of the launches and of the whole call")
+    for key, label in (("resolution", "width"), ("spp", "spp"), ("max_depth", "max_depth"),
+                       ("threads", "threads")):
+        print(f"  {'by ' + label:14s} {'image':>9s} {'spp':>5s} {'thr':>3s} {'render s':>9s} "
+              f"{'call s':>8s} {'M/s':>7s} {'M/s call':>9s}")
+        for r in sc[key]:
+            print(f"  {str(r[label]):14s} {r['resolution']:>9s} {r['spp']:5d} {r['threads']:3d} "
+                  f"{r['render_seconds']:9.4f} {r['call_seconds']:8.4f} "
+                  f"{r['msamples_per_second']:7.3f} {r['msamples_per_second_whole_call']:9.3f}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,6 +132,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--sampler", default="stratified")
+    ap.add_argument("--scaling-scene", default="cornell-box")
+    ap.add_argument("--scaling-repeats", type=int, default=2)
+    ap.add_argument("--no-scaling", action="store_true", help="only the per-scene table")
     ap.add_argument("--out", default="results/bench/render.json")
     args = ap.parse_args(argv)
 
@@ -35,42 +143,17 @@ def main(argv: list[str] | None = None) -> int:
     wp.config.kernel_cache_dir = cache
     from drtlab import __version__
     from drtlab.kernels import CODE_VERSION
-    from drtlab.kernels.render import get_kernel, features_of, render_with_stats
     from drtlab.warp_runtime import warp as _wp
-    from drtlab.estimators.registry import parse_sampler
-    from drtlab.kernels.scene_file import builtin_names, load_scene
 
     t0 = time.perf_counter()
     _wp()
     init_s = time.perf_counter() - t0
     threads_all = os.cpu_count() or 1
-    rows = []
-    spec = parse_sampler(args.sampler)
-    for name in builtin_names():
-        scene = load_scene(name)
-        _, compile_s = get_kernel(features_of(scene, scene.integrator), spec, "cpu")
-        speeds = {}
-        for threads in sorted({1, threads_all}):
-            best = None
-            for rep in range(args.repeats):
-                st = render_with_stats(scene, spp=args.spp, sampler=args.sampler, seed=rep,
-                                       threads=threads, progress=False)
-                best = st if best is None or st.render_seconds < best.render_seconds else best
-            speeds[threads] = best
-        one, many = speeds[1], speeds[threads_all]
-        rows.append({
-            "scene": name, "integrator": scene.integrator, "sampler": one.sampler,
-            "resolution": f"{scene.width}x{scene.height}", "spp": args.spp,
-            "variant": one.variant, "compile_seconds_cold": round(compile_s, 3),
-            "render_seconds_1_thread": round(one.render_seconds, 4),
-            f"render_seconds_{threads_all}_threads": round(many.render_seconds, 4),
-            "msamples_per_second_1_thread": round(one.samples_per_second / 1e6, 3),
-            f"msamples_per_second_{threads_all}_threads": round(many.samples_per_second / 1e6, 3),
-            "thread_speedup": round(one.render_seconds / max(many.render_seconds, 1e-12), 2),
-        })
-        print(f"{name:14s} compile {compile_s:5.2f} s   1 thread {rows[-1]['msamples_per_second_1_thread']:6.2f}"
-              f"   {threads_all} threads {rows[-1][f'msamples_per_second_{threads_all}_threads']:6.2f}"
-              f" M samples/s   x{rows[-1]['thread_speedup']:.2f}", flush=True)
+    rows = scene_rows(args.spp, args.sampler, args.repeats, threads_all)
+    sc = None
+    if not args.no_scaling:
+        sc = scaling(args.scaling_scene, args.sampler, args.scaling_repeats, threads_all)
+        print_scaling(sc)
 
     experiment_rss = None
     manifest = Path("results/stratified/manifest.json")
@@ -83,11 +166,13 @@ def main(argv: list[str] | None = None) -> int:
         "drtlab_version": __version__, "code_version": CODE_VERSION,
         "warp_version": wp.config.version, "python": sys.version.split()[0],
         "machine": {"cpus": threads_all, "platform": platform.platform(),
-                    "processor": platform.processor() or platform.machine()},
+                    "processor": platform.processor() or platform.machine(),
+                    "load_average_1_5_15_at_end": list(os.getloadavg())},
         "warp_init_seconds": round(init_s, 3),
         "note": "compile_seconds_cold of the first scene includes building Warp's precompiled header",
         "scenes": rows,
-        "peak_rss_mib_bench": round(_peak_rss_mib(), 1),
+        "scaling": sc,
+        "peak_rss_mib_bench": _peak_rss_mib(),
         "peak_rss_mib_default_experiment": experiment_rss,
     }
     out = Path(args.out)

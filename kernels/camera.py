@@ -43,8 +43,6 @@ def grid_ray_dir(sd: SceneData, px: int, py: int, sub: int, nx: int, ny: int) ->
 def make_camera(f: Features, pointset: PointSet) -> SimpleNamespace:
     get1d = pointset.get1d
     get2d = pointset.get2d
-    LENS = f.lens
-    MOTION = f.motion
 
     @wp.func
     def sample_ray(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32,
@@ -52,7 +50,8 @@ def make_camera(f: Features, pointset: PointSet) -> SimpleNamespace:
         u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), spp)
         lens = wp.vec2(0.0, 0.0)
         o = sd.cam_position
-        if wp.static(LENS):
+        # A runtime switch (one branch per sample): scenes with and without a lens share a variant.
+        if sd.aperture > 0.0:
             lens = square_to_disk(get2d(seed, pix, idx, wp.uint32(wp.static(dims.LENS)),
                                         spp)) * sd.aperture
             o = o + sd.cam_right * lens[0] + sd.cam_up * lens[1]
@@ -60,7 +59,7 @@ def make_camera(f: Features, pointset: PointSet) -> SimpleNamespace:
         ray.o = o
         ray.d = camera_ray_dir(sd, px, py, u, lens)
         ray.dt = float(0.0)
-        if wp.static(MOTION):
+        if sd.moving == 1:
             ray.dt = (sd.shutter_close - sd.shutter_open) * get1d(
                 seed, pix, idx, wp.uint32(wp.static(dims.TIME)), spp)
         return ray

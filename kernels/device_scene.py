@@ -1,13 +1,22 @@
-"""The device copy of the scene: the SceneData struct the kernels read, and `upload` that fills it."""
+"""The device copy of the scene: the SceneData struct the kernels read, and `upload` that fills it.
+
+Besides the model's values it holds what kernels/accel.py derives once per scene for the ray tests
+(quad records, box groups). Uploads of equal contents reuse the same device arrays (the kernels only
+read them), so the many renders of one scene in a study pay the upload once."""
 import math
+import os
+import threading
+from collections import OrderedDict
 from collections.abc import Callable
 from functools import partial
 
 import numpy as np
 import warp as wp
 
+from drtlab.kernels.accel import quad_geometry, quad_groups
 from drtlab.kernels.colour import luminance
 from drtlab.kernels.features import material_kinds, splits_for
+from drtlab.kernels.geometry import QuadGeom
 from drtlab.kernels.scene import MATERIAL_CODE, Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
@@ -28,11 +37,23 @@ class SceneData:
     quad_u: wp.array(dtype=wp.vec3)
     quad_v: wp.array(dtype=wp.vec3)
     quad_normal: wp.array(dtype=wp.vec3)
+    quad_geom: wp.array(dtype=QuadGeom)        # what the ray tests read (accel.quad_geometry)
     quad_area: wp.array(dtype=float)
     quad_velocity: wp.array(dtype=wp.vec3)
     quad_material: wp.array(dtype=int)
     quad_light: wp.array(dtype=int)
     n_quads: int
+    # The quads as groups in index order (accel.quad_groups): single quads and boxes.
+    qgroup_quad: wp.array(dtype=int)           # a single quad's index, -1 for a box
+    qgroup_corner: wp.array(dtype=wp.vec3)
+    qgroup_inverse: wp.array(dtype=wp.mat33)
+    qgroup_aligned: wp.array(dtype=int)        # box: 1 if axis-aligned (inverse diagonal)
+    qgroup_ball: wp.array(dtype=wp.vec4)       # closed box: a ball around it; radius < 0: none
+    qgroup_velocity: wp.array(dtype=wp.vec3)
+    qgroup_rank: wp.array(dtype=int)
+    qgroup_faces: wp.array(dtype=int)          # 6 per group: quad index by face slot, -1 none
+    quad_group: wp.array(dtype=int)
+    n_qgroups: int
     mat_kind: wp.array(dtype=int)
     mat_albedo: wp.array(dtype=wp.vec3)
     mat_albedo2: wp.array(dtype=wp.vec3)
@@ -68,6 +89,7 @@ class SceneData:
     max_depth: int
     rr_depth: int
     whitted_codes: int
+    moving: int                 # 1: shapes move within the shutter (intersect.make_motion)
 
 
 def _f3(v) -> tuple:
@@ -86,15 +108,49 @@ def _scene_extent(scene: Scene) -> float:
     return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) or 1.0
 
 
+# Device arrays by content: renders of one scene (a convergence study's many runs) upload the same
+# values again and again; the kernels only read these arrays, so equal contents can share one.
+_ARRAYS: OrderedDict = OrderedDict()
+_ARRAYS_MAX = 1024
+_arrays_lock = threading.Lock()
+
+
+def _after_fork_in_child() -> None:
+    global _arrays_lock
+    _arrays_lock = threading.Lock()      # a forked child may inherit it held by another thread
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def _cached(key, make: Callable):
+    """The cached value for `key`, made (and the oldest dropped past _ARRAYS_MAX) when missing."""
+    with _arrays_lock:
+        value = _ARRAYS.get(key)
+        if value is not None:
+            _ARRAYS.move_to_end(key)
+            return value
+    value = make()
+    with _arrays_lock:
+        _ARRAYS[key] = value
+        while len(_ARRAYS) > _ARRAYS_MAX:
+            _ARRAYS.popitem(last=False)
+    return value
+
+
 def _device_array(values, dtype, empty_shape, device: str):
     """`values` as a Warp array on `device`; an empty list becomes zeros of `empty_shape`."""
     a = np.asarray(values, dtype=np.int32 if dtype is int else np.float32)
     if a.size == 0:
         a = np.zeros(empty_shape, dtype=a.dtype)
-    return wp.array(a, dtype=dtype, device=device)
+    a = np.ascontiguousarray(a)
+    key = ("array", device, str(dtype), a.dtype.str, a.shape, a.tobytes())
+    return _cached(key, lambda: wp.array(a, dtype=dtype, device=device))
 
 
-def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Callable) -> None:
+def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Callable,
+                device: str) -> None:
     light_of = {id(scene.shapes[i]): li for li, i in enumerate(scene.emitter_shapes())}
     # Shapes move as c + v t in absolute shutter time; the kernels add v (t - open), so the uploaded
     # positions are those at shutter open (also what a static render, whitted or a closed shutter, shows).
@@ -108,13 +164,33 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     sd.quad_origin = arr([_at_time(s.origin, s.velocity, t_open) for s in quads], wp.vec3, (1, 3))
     sd.quad_u = arr([s.edge_u for s in quads], wp.vec3, (1, 3))
     sd.quad_v = arr([s.edge_v for s in quads], wp.vec3, (1, 3))
-    normals = [np.cross(s.edge_u, s.edge_v) for s in quads]
-    sd.quad_normal = arr([n / np.linalg.norm(n) for n in normals], wp.vec3, (1, 3))
-    sd.quad_area = arr([np.linalg.norm(n) for n in normals], float, (1,))
+    normals = np.cross(np.array([s.edge_u for s in quads], dtype=np.float64).reshape(-1, 3),
+                       np.array([s.edge_v for s in quads], dtype=np.float64).reshape(-1, 3))
+    areas = np.linalg.norm(normals, axis=1)
+    sd.quad_normal = arr(normals / areas[:, None] if quads else [], wp.vec3, (1, 3))
+    sd.quad_area = arr(areas, float, (1,))
     sd.quad_velocity = arr([s.velocity for s in quads], wp.vec3, (1, 3))
     sd.quad_material = arr([s.material for s in quads], int, (1,))
     sd.quad_light = arr([light_of.get(id(s), -1) for s in quads], int, (1,))
     sd.n_quads = len(quads)
+    # Keyed by the (cached, so alive and unique) input arrays themselves.
+    inputs = (sd.quad_origin, sd.quad_u, sd.quad_v)
+    sd.quad_geom = _cached(("geom", *map(id, inputs)),
+                           lambda: (quad_geometry(*inputs, device), inputs))[0]
+    groups = _cached(("groups", t_open, np.array([[s.origin, s.edge_u, s.edge_v, s.velocity]
+                                                  for s in quads], dtype=np.float64).tobytes()),
+                     lambda: quad_groups(quads, t_open))
+    sd.qgroup_quad = arr(groups.quad, int, (1,))
+    sd.qgroup_corner = arr(groups.corner, wp.vec3, (1, 3))
+    sd.qgroup_inverse = arr(groups.inverse, wp.mat33, (1, 3, 3))
+    sd.qgroup_ball = arr(groups.ball, wp.vec4, (1, 4))
+    sd.qgroup_aligned = arr([int(np.count_nonzero(m - np.diag(np.diag(m))) == 0)
+                             for m in groups.inverse], int, (1,))
+    sd.qgroup_velocity = arr(groups.velocity, wp.vec3, (1, 3))
+    sd.qgroup_rank = arr(groups.rank, int, (1,))
+    sd.qgroup_faces = arr(groups.faces, int, (1,))
+    sd.quad_group = arr(groups.group_of, int, (1,))
+    sd.n_qgroups = len(groups.quad)
 
 
 def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
@@ -186,7 +262,7 @@ def upload(scene: Scene, device: str) -> SceneData:
     spheres = [s for s in scene.shapes if s.kind == "sphere"]
     quads = [s for s in scene.shapes if s.kind == "quad"]
     sd = SceneData()
-    _put_shapes(sd, scene, spheres, quads, arr)
+    _put_shapes(sd, scene, spheres, quads, arr, device)
     _put_materials(sd, scene.materials, arr)
     _put_lights(sd, scene, spheres, quads, arr)
     _put_camera(sd, scene)
@@ -198,4 +274,5 @@ def upload(scene: Scene, device: str) -> SceneData:
     sd.rr_depth = int(scene.rr_depth)
     # Whitted's reflect/refract choices, one bit per split (one code when nothing splits).
     sd.whitted_codes = 1 << splits_for(material_kinds(scene))
+    sd.moving = int(scene.has_motion)
     return sd

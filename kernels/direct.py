@@ -36,7 +36,8 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
                             ior: float, p: wp.vec3, n: wp.vec3, wo: wp.vec3, dt: float) -> wp.vec3:
         L = wp.vec3(0.0)
         if wp.static(POINTS):
-            for i in range(sd.n_point_lights):
+            i = int(0)
+            while i < sd.n_point_lights:
                 d = sd.pl_position[i] - p
                 dist = wp.length(d)
                 wi = d / dist
@@ -45,14 +46,17 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, wp.length(sd.pl_position[i] - o), dt, -1, -1) == 1:
                         L += wp.cw_mul(fc, sd.pl_intensity[i]) / (dist * dist)
+                i += 1
         if wp.static(DIRS):
-            for i in range(sd.n_dir_lights):
+            i = int(0)
+            while i < sd.n_dir_lights:
                 wi = -sd.dl_direction[i]
                 fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, 1.0e30, dt, -1, -1) == 1:
                         L += wp.cw_mul(fc, sd.dl_irradiance[i])
+                i += 1
         return L
 
     @wp.func

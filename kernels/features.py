@@ -1,7 +1,7 @@
 """What a scene uses (Features, decided once by features_of): the switches of a kernel variant."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -13,6 +13,9 @@ PDF_HIGH_10PCT = "pdf_high_10pct"   # scattered rays are weighted as if their pd
 RR_NO_REWEIGHT = "rr_no_reweight"   # roulette kills paths without dividing survivors by their probability
 LIGHT_JACOBIAN = "light_jacobian"   # area light samples reach solid angle without the cosine at the light
 FAULTS = (DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, LIGHT_JACOBIAN)
+
+# Features the kernels test at runtime (a branch per sample or hit), not at code generation.
+RUNTIME_SWITCHES = ("lens", "motion", "checker", "background")
 
 # Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
 WHITTED_SPLITS = 4
@@ -31,7 +34,7 @@ def splits_for(kinds: frozenset) -> int:
 
 @dataclass(frozen=True)
 class Features:
-    """What a scene uses; one compiled kernel per distinct value (with the sampler)."""
+    """What a scene uses; one compiled kernel per distinct code_key() (with the sampler)."""
     integrator: str
     lens: bool              # thin lens (never for whitted)
     motion: bool            # moving shapes within an open shutter (never for whitted)
@@ -79,6 +82,11 @@ class Features:
     def delta_lights(self) -> bool:
         """Point or directional lights, evaluated exactly at every non-delta surface."""
         return self.point_lights or self.dir_lights
+
+    def code_key(self) -> Features:
+        """The features the generated code depends on: a lens, motion, checker textures and a
+        background are runtime switches in the kernels (RUNTIME_SWITCHES), not variant selectors."""
+        return replace(self, **{name: False for name in RUNTIME_SWITCHES})
 
     def key(self) -> str:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",

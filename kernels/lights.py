@@ -59,11 +59,8 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
         li = int(0)
         if wp.static(POWER_PICK):
             # Few lights: a linear scan of the cdf is cheaper than a search.
-            li = sd.n_lights - 1
-            for i in range(sd.n_lights - 1):
-                if u < sd.light_cdf[i]:
-                    li = i
-                    break
+            while li < sd.n_lights - 1 and u >= sd.light_cdf[li]:
+                li += 1
         else:
             li = wp.min(int(u * float(sd.n_lights)), sd.n_lights - 1)
         return li

@@ -7,7 +7,7 @@ the chi-square tests use the same ones):
     sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter (weight = f|cos|/pdf)
 `lobe` selects the strategy: True samples cosine / Phong lobes / Fresnel, False samples uniform
 hemisphere (sphere for glossy transmission) and picks reflect/refract with probability 1/2.
-`make_albedo(checker)` returns surface_albedo(sd, m, uv); `emitted(sd, h, wo)` is a hit's emission.
+`surface_albedo(sd, m, uv)` is the (checkered) albedo, `emitted(sd, h, wo)` a hit's emission.
 """
 from types import SimpleNamespace
 
@@ -267,22 +267,27 @@ def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf):
     return sample_bsdf
 
 
-def make_albedo(checker: bool) -> SimpleNamespace:
-    """Albedo at a surface point; checkered materials alternate albedo and albedo2."""
+@wp.func
+def checkered(sd: SceneData, m: int) -> int:
+    """1 when material m is a checker texture (it reads the hit's uv)."""
+    if sd.mat_checker[m][0] > 0.0:
+        return 1
+    return 0
 
-    @wp.func
-    def surface_albedo(sd: SceneData, m: int, uv: wp.vec2) -> wp.vec3:
-        a = sd.mat_albedo[m]
-        if wp.static(checker):
-            c = sd.mat_checker[m]
-            if c[0] > 0.0:
-                iu = int(wp.floor(uv[0] * c[0]))
-                iv = int(wp.floor(uv[1] * c[1]))
-                if (iu + iv) % 2 != 0:
-                    a = sd.mat_albedo2[m]
-        return a
 
-    return SimpleNamespace(surface_albedo=surface_albedo)
+@wp.func
+def surface_albedo(sd: SceneData, m: int, uv: wp.vec2) -> wp.vec3:
+    """Albedo at a surface point; checkered materials alternate albedo and albedo2. A runtime
+    switch, not a compiled-out feature: one load and a branch per hit, and scenes with and without
+    checker textures share a kernel variant."""
+    a = sd.mat_albedo[m]
+    if checkered(sd, m) == 1:
+        c = sd.mat_checker[m]
+        iu = int(wp.floor(uv[0] * c[0]))
+        iv = int(wp.floor(uv[1] * c[1]))
+        if (iu + iv) % 2 != 0:
+            a = sd.mat_albedo2[m]
+    return a
 
 
 @wp.func

@@ -30,6 +30,7 @@ DEVICES = ("cpu", "cuda")
 
 _lock = threading.Lock()
 _kernels: dict = {}
+_pools: dict = {}
 
 
 @dataclass
@@ -61,12 +62,35 @@ class RenderStats:
         return self.width * self.height * self.spp / max(self.render_seconds, 1e-12)
 
 
+def _after_fork_in_child() -> None:
+    # A forked child inherits the pools but not their worker threads (and maybe a held lock).
+    global _lock
+    _lock = threading.Lock()
+    _pools.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """A thread pool of `threads` workers, kept for the process: starting threads for every render
+    costs milliseconds, which a low-spp convergence study pays per run."""
+    with _lock:
+        pool = _pools.get(threads)
+        if pool is None:
+            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads,
+                                                        thread_name_prefix="drtlab-render")
+        return pool
+
+
 def get_kernel(features: Features, spec: SamplerSpec, device: str):
     """The compiled kernel for (features, sampler); compiled once per process, cached on disk."""
     wp = _wp()
     if features.whitted:
         # Whitted reads no sampler: one variant serves every sampler name.
         spec = parse_sampler("uniform")
+    features = features.code_key()
     key = (features, spec.pointset.name, spec.strategy.name, device)
     with _lock:
         entry = _kernels.get(key)
@@ -149,8 +173,10 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     kernel, compile_s = get_kernel(features, spec, device)
     sd = upload(scene, device)
     W, H = scene.width, scene.height
-    accum = wp.zeros(W * H, dtype=wp.vec3d, device=device)
-    accum2 = wp.zeros(W * H if variance else 1, dtype=wp.vec3d, device=device)
+    from drtlab.kernels.tracer import PixelSums
+    sums = PixelSums()
+    sums.total = wp.zeros(W * H, dtype=wp.vec3d, device=device)
+    sums.squares = wp.zeros(W * H if variance else 1, dtype=wp.vec3d, device=device)
     tiles = _tiles(W, H, tile, device)
     passes = [(i, min(PASS_SAMPLES, spp - i)) for i in range(0, spp, PASS_SAMPLES)]
     bar = _progress_bar(W * H * spp > 4_000_000 if progress is None else progress,
@@ -159,10 +185,10 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     def launch(t, index0, count):
         x0, y0, tw, th = t
         wp.launch(kernel, dim=tw * th, device=device,
-                  inputs=[sd, wp.uint32(seed), index0, count, spp, x0, y0, tw, th, accum, accum2])
+                  inputs=[sd, wp.uint32(seed), index0, count, spp, x0, y0, tw, th, sums])
 
     t0 = time.perf_counter()
-    pool = ThreadPoolExecutor(max_workers=threads) if device == "cpu" and threads > 1 else None
+    pool = _pool(threads) if device == "cpu" and threads > 1 else None
     try:
         for index0, count in passes:
             if pool is None:
@@ -177,14 +203,12 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
                         bar.update(1)
         wp.synchronize_device(device)
     finally:
-        if pool is not None:
-            pool.shutdown()
         if bar is not None:
             bar.close()
     elapsed = time.perf_counter() - t0
-    total = accum.numpy().reshape(H, W, 3)
+    total = sums.total.numpy().reshape(H, W, 3)
     image = total / float(spp)
-    var = _sample_variance(total, accum2.numpy().reshape(H, W, 3), spp) if variance else None
+    var = _sample_variance(total, sums.squares.numpy().reshape(H, W, 3), spp) if variance else None
     return RenderStats(image=image, render_seconds=elapsed, compile_seconds=compile_s, spp=spp,
                        width=W, height=H, sampler=spec.name, integrator=integ, seed=seed,
                        variant=features.key(), threads=threads, device=device, variance=var)

@@ -1,7 +1,7 @@
 """The stochastic tracers (path, drt) per kernel variant: one path of a sample, as a loop.
 
-`make_trace(features, pointset, strategy, rays, bsdf, surface, lighting)` (from make_intersect,
-make_bsdf, make_albedo and make_direct) returns trace(sd, seed, pix, idx, spp, o, d, dt) -> radiance.
+`make_trace(features, pointset, strategy, rays, bsdf, lighting)` (from make_intersect, make_bsdf
+and make_direct) returns trace(sd, seed, pix, idx, spp, o, d, dt) -> radiance.
 Random numbers come from the point set at the dimensions of estimators.dimensions per bounce.
 """
 from types import SimpleNamespace
@@ -14,15 +14,21 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, Features
 from drtlab.kernels.geometry import offset_origin
-from drtlab.kernels.materials import DIELECTRIC, DIFFUSE, EMITTER, MIRROR, emitted
+from drtlab.kernels.materials import DIELECTRIC, DIFFUSE, EMITTER, MIRROR, emitted, surface_albedo
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
 
 
+@wp.func
+def black(c: wp.vec3) -> int:
+    if c[0] > 0.0 or c[1] > 0.0 or c[2] > 0.0:
+        return 0
+    return 1
+
+
 def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: SimpleNamespace,
-               bsdf: SimpleNamespace, surface: SimpleNamespace,
-               lighting: SimpleNamespace) -> SimpleNamespace:
+               bsdf: SimpleNamespace, lighting: SimpleNamespace) -> SimpleNamespace:
     get1d = pointset.get1d
     get2d = pointset.get2d
     AREA = f.area_lights
@@ -35,15 +41,15 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
     # drt stops at the emission hit after a diffuse scatter; nothing to find there when emitters
     # count only through light samples and the background is black.
     DRT = f.drt
-    DRT_SKIP_LAST_SEGMENT = not (strategy.counts_hits or f.background)
+    DRT_COUNTS_HITS = strategy.counts_hits
     intersect = rays.intersect
     sample_bsdf = bsdf.sample_bsdf
-    surface_albedo = surface.surface_albedo
     direct_delta_lights = lighting.direct_delta_lights
     next_event = lighting.next_event
     hit_weight = lighting.hit_weight
 
-    @wp.func
+    # Called once per sample: inlined, so SceneData is not copied per call.
+    @wp.func(inline=True)
     def trace(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32, spp: wp.uint32,
               o0: wp.vec3, d0: wp.vec3, dt: float) -> wp.vec3:
         L = wp.vec3(0.0)
@@ -113,8 +119,9 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
             if wp.static(DRT):
                 if kind == DIFFUSE:
                     last_segment = 1
-                    if wp.static(DRT_SKIP_LAST_SEGMENT):
-                        break
+                    if wp.static(not DRT_COUNTS_HITS):
+                        if black(sd.background) == 1:   # at runtime: one variant either way
+                            break
             prev_delta = s.delta
             prev_pdf = s.pdf
             prev_p = h.p

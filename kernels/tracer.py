@@ -1,13 +1,17 @@
 """Kernel factory: one compiled render kernel per scene feature set.
 
 `build_kernel(features, pointset, strategy)` returns a Warp kernel in which everything the scene does
-not use (lens, motion, material kinds, light kinds, shape kinds, roulette, the other integrators) is
-removed at code generation by `wp.static`, so a scene without motion blur pays nothing for it.
+not use (material kinds, light kinds, shape kinds, roulette, the other integrators) is removed at
+code generation by `wp.static`. Four features cost only a branch per sample, hit or shape test and
+are runtime switches instead (a thin lens: aperture > 0; motion: SceneData.moving; checker
+textures: per material; a background: drt's last segment), so that scenes differing only in them
+share one compiled variant (`Features.code_key`): half the cold compiles of a study.
 
 The kernel renders `count` samples (indices index0 ... index0 + count - 1) of every pixel of one tile
-and adds their float64 sum to `accum` (and, with `Features.moments`, the sum of their squares to
-`accum2`; otherwise `accum2` is never touched). A sample's random numbers come only from the point set keyed by
-(seed, pixel, sample index, dimension), so tiles, threads and launch order cannot change the image.
+and adds their float64 sum to `sums.total` (and, with `Features.moments`, the sum of their squares
+to `sums.squares`; otherwise that is never touched). A sample's random numbers come only from the
+point set keyed by (seed, pixel, sample index, dimension), so tiles, threads and launch order cannot
+change the image.
 Tracers are loops with a throughput weight (Warp kernels cannot recurse); radiance is traced in
 float32 and summed per pixel in float64.
 """
@@ -24,27 +28,34 @@ from drtlab.kernels.direct import make_direct
 from drtlab.kernels.features import LIGHT_JACOBIAN, Features
 from drtlab.kernels.intersect import make_intersect
 from drtlab.kernels.lights import make_lights
-from drtlab.kernels.materials import make_albedo, make_bsdf
+from drtlab.kernels.materials import make_bsdf
 from drtlab.kernels.trace import make_trace
 from drtlab.kernels.whitted import make_whitted
+
+
+@wp.struct
+class PixelSums:
+    """The kernel's outputs, per pixel. In a struct rather than as array arguments: Warp compiles a
+    kernel whose arguments include only 1D arrays twice (once for unit strides), which doubles the
+    compile time of these large kernels for no measurable gain."""
+    total: wp.array(dtype=wp.vec3d)
+    squares: wp.array(dtype=wp.vec3d)
 
 
 def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     WHITTED = f.whitted
     rays = make_intersect(f)
     bsdf = make_bsdf(f.kinds, strategy.lobe)
-    surface = make_albedo(f.checker)
-    lights = make_lights(f.motion, strategy.solid_angle, strategy.power_pick,
+    lights = make_lights(True, strategy.solid_angle, strategy.power_pick,
                          LIGHT_JACOBIAN in f.faults)
     lighting = make_direct(f, strategy, rays, bsdf, lights)
     sample_ray = make_camera(f, pointset).sample_ray
-    trace_whitted = make_whitted(f, rays, bsdf, surface, lighting).trace_whitted
-    trace = make_trace(f, pointset, strategy, rays, bsdf, surface, lighting).trace
+    trace_whitted = make_whitted(f, rays, bsdf, lighting).trace_whitted
+    trace = make_trace(f, pointset, strategy, rays, bsdf, lighting).trace
 
     @wp.kernel(enable_backward=False, module="unique")
     def render_tile(sd: SceneData, seed: wp.uint32, index0: int, count: int, spp: int,
-                    x0: int, y0: int, tile_w: int, tile_h: int, accum: wp.array(dtype=wp.vec3d),
-                    accum2: wp.array(dtype=wp.vec3d)):
+                    x0: int, y0: int, tile_w: int, tile_h: int, sums: PixelSums):
         tid = wp.tid()
         px = x0 + tid % tile_w
         py = y0 + tid / tile_w
@@ -71,8 +82,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             total += x
             if wp.static(f.moments):
                 total2 += wp.cw_mul(x, x)
-        accum[pixel] = accum[pixel] + total
+        sums.total[pixel] = sums.total[pixel] + total
         if wp.static(f.moments):
-            accum2[pixel] = accum2[pixel] + total2
+            sums.squares[pixel] = sums.squares[pixel] + total2
 
     return render_tile

@@ -1,7 +1,7 @@
 """Whitted's deterministic tracer per kernel variant: mirror chains, dielectric splits, shadow rays.
 
-`make_whitted(features, rays, bsdf, surface, lighting)` (from make_intersect, make_bsdf, make_albedo
-and make_direct) returns trace_whitted(sd, o, d) -> radiance and light_centres(sd, kind, albedo, exponent,
+`make_whitted(features, rays, bsdf, lighting)` (from make_intersect, make_bsdf and make_direct)
+returns trace_whitted(sd, o, d) -> radiance and light_centres(sd, kind, albedo, exponent,
 ior, p, n, wo) -> the area lights' light at p, each seen as a point source at its centre.
 """
 from types import SimpleNamespace
@@ -13,18 +13,17 @@ from drtlab.kernels.device_scene import QUAD, SPHERE, SceneData
 from drtlab.kernels.features import Features
 from drtlab.kernels.geometry import offset_origin
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
-                                      MIRROR, emitted, interface, refract_dir)
+                                      MIRROR, emitted, interface, refract_dir, surface_albedo)
 
 
 def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
-                 surface: SimpleNamespace, lighting: SimpleNamespace) -> SimpleNamespace:
+                 lighting: SimpleNamespace) -> SimpleNamespace:
     AREA_CENTRES = f.light_centres
     DELTA_LIGHTS = f.delta_lights
     SPLITS = f.whitted_splits
     intersect = rays.intersect
     visible = rays.visible
     eval_bsdf = bsdf.eval_bsdf
-    surface_albedo = surface.surface_albedo
     direct_delta_lights = lighting.direct_delta_lights
 
     @wp.func
@@ -59,7 +58,8 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
                         L += wp.cw_mul(fc, sd.mat_emission[m]) * (intensity / (dist * dist))
         return L
 
-    @wp.func
+    # Called once per sample: inlined, so SceneData is not copied per call.
+    @wp.func(inline=True)
     def trace_whitted(sd: SceneData, o0: wp.vec3, d0: wp.vec3) -> wp.vec3:
         total = wp.vec3(0.0)
         # A dynamic bound: Warp would unroll a constant one 2**SPLITS times and compile for long.
