@@ -99,7 +99,7 @@ def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
         fit = scene.fit(s)
         label = s
         if fit is not None:
-            label = f"{s}: b={fit.slope:.2f} [{fit.slope_lo:.2f}, {fit.slope_hi:.2f}]"
+            label = f"{s}: {fit.slope_text()}"
             ax.plot(fit.line.n, fit.line.median, linestyle=style["linestyle"], color=style["color"], lw=1.2)
             ax.fill_between(fit.line.n, fit.line.lo, fit.line.hi, color=style["color"], alpha=0.15, lw=0)
         _errbar(ax, [c.spp for c in cells], [c.error(study.metric) for c in cells], style, label)

@@ -9,6 +9,7 @@ from drtlab.experiments.figures import plot_study, slug, strip_job
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.results import Interval, SceneResult, StudyResult, Summary
+from drtlab.experiments.slopes import RESOLVED_WIDTH
 
 ERRATIC_TXT = f"{ERRATIC_SIGMA:g} in log error (a factor {math.exp(ERRATIC_SIGMA):.2f})"
 
@@ -143,6 +144,8 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     base, top_n = study.baseline, study.spp[-1]
     fit = scene.fit(s)
     slope = fmt_ci(fit.slope, fit.slope_lo, fit.slope_hi) if fit else "–"
+    if fit and fit.resolved is False:
+        slope += " †"
     if fit and fit.erratic:
         slope += " ‡"
     typical = fmt_ci(fit.typical_slope, fit.typical_slope_lo, fit.typical_slope_hi) \
@@ -174,6 +177,11 @@ def _study_table(study: StudyResult) -> list[str]:
              "|---|---|---|---|---|---|---|---|---|"]
     lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
     lines.append("")
+    if any(scene.slopes[s].resolved is False for scene in study.scenes for s in study.samplers
+           if s in scene.slopes):
+        lines.append(f"† not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, so these runs "
+                     "cannot tell N^-0.5 from N^-0.75 or N^-1 (rare, huge samples missed by the runs at "
+                     "small N); more repetitions per cell resolve it.\n")
     if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):
         lines.append("‡ heavy-tailed errors: the scatter around the fitted line is over "
                      f"{ERRATIC_TXT}, far above pixel noise; the slope is poorly determined.\n")
@@ -192,8 +200,11 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
     vs = scene.comparison(s, top_n)
     txt = f"`{s}`"
     if fit and bfit:
-        txt += (f" converges as N^{fit.slope:.2f} (95% CrI {fit.slope_lo:.2f} to "
-                f"{fit.slope_hi:.2f}) against N^{bfit.slope:.2f} for `{base}`")
+        rate = (f"N^{fit.slope:.2f} (95% CrI {fit.slope_lo:.2f} to {fit.slope_hi:.2f})"
+                if fit.resolved is not False else
+                f"a rate these runs do not resolve (95% CrI N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
+        base_rate = f"N^{bfit.slope:.2f}" if bfit.resolved is not False else "an unresolved rate"
+        txt += f" converges as {rate} against {base_rate} for `{base}`"
     if vs and math.isfinite(vs.mse_ratio.ratio):
         r = vs.mse_ratio
         txt += (f"; at N={top_n} its {M} is {fmt(r.ratio)}× lower "

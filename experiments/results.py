@@ -175,6 +175,7 @@ class SlopeFit:
     slope: float | None = None
     slope_lo: float | None = None
     slope_hi: float | None = None
+    resolved: bool | None = None        # interval narrow enough to tell the rates apart
     intercept: float | None = None
     intercept_lo: float | None = None
     intercept_hi: float | None = None
@@ -185,6 +186,7 @@ class SlopeFit:
     lack_of_fit_p: float | None = None
     floor: float | None = None
     censored: int | None = None
+    at_floor: list | None = None        # sample counts left out of the fit (at the noise floor)
     cells: list | None = None
     acceptance_fraction: float | None = None
     autocorr_time: list | None = None
@@ -214,9 +216,15 @@ class SlopeFit:
     def to_json(self) -> dict:
         return _fields_json(self, skip_none=True)
 
+    def slope_text(self, digits: int = 2) -> str:
+        """'b=-0.50 [-0.51,-0.49]', or the interval alone when the runs do not resolve the slope."""
+        ci = f"[{self.slope_lo:.{digits}f}, {self.slope_hi:.{digits}f}]"
+        return f"b={self.slope:.{digits}f} {ci}" if self.resolved is not False else f"b not resolved {ci}"
+
     def table_row(self) -> dict:
         return {"ok": self.ok, "slope": self.slope, "slope_lo": self.slope_lo,
-                "slope_hi": self.slope_hi, "typical_slope": self.typical_slope,
+                "slope_hi": self.slope_hi, "resolved": self.resolved,
+                "typical_slope": self.typical_slope,
                 "typical_slope_lo": self.typical_slope_lo, "typical_slope_hi": self.typical_slope_hi,
                 "heavy_tailed": self.erratic, "converged": self.converged,
                 "lack_of_fit_p": self.lack_of_fit_p}

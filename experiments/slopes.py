@@ -7,18 +7,27 @@ Model, on the per-run MSEs m_{N,r} (noise floor already removed):
     m_{N,r} ~ Gamma(mean mu_N, shape k_N),   log mu_N = a + 2 b log N,
     1 / k_N = CV^2 of a run's MSE at N = exp(d0 + d1 log N).
 
-Priors are flat in (a, b, d0, d1) within wide boxes. The likelihood is parameterized by the mean: for
-given k_N its score for (a, b) is sum k_N (m / mu_N - 1) (1, log N), which has expectation zero
-whatever the true law of m, so b estimates the slope of the mean MSE and not of a typical run's MSE. Heavy tails (rare, very bright samples: most runs at small N have small error,
-a few a huge one) show as a large CV^2 at small N. The dispersion is a smooth law in N, fitted jointly
-(for independent sampling CV^2 = c1 / N + c0 exactly, which a log-linear law follows over a ladder), so
-a small-N cell where no rare sample happened to land cannot claim a precision its own spread suggests:
-it inherits the dispersion the other cells reveal, and gets little weight. Values at or below `floor`
-(a corrected MSE <= 0: below the noise floor) are left-censored there. `lack_of_fit_p` is an F test
-of the cell means' scatter about the power law against the runs' scatter within cells: a small value
-(< 0.001; about 1% of calibrated ladders reach 0.01) means no single slope describes the ladder, e.g.
-a plateau from a bias. A single end cell off the line is instead absorbed by the dispersion law (and
-gets little weight): a cell at the noise floor shows in `censored` and in the noise-floor check.
+Priors are flat in (a, b, d0) within wide boxes and in d1 within [-5, 0]: a run's MSE is an average
+of more samples at larger N, so its relative spread does not grow with N (for independent sampling
+CV^2 = c1 / N + c0 exactly). The bound matters when rare huge samples are missed by every run at
+small N and caught at large N: the small-N cells then look precise and low, and without it the fit
+trusts them and reports a rising error. With it, the spread seen at large N is also assumed at small
+N, where the few quiet runs then say little about the mean. The likelihood is parameterized by the
+mean: for given k_N its score for (a, b) is sum k_N (m / mu_N - 1) (1, log N), which has expectation
+zero whatever the true law of m, so b estimates the slope of the mean MSE and not of a typical run's
+MSE. Heavy tails (rare, very bright samples: most runs at small N have small error, a few a huge
+one) show as a large CV^2 at small N. The dispersion is a smooth law in N, fitted jointly (for
+independent sampling CV^2 = c1 / N + c0 exactly, which a log-linear law follows over a ladder), so a
+small-N cell where no rare sample happened to land cannot claim a precision its own spread suggests:
+it inherits the dispersion the other cells reveal, and gets little weight. Values at or below
+`floor` (a corrected MSE <= 0: below the noise floor) are left-censored there. `lack_of_fit_p` is an
+F test of the cell means' scatter about the power law against the runs' scatter within cells: a
+small value (< 0.001; about 1% of calibrated ladders reach 0.01) means no single slope describes the
+ladder, e.g. a plateau from a bias. `resolved` is False when the slope interval is wider than
+RESOLVED_WIDTH (0.5): the runs do not tell the rates apart, and reports say so instead of quoting
+the median. A single end cell off the line is instead absorbed by the dispersion law (and gets
+little weight); a cell at the noise floor (median at or below it) is left out of the fit and listed
+in `at_floor`, besides the noise-floor check of the analysis.
 
 Typical-error slope (`fit_typical_slope`, also `fit_slope`): log RMSE_run = a + b log N + eps,
 eps ~ Normal(0, sigma^2), over the per-run RMSEs: the slope of the geometric mean of the error, what a
@@ -44,7 +53,10 @@ A_BOX = 100.0
 B_BOX = 10.0
 LOG_SIGMA_BOX = (-12.0, 4.0)
 LOG_DISP_BOX = (-25.0, 10.0)     # log CV^2 of a run's MSE, in every cell (shape k up to e^25)
-DISP_SLOPE_BOX = 5.0             # |d log CV^2 / d log N|
+DISP_SLOPE_BOX = 5.0             # -d log CV^2 / d log N lies in [0, this]: the CV never grows with N
+# A slope interval wider than this cannot tell the rates the studies compare (-0.5, -0.75, -1) apart:
+# the fit reports it as not resolved by these runs rather than as an estimate.
+RESOLVED_WIDTH = 0.5
 LOG_CDF_MIN = -700.0             # log P(m <= floor) is clipped here (gammainc underflows to 0)
 
 
@@ -152,6 +164,7 @@ def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int
     out.update({
         "ok": True,
         "slope": float(b_med), "slope_lo": float(b_lo), "slope_hi": float(b_hi),
+        "resolved": bool(b_hi - b_lo <= RESOLVED_WIDTH),
         "intercept": float(a_med), "intercept_lo": float(a_lo), "intercept_hi": float(a_hi),
         "sigma": float(np.median(np.exp(ls))),
         "ols_slope": float(b0),
@@ -191,7 +204,8 @@ def _gamma_log_prob(theta: np.ndarray, x: np.ndarray, cells: dict) -> np.ndarray
     """Vectorized over walkers: theta (k, 4) = (a, b, d0, d1); log mu_N = a + 2 b x, log CV^2 = d0 + d1 x."""
     a, b, d0, d1 = theta[:, 0:1], theta[:, 1:2], theta[:, 2:3], theta[:, 3:4]
     log_cv2 = d0 + d1 * x[None, :]
-    ok = ((np.abs(a[:, 0]) < 2 * A_BOX) & (np.abs(b[:, 0]) < B_BOX) & (np.abs(d1[:, 0]) < DISP_SLOPE_BOX)
+    ok = ((np.abs(a[:, 0]) < 2 * A_BOX) & (np.abs(b[:, 0]) < B_BOX)
+          & (d1[:, 0] <= 0.0) & (d1[:, 0] > -DISP_SLOPE_BOX)
           & np.all((log_cv2 > LOG_DISP_BOX[0]) & (log_cv2 < LOG_DISP_BOX[1]), axis=1))
     lp = _gamma_loglik(a + 2.0 * b * x[None, :], log_cv2, cells)    # log CV^2 clipped where not ok
     return np.where(ok, lp, -np.inf)
@@ -217,6 +231,18 @@ def _cells(n: np.ndarray, m: np.ndarray, floor: float) -> dict:
     }
 
 
+def _above_floor(n: np.ndarray, m: np.ndarray, floor: float) -> np.ndarray:
+    """Runs of the cells whose median corrected MSE lies above `floor`. A cell at the floor
+    measures the reference's noise, not the estimator, and says nothing about the slope: fitting its
+    near-zero values would drag the line (or force the CV law to grow with N). Kept when dropping
+    such cells would leave fewer than two sample counts."""
+    at = [v for v in np.unique(n) if np.median(m[n == v]) <= floor]
+    keep = ~np.isin(n, at)
+    if np.unique(n[keep & (m > 0)]).size < 2 or (keep & (m > 0)).sum() < 3:
+        return np.ones_like(keep)
+    return keep
+
+
 def _rmse_start(c: dict, x: np.ndarray, floor: float, nwalkers: int, rng) -> np.ndarray:
     """Walkers around a moment estimate: OLS of log cell-mean MSE, and of log cell CV^2, on log N."""
     mean = np.maximum(c["mean"], floor)
@@ -227,11 +253,13 @@ def _rmse_start(c: dict, x: np.ndarray, floor: float, nwalkers: int, rng) -> np.
     cv2 = np.clip(cv2[good], math.exp(LOG_DISP_BOX[0] + 1), math.exp(LOG_DISP_BOX[1] - 1))
     if good.sum() >= 2 and np.unique(x[good]).size >= 2:
         d1, d0 = np.polyfit(x[good], np.log(cv2), 1)
-        d1 = float(np.clip(d1, -0.9 * DISP_SLOPE_BOX, 0.9 * DISP_SLOPE_BOX))
+        d1 = float(np.clip(d1, -0.9 * DISP_SLOPE_BOX, -0.02))
     else:
-        d1, d0 = 0.0, float(np.log(cv2).mean()) if good.any() else 0.0
+        d1, d0 = -0.02, float(np.log(cv2).mean()) if good.any() else 0.0
     theta = np.array([a0, b2 / 2.0, d0, d1])
-    return theta + 1e-2 * rng.standard_normal((nwalkers, 4))
+    p0 = theta + 1e-2 * rng.standard_normal((nwalkers, 4))
+    p0[:, 3] = -np.abs(p0[:, 3])            # inside the prior (d1 <= 0)
+    return p0
 
 
 def _lack_of_fit(c: dict, x: np.ndarray, theta: np.ndarray) -> tuple[float, float]:
@@ -259,20 +287,21 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
 
     `n` and `mse` are per-run values (repetitions included; MSE with the noise floor removed, so it
     may be slightly negative). Non-finite values are dropped (`dropped`); values at or below `floor`
-    are left-censored there (`censored`). `floor` defaults to 1% of the smallest cell's median
+    are left-censored there (`censored`); cells whose median is at or below it are left out of the
+    fit (`at_floor`, see `_above_floor`). `floor` defaults to 1% of the smallest cell's median
     positive MSE; pass the ground truth's variance (the correction's scale) when known.
     Returns `fit_typical_slope`'s keys (`intercept`: log RMSE at N = 1; `sigma`: the model's sd of a
     run's log RMSE at the ladder's geometric centre, comparable to the typical fit's; `ols_slope`:
     least squares on log sqrt(cell-mean MSE); `autocorr_time`: 4 parameters) and `cells` (per N: runs,
     mean MSE, RMSE, fitted RMSE, the fitted CV of a run's MSE), `cv_slope` (d log CV / d log N),
-    `lack_of_fit_f` / `lack_of_fit_p`, `floor`, `censored`, `model`, `estimand` ("rmse").
+    `lack_of_fit_f` / `lack_of_fit_p`, `resolved`, `floor`, `censored`, `model`, `estimand` ("rmse").
     """
     n = np.asarray(n, dtype=np.float64)
     m = np.asarray(mse, dtype=np.float64)
     keep = np.isfinite(m) & np.isfinite(n) & (n > 0)
     n, m = n[keep], m[keep]
     out: dict = {"n_points": int(keep.sum()), "dropped": int((~keep).sum()), "level": level,
-                 "estimand": "rmse", "model": "gamma, mean-parameterized, log-linear CV^2"}
+                 "estimand": "rmse", "model": "gamma, mean-parameterized, log-linear CV^2 non-increasing in N"}
     pos = m > 0
     if pos.sum() < 3 or np.unique(n[pos]).size < 2:
         out.update({"ok": False, "reason": "fewer than 3 usable points on at least 2 sample counts"})
@@ -283,9 +312,12 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
     c = _cells(n, m / scale, floor / scale)
     xm = float(np.mean(np.log(n)))
     x = c["x"] - xm
+    fit_n = _above_floor(n, m, floor)
+    cf = _cells(n[fit_n], m[fit_n] / scale, floor / scale)
+    xf = cf["x"] - xm
     rng = np.random.default_rng(seed)
-    p0 = _rmse_start(c, x, floor / scale, nwalkers, rng)
-    run = _sample(_gamma_log_prob, p0, (x, c), nsteps=nsteps, burn=burn, seed=seed)
+    p0 = _rmse_start(cf, xf, floor / scale, nwalkers, rng)
+    run = _sample(_gamma_log_prob, p0, (xf, cf), nsteps=nsteps, burn=burn, seed=seed)
     chain = run.pop("chain")
     med = np.median(chain, axis=0)
     b = chain[:, 1]
@@ -296,12 +328,13 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
     grid = np.linspace(c["x"].min(), c["x"].max(), line_points)
     sub = rng.choice(len(chain), size=min(len(chain), 2000), replace=False)
     lines = a[sub, None] + b[sub, None] * grid[None, :]
-    f_fit, p_fit = _lack_of_fit(c, x, med)
+    f_fit, p_fit = _lack_of_fit(cf, xf, med)
     cv = np.sqrt(np.exp(med[2] + med[3] * x))
     fitted = np.exp(float(a_med) + float(b_med) * c["x"])
     out.update({
         "ok": True,
         "slope": float(b_med), "slope_lo": float(b_lo), "slope_hi": float(b_hi),
+        "resolved": bool(b_hi - b_lo <= RESOLVED_WIDTH),
         "intercept": float(a_med), "intercept_lo": float(a_lo), "intercept_hi": float(a_hi),
         "sigma": 0.5 * math.sqrt(float(special.polygamma(1, math.exp(-med[2])))),
         "ols_slope": float(ols(c["x"], 0.5 * np.log(np.maximum(c["mean"], floor / scale)))[1]),
@@ -309,6 +342,7 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
         "cv_slope": float(med[3]) / 2.0,
         "lack_of_fit_f": f_fit, "lack_of_fit_p": p_fit,
         "floor": float(floor), "censored": int(c["censored"].sum()),
+        "at_floor": [float(v) for v in c["n"] if v not in cf["n"]],
         "cells": [{"n": float(v), "runs": int(r), "mse_mean": float(mm * scale),
                    "rmse": math.sqrt(max(mm * scale, 0.0)), "fitted_rmse": float(f), "cv": float(s)}
                   for v, r, mm, f, s in zip(c["n"], c["runs"], c["mean"], fitted, cv)],
