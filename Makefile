@@ -8,7 +8,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all ground-truth clean bench-compare
+        experiment-all experiment-integrands ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -37,6 +37,9 @@ experiment-uniform: venv
 
 experiment-all: venv
 	$(DRT) experiment all
+
+experiment-integrands: venv
+	$(PY) -m drtlab.experiments.integrand_study
 
 ground-truth: venv
 	$(DRT) ground-truth --experiment stratified
