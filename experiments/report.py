@@ -145,7 +145,7 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     fit = scene.fit(s)
     slope = fmt_ci(fit.slope, fit.slope_lo, fit.slope_hi) if fit else "–"
     if fit and fit.resolved is False:
-        slope += " †"
+        slope += " §"
     if fit and fit.erratic:
         slope += " ‡"
     typical = fmt_ci(fit.typical_slope, fit.typical_slope_lo, fit.typical_slope_hi) \
@@ -179,7 +179,7 @@ def _study_table(study: StudyResult) -> list[str]:
     lines.append("")
     if any(scene.slopes[s].resolved is False for scene in study.scenes for s in study.samplers
            if s in scene.slopes):
-        lines.append(f"† not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, so these runs "
+        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, so these runs "
                      "cannot tell N^-0.5 from N^-0.75 or N^-1 (rare, huge samples missed by the runs at "
                      "small N); more repetitions per cell resolve it.\n")
     if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):

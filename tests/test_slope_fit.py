@@ -230,3 +230,29 @@ def test_rmse_slope_lack_of_fit_flags_a_plateau():
     f = fit_rmse_slope(n, m, seed=0, floor=1e-6, **SHORT)
     assert f["ok"] and f["censored"] > 0 and f["cells"][-1]["rmse"] < 0.01 * f["cells"][-1]["fitted_rmse"]
     assert f["slope_lo"] < -0.5 < f["slope_hi"]
+
+
+# Measured: drtlab's quick `uniform` study on translucency (48x36, 5 runs per N), MSE with the noise
+# floor removed. Uniform directions against a sharp transmission lobe: the runs at N = 1 all miss
+# the rare, huge samples that two runs at N = 16 and 64 catch, so the cell means rise with N.
+TRANSLUCENCY_N = [1] * 5 + [4] * 5 + [16] * 5 + [64] * 5
+TRANSLUCENCY_MSE = [0.01096, 0.00994, 0.01572, 0.01032, 0.01064, 0.005203, 1.285, 0.005048, 0.0431,
+                    0.01419, 0.1531, 0.008497, 0.01385, 118.2, 0.003866, 0.6928, 0.02242, 0.4205,
+                    0.009529, 0.006768]
+
+
+def test_rmse_slope_does_not_report_a_rising_error_from_missed_rare_samples():
+    """Independent sampling has E[MSE] = Var / N exactly, so its RMSE slope is -0.5. With a free
+    dispersion law the fit trusted the quiet N = 1 cell and reported b = +1.28 [0.96, 1.66]. A run's
+    relative spread cannot grow with N (the prior bounds d log CV / d log N <= 0), so the interval
+    must contain -0.5, and it is too wide to tell the rates apart: `resolved` is False."""
+    f = fit_rmse_slope(TRANSLUCENCY_N, TRANSLUCENCY_MSE, seed=0, floor=1.97e-6)
+    assert f["ok"] and f["cv_slope"] <= 0.0
+    assert f["slope_lo"] < -0.5 < f["slope_hi"]
+    assert f["resolved"] is False and f["slope_hi"] - f["slope_lo"] > 0.5
+
+
+def test_rmse_slope_resolved_flag_on_a_well_measured_ladder():
+    n, r = synth(0.5, np.random.default_rng(11), reps=4)
+    f = fit_rmse_slope(n, r * r, seed=0, **SHORT)
+    assert f["resolved"] is True and f["slope_hi"] - f["slope_lo"] <= 0.5 and f["at_floor"] == []
