@@ -124,6 +124,7 @@ def cmd_render(args) -> int:
 def cmd_experiment(args) -> int:
     from drtlab.experiments.backend import default_backend
     from drtlab.experiments.config import load_experiment
+    from drtlab.experiments.distributed import open_executor
     from drtlab.experiments.paths import default_out_dir
     from drtlab.experiments.runner import run_experiment
     exp = load_experiment(args.experiment, args.profile)          # raises InputError, writes nothing
@@ -131,9 +132,12 @@ def cmd_experiment(args) -> int:
                              folder=True)
     if args.gt_dir is not None:
         fields.writable_location(args.gt_dir, "--gt-dir", folder=True)
-    summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=default_backend(),
-                             threads=args.threads, fresh=args.fresh, progress=_show_progress(args),
-                             argv=sys.argv)
+    backend = default_backend()
+    # The cluster is reached (or started) before any rendering: an unreachable scheduler is one line.
+    with open_executor(args.scheduler, args.workers, backend) as executor:
+        summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
+                                 threads=args.threads, fresh=args.fresh, progress=_show_progress(args),
+                                 argv=sys.argv, executor=executor)
     out = args.out if args.out is not None else default_out_dir(exp.name)
     _print_summary(exp, summary)
     print(f"report: {out / 'report.md'}")
@@ -152,7 +156,7 @@ def _print_summary(exp, result) -> None:
             for s in study.samplers:
                 f = scene.fit(s)
                 if f is not None:
-                    parts.append(f"{s} b={f.slope:.2f} [{f.slope_lo:.2f},{f.slope_hi:.2f}]")
+                    parts.append(f"{s} {f.slope_text()}")
             sp = [f"{s} {v:.2f}x" for s, v in scene.speed.speedup_vs_baseline.items()
                   if s != study.baseline and v == v]
             print(f"  {study.name:>18} {scene.scene:<14} " + "; ".join(parts)
@@ -307,6 +311,17 @@ def _add_experiment(sub) -> None:
     _add_cache_and_threads(p)
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
     _add_progress_flag(p)
+    from drtlab.cli_args import flag
+    from drtlab.experiments.distributed import scheduler_address
+    cluster = p.add_mutually_exclusive_group()
+    cluster.add_argument("--scheduler", type=flag(scheduler_address), default=None, metavar="ADDRESS",
+                         help="render on the Dask cluster of this scheduler, tcp://HOST:PORT or "
+                              "HOST:PORT; this process writes every result (default: none, render "
+                              "in this process)")
+    cluster.add_argument("--workers", type=int_flag(1, 1024), default=None, metavar="N",
+                         help="render on a local Dask cluster of N single-threaded worker "
+                              "processes; --threads then sets each render's threads, 1 unless "
+                              "given (default: none, render in this process)")
     p.set_defaults(func=cmd_experiment)
 
 
@@ -369,6 +384,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_experiment(sub)
     _add_ground_truth(sub)
     _add_image_tools(sub)
+    from drtlab.cli_pointsets import add_pointset_commands
+    add_pointset_commands(sub)
     return p
 
 

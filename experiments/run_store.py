@@ -22,7 +22,7 @@ CSV_COLUMNS = (
     "run_id", "studies", "scene", "sampler", "integrator", "width", "height", "spp", "rep", "seed",
     "rmse", "rmse_corrected", "mse", "mse_corrected", "gt_var", "relmse", "relmse_corrected", "mae",
     "mean_error", "ciede2000", "render_seconds", "compile_seconds", "wall_seconds",
-    "samples_per_second", "gt_spp",
+    "samples_per_second", "gt_spp", "worker",
 )
 
 
@@ -60,6 +60,7 @@ def load_run_image(out_dir: Path, run_id: str) -> np.ndarray:
 def _record_row(rec: dict, studies: tuple[str, ...]) -> dict:
     row = {k: rec.get(k, "") for k in CSV_COLUMNS}
     row["studies"] = ";".join(studies)
+    row["worker"] = rec.get("worker") or "local"      # records from before the column ran here
     return row
 
 

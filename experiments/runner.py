@@ -173,10 +173,11 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                    backend=None, threads: int | None = None, fresh: bool = False,
                    progress: bool = True, clock: Callable[[], float] = time.perf_counter,
                    log: Callable[[str], None] | None = None, analyze: bool = True,
-                   argv: list[str] | None = None) -> ExperimentResult:
+                   argv: list[str] | None = None, executor=None) -> ExperimentResult:
     """Run (or resume) the sweep, then analyse it and write every output. Returns the run counts,
     the wall time and (with `analyze`) the typed summary; `result["studies"]` reads summary.json's
-    content."""
+    content. With an `executor` (`distributed.DaskExecutor`) the renders run on its cluster and this
+    process writes their results; the calibration and the analysis stay here."""
     if backend is None:
         from drtlab.experiments.backend import default_backend
         backend = default_backend()
@@ -195,7 +196,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         (out_dir / "runs").mkdir(exist_ok=True)
         _remove_orphaned_temps(out_dir)
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
-                       records=load_records(out_dir / "runs"))
+                       records=load_records(out_dir / "runs"), executor=executor)
         sweep.run(gt_req, progress)
         if analyze:
             sweep.calibrate()
@@ -213,7 +214,7 @@ def _reference_info(gt) -> dict:
 
 
 def _run_record(r: RunSpec, fingerprint: str, img: np.ndarray, result, wall: float, gt,
-                metrics: dict, code_version: str) -> dict:
+                metrics: dict, code_version: str, worker: str = "local") -> dict:
     return {
         "run_id": r.run_id, "fingerprint": fingerprint,
         "scene": r.scene.label, "scene_key": r.scene.key, "sampler": r.sampler,
@@ -228,6 +229,7 @@ def _run_record(r: RunSpec, fingerprint: str, img: np.ndarray, result, wall: flo
                                         / max(float(result.render_seconds), 1e-12))),
         "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
         "code_version": code_version,
+        "worker": worker,                     # where it rendered: a Dask worker's address, or local
     }
 
 
@@ -246,6 +248,7 @@ class _Sweep:
     gts: dict = field(default_factory=dict)   # group -> _reference_info
     stats: dict = field(default_factory=dict)
     bar: _Progress | None = None
+    executor: object = None                   # distributed.DaskExecutor, or None: render here
 
     def run(self, gt_req: dict, progress: bool) -> None:
         # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
@@ -266,13 +269,15 @@ class _Sweep:
 
     def _group(self, g, runs: list[RunSpec], gt_spp: int, gt_batch: int) -> None:
         scene_ref, integrator, res = g
+        gt_backend = self.backend if self.executor is None else \
+            self.executor.ground_truth_backend(self.backend, scene_ref, gt_spp)
         gt = gtmod.ensure_ground_truth(
-            scene_ref, integrator, res, gt_spp, gt_batch, self.backend, self.gt_root,
+            scene_ref, integrator, res, gt_spp, gt_batch, gt_backend, self.gt_root,
             threads=self.threads, progress=False, log=self.log,
             on_batch=lambda n, lab=scene_ref.label: self.bar.update(n, f"ground truth {lab}"))
         self.gts[g] = _reference_info(gt)
         gt_lab = None
-        scene = None
+        todo = []
         for r in runs:
             fp = _fingerprint(r, gt, self.backend.code_version)
             rec = self.records.get(r.run_id)
@@ -288,20 +293,35 @@ class _Sweep:
                 save_record(self.out_dir / "runs", r.run_id, rec)
                 self.stats["runs_refreshed"] += 1
                 continue
-            if scene is None:
-                scene = self.backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
-            if gt_lab is None:
-                gt_lab = _lab(gt.mean)
-            self._render(r, scene, gt, gt_lab, fp)
+            todo.append((r, fp))
+        if not todo:
+            return
+        scene = self.backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
+        gt_lab = _lab(gt.mean) if gt_lab is None else gt_lab
+        if self.executor is None:
+            for r, fp in todo:
+                self._render(r, scene, gt, gt_lab, fp)
+            return
+        fps = {r.run_id: fp for r, fp in todo}
+        workers = self.stats.setdefault("workers", {})
+        for r, result, wall, worker in self.executor.render_runs(self.backend, scene,
+                                                                 [r for r, _ in todo], self.threads):
+            self._commit(r, result, wall, gt, gt_lab, fps[r.run_id], worker)
+            workers[worker] = workers.get(worker, 0) + 1
 
     def _render(self, r: RunSpec, scene, gt, gt_lab, fingerprint: str) -> None:
         t0 = self.clock()
         result = self.backend.render(scene, spp=r.spp, sampler=r.sampler, integrator=r.integrator,
                                      seed=r.seed, res=r.resolution, threads=self.threads)
-        wall = self.clock() - t0
+        self._commit(r, result, self.clock() - t0, gt, gt_lab, fingerprint, "local")
+
+    def _commit(self, r: RunSpec, result, wall: float, gt, gt_lab, fingerprint: str,
+                worker: str) -> None:
+        """A rendered run: its metrics, its files (the record last: the commit point), runs.csv."""
         img = np.asarray(result.image, dtype=np.float64)
         metrics = image_metrics(img, gt.mean, gt.stderr, gt_lab)
-        rec = _run_record(r, fingerprint, img, result, wall, gt, metrics, self.backend.code_version)
+        rec = _run_record(r, fingerprint, img, result, wall, gt, metrics, self.backend.code_version,
+                          worker)
         save_run(self.out_dir / "runs", r.run_id, img, rec)          # the record is the commit point
         self.records[r.run_id] = rec
         write_runs_csv(self.out_dir / "runs.csv", self.plan, self.records)

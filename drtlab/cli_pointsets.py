@@ -1,0 +1,107 @@
+"""`drtlab pointset` (one point set's projection: scatter, spectrum, discrepancy, min distance) and
+`drtlab validate` (the statistical battery on a registered point set). Bad input is one line naming
+the flag and exit 2, checked before any work (the point sets, scipy and matplotlib load after)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from drtlab import fields
+from drtlab.cli_args import Help, flag, int_flag
+from drtlab.errors import InputError
+from drtlab.experiments import pointset_analysis as A
+from drtlab.experiments import pointset_validate as V
+
+
+def _pointset_name(text: str, field: str) -> str:
+    V.check_pointset(text, field)
+    return text
+
+
+def _level_text(text: str, field: str) -> float:
+    rule = "in (0, 0.5], e.g. 0.01"
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(field, f"must be a number {rule}, got {fields.show(text)}") from None
+    return fields.number(value, field, rule, lambda v: 0.0 < v <= 0.5)
+
+
+def _dims_text(text: str, field: str) -> tuple[int, int]:
+    return A.parse_dims(text, field)
+
+
+def cmd_pointset(args) -> int:
+    A.check_request(args.name, args.n, args.realisations, args.seed)
+    out = args.out if args.out is not None else A.default_out_dir(args.name, args.n, args.dims)
+    fields.writable_location(out, "--out", folder=True)
+    result = A.analyse(args.name, args.n, args.dims, args.realisations, args.seed)
+    A.write_analysis(result, out, argv=sys.argv)
+    s = result.summary
+    print(f"wrote {out}/: {', '.join(A.FILES)}")
+    seeds = f"1 realisation (seed {args.seed})" if args.realisations == 1 else \
+        f"{args.realisations} realisations (seeds {s['seeds'][0]}-{s['seeds'][1]})"
+    print(f"{args.name}, N = {args.n}, dims {args.dims[0]},{args.dims[1]} "
+          f"({', '.join(s['dim_labels'])}), {seeds}; mean +- standard error:")
+    rows = [(f"discrepancy {m}", s["discrepancy"][m]) for m in A.DISCREPANCY_METHODS]
+    rows += [("min toroidal distance", s["min_distance"]),
+             ("  / hexagonal maximum", s["min_distance_relative"]),
+             ("mean nearest-neighbour", s["mean_nn_distance"]),
+             ("periodogram, k != 0", s["periodogram"]["mean_nonzero"]),
+             ("  low |k| < sqrt(N)/2", s["periodogram"]["low_frequency_power"])]
+    for label, v in rows:
+        se = "" if v["se"] is None else f" +- {v['se']:.3g}"
+        print(f"  {label:24s} {v['mean']:.5g}{se}")
+    return 0
+
+
+def cmd_validate(args) -> int:
+    result = V.validate(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
+    print("\n".join(result.lines()))
+    return 0 if result.passed else 1
+
+
+def add_pointset_commands(sub) -> None:
+    """The `pointset` and `validate` subcommands on the parser's subparsers `sub`."""
+    name_help = "a registered point set (`drtlab samplers` lists them)"
+    p = sub.add_parser(
+        "pointset", help="scatter, periodogram, radial spectrum, discrepancy and min distance of "
+                         "one point set's 2D projection", formatter_class=Help,
+        description="Analyse N points of a point set in dimensions i,j over R realisations "
+                    "(seeds S ... S+R-1, pixel 0, spp = N: the values the render kernels use). "
+                    "Writes scatter.png, periodogram.png, radial_spectrum.png, analysis.json "
+                    "(means and standard errors over realisations), periodogram.npz and "
+                    "manifest.json.")
+    p.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
+    p.add_argument("--n", type=int_flag(A.MIN_N, A.MAX_N), required=True,
+                   help="points per realisation (the samples of one pixel, spp = N)")
+    p.add_argument("--dims", type=flag(_dims_text), default="0,1", metavar="I,J",
+                   help="the two dimensions to project onto (tracer layout: 0-1 pixel, 2-3 lens, "
+                        "4 time, 5 + 8b + {0 light choice, 1-2 light position, 3 lobe, "
+                        "4-5 direction, 6 roulette} for bounce b)")
+    p.add_argument("--realisations", type=int_flag(1, A.MAX_REALISATIONS),
+                   default=A.DEFAULT_REALISATIONS, metavar="R",
+                   help="independent realisations (seeds) the numbers are averaged over")
+    p.add_argument("--seed", type=int_flag(0, A.MAX_SEED), default=0, metavar="S",
+                   help="first seed")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="output folder (default: results/pointsets/NAME_nN_dI-J)")
+    p.set_defaults(func=cmd_pointset)
+
+    v = sub.add_parser(
+        "validate", help="uniformity, stratification, independence and unbiasedness tests of a "
+                         "point set: p-values and verdicts", formatter_class=Help,
+        description=f"Run the statistical battery of experiments/pointset_validate.py on a "
+                    f"registered point set (P pixels x {V.SPP} samples in the dimensions a "
+                    f"{V.BOUNCES}-bounce path reads). Prints each test's Sidak-adjusted p-value "
+                    "and verdict at the level, Sidak-corrected over the tests. Exit 0 when every "
+                    "test passes, 1 when any fails. Tests: "
+                    + "; ".join(f"{k}: {w}" for k, w in V.TESTS.items()) + ".")
+    v.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
+    v.add_argument("--seed", type=int_flag(0, A.MAX_SEED), default=0, metavar="S",
+                   help="the point set's seed")
+    v.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
+                   help="false-alarm probability of the whole battery")
+    v.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
+                   metavar="P", help="pixels sampled (more: more power, longer)")
+    v.set_defaults(func=cmd_validate)
