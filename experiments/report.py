@@ -179,9 +179,10 @@ def _study_table(study: StudyResult) -> list[str]:
     lines.append("")
     if any(scene.slopes[s].resolved is False for scene in study.scenes for s in study.samplers
            if s in scene.slopes):
-        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, so these runs "
-                     "cannot tell N^-0.5 from N^-0.75 or N^-1 (rare, huge samples missed by the runs at "
-                     "small N); more repetitions per cell resolve it.\n")
+        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, or one run "
+                     "carries nearly all of a cell's error, so these runs cannot tell N^-0.5 from N^-0.75 "
+                     "or N^-1 (rare, huge samples that most runs miss); more repetitions per cell "
+                     "resolve it.\n")
     if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):
         lines.append("‡ heavy-tailed errors: the scatter around the fitted line is over "
                      f"{ERRATIC_TXT}, far above pixel noise; the slope is poorly determined.\n")

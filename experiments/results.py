@@ -186,7 +186,8 @@ class SlopeFit:
     lack_of_fit_p: float | None = None
     floor: float | None = None
     censored: int | None = None
-    at_floor: list | None = None        # sample counts left out of the fit (at the noise floor)
+    at_floor: list | None = None
+    saturated_cells: list | None = None # sample counts where one run carries the cell's error        # sample counts left out of the fit (at the noise floor)
     cells: list | None = None
     acceptance_fraction: float | None = None
     autocorr_time: list | None = None

@@ -24,10 +24,11 @@ it inherits the dispersion the other cells reveal, and gets little weight. Value
 F test of the cell means' scatter about the power law against the runs' scatter within cells: a
 small value (< 0.001; about 1% of calibrated ladders reach 0.01) means no single slope describes the
 ladder, e.g. a plateau from a bias. `resolved` is False when the slope interval is wider than
-RESOLVED_WIDTH (0.5): the runs do not tell the rates apart, and reports say so instead of quoting
-the median. A single end cell off the line is instead absorbed by the dispersion law (and gets
-little weight); a cell at the noise floor (median at or below it) is left out of the fit and listed
-in `at_floor`, besides the noise-floor check of the analysis.
+RESOLVED_WIDTH (0.5), or when one run carries nearly all of a cell's error (`saturated_cells`: its
+CV at 0.9 of the largest R runs can show, sqrt(R)): the runs do not tell the rates apart, and
+reports say so instead of quoting the median. A single end cell off the line is instead absorbed by
+the dispersion law (and gets little weight); a cell at the noise floor (median at or below it) is
+left out of the fit and listed in `at_floor`, besides the noise-floor check of the analysis.
 
 Typical-error slope (`fit_typical_slope`, also `fit_slope`): log RMSE_run = a + b log N + eps,
 eps ~ Normal(0, sigma^2), over the per-run RMSEs: the slope of the geometric mean of the error, what a
@@ -57,6 +58,7 @@ DISP_SLOPE_BOX = 5.0             # -d log CV^2 / d log N lies in [0, this]: the 
 # A slope interval wider than this cannot tell the rates the studies compare (-0.5, -0.75, -1) apart:
 # the fit reports it as not resolved by these runs rather than as an estimate.
 RESOLVED_WIDTH = 0.5
+SATURATION = 0.9        # a cell's CV at this fraction of sqrt(runs) or more: one run carries it
 LOG_CDF_MIN = -700.0             # log P(m <= floor) is clipped here (gammainc underflows to 0)
 
 
@@ -164,7 +166,6 @@ def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int
     out.update({
         "ok": True,
         "slope": float(b_med), "slope_lo": float(b_lo), "slope_hi": float(b_hi),
-        "resolved": bool(b_hi - b_lo <= RESOLVED_WIDTH),
         "intercept": float(a_med), "intercept_lo": float(a_lo), "intercept_hi": float(a_hi),
         "sigma": float(np.median(np.exp(ls))),
         "ols_slope": float(b0),
@@ -231,6 +232,15 @@ def _cells(n: np.ndarray, m: np.ndarray, floor: float) -> dict:
     }
 
 
+def _saturated_cells(c: dict) -> list[float]:
+    """Sample counts whose runs' coefficient of variation is near the largest R runs can show
+    (sqrt(R), one run carrying everything): that cell's mean rests on one rare event, its true spread
+    may be any larger, and so neither its mean nor the slope is measured by these runs."""
+    cv = np.sqrt(np.maximum(c["var"], 0.0)) / np.maximum(np.abs(c["mean"]), 1e-300)
+    full = SATURATION * np.sqrt(c["runs"])
+    return [float(v) for v, s, f, r in zip(c["n"], cv, full, c["runs"]) if r >= 3 and s >= f]
+
+
 def _above_floor(n: np.ndarray, m: np.ndarray, floor: float) -> np.ndarray:
     """Runs of the cells whose median corrected MSE lies above `floor`. A cell at the floor
     measures the reference's noise, not the estimator, and says nothing about the slope: fitting its
@@ -294,7 +304,7 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
     run's log RMSE at the ladder's geometric centre, comparable to the typical fit's; `ols_slope`:
     least squares on log sqrt(cell-mean MSE); `autocorr_time`: 4 parameters) and `cells` (per N: runs,
     mean MSE, RMSE, fitted RMSE, the fitted CV of a run's MSE), `cv_slope` (d log CV / d log N),
-    `lack_of_fit_f` / `lack_of_fit_p`, `resolved`, `floor`, `censored`, `model`, `estimand` ("rmse").
+    `lack_of_fit_f` / `lack_of_fit_p`, `resolved`, `saturated_cells`, `floor`, `censored`, `model`, `estimand` ("rmse").
     """
     n = np.asarray(n, dtype=np.float64)
     m = np.asarray(mse, dtype=np.float64)
@@ -329,12 +339,14 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
     sub = rng.choice(len(chain), size=min(len(chain), 2000), replace=False)
     lines = a[sub, None] + b[sub, None] * grid[None, :]
     f_fit, p_fit = _lack_of_fit(cf, xf, med)
+    saturated = _saturated_cells(c)
     cv = np.sqrt(np.exp(med[2] + med[3] * x))
     fitted = np.exp(float(a_med) + float(b_med) * c["x"])
     out.update({
         "ok": True,
         "slope": float(b_med), "slope_lo": float(b_lo), "slope_hi": float(b_hi),
-        "resolved": bool(b_hi - b_lo <= RESOLVED_WIDTH),
+        "resolved": bool(b_hi - b_lo <= RESOLVED_WIDTH) and not saturated,
+        "saturated_cells": saturated,
         "intercept": float(a_med), "intercept_lo": float(a_lo), "intercept_hi": float(a_hi),
         "sigma": 0.5 * math.sqrt(float(special.polygamma(1, math.exp(-med[2])))),
         "ols_slope": float(ols(c["x"], 0.5 * np.log(np.maximum(c["mean"], floor / scale)))[1]),

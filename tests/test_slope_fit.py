@@ -256,3 +256,16 @@ def test_rmse_slope_resolved_flag_on_a_well_measured_ladder():
     n, r = synth(0.5, np.random.default_rng(11), reps=4)
     f = fit_rmse_slope(n, r * r, seed=0, **SHORT)
     assert f["resolved"] is True and f["slope_hi"] - f["slope_lo"] <= 0.5 and f["at_floor"] == []
+
+
+def test_rmse_slope_not_resolved_when_one_run_carries_a_cell():
+    """A cell where one run in R carries nearly all the error (its CV near sqrt(R), the most R runs
+    can show) measures no mean: the slope is reported as not resolved, however narrow its interval."""
+    n, r = synth(0.5, np.random.default_rng(12), reps=5)
+    m = r * r
+    cell = np.flatnonzero(n == 16)
+    m[cell[0]] *= 1e4                      # one rare, huge sample in one run
+    f = fit_rmse_slope(n, m, seed=0, **SHORT)
+    assert f["saturated_cells"] == [16.0] and f["resolved"] is False
+    g = fit_rmse_slope(n, r * r, seed=0, **SHORT)
+    assert g["saturated_cells"] == [] and g["resolved"] is True
