@@ -107,8 +107,8 @@ def scene_rows(spp: int, sampler: str, repeats: int, threads_all: int) -> list[d
             f"msamples_per_second_{threads_all}_threads": round(many.samples_per_second / 1e6, 3),
             "thread_speedup": round(one.render_seconds / max(many.render_seconds, 1e-12), 2),
         })
-        compiled = f"{compile_s:5.2f} s" if shared == name else f"= {shared[:5]:5s}"
-        print(f"{name:14s} compile {compiled}   1 thread {rows[-1]['msamples_per_second_1_thread']:6.2f}"
+        compiled = f"{compile_s:5.2f} s" if shared == name else f"shared with {shared}"
+        print(f"{name:14s} compile {compiled:24s} 1 thread {rows[-1]['msamples_per_second_1_thread']:6.2f}"
               f"   {threads_all} threads {rows[-1][f'msamples_per_second_{threads_all}_threads']:6.2f}"
               f" M samples/s   x{rows[-1]['thread_speedup']:.2f}", flush=True)
     return rows
