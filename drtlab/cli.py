@@ -386,6 +386,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_image_tools(sub)
     from drtlab.cli_pointsets import add_pointset_commands
     add_pointset_commands(sub)
+    from drtlab.cli_lobe import add_lobe_command
+    add_lobe_command(sub)
     return p
 
 
