@@ -8,7 +8,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -35,11 +35,17 @@ experiment-importance: venv
 experiment-uniform: venv
 	$(DRT) experiment uniform
 
+experiment-presampled: venv
+	$(DRT) experiment presampled
+
 experiment-all: venv
 	$(DRT) experiment all
 
 experiment-integrands: venv
 	$(PY) -m drtlab.experiments.integrand_study
+
+experiment-pointsets: venv
+	$(DRT) experiment pointsets
 
 ground-truth: venv
 	$(DRT) ground-truth --experiment stratified

@@ -5,14 +5,25 @@ Adding a point set: one file in `pointsets/` defining POINTSET, and one entry in
 from dataclasses import dataclass
 
 from drtlab.estimators.integrators import INTEGRATORS, Integrator
-from drtlab.estimators.pointsets import (cmj, halton, independent, lhs, pmj02, sobol, stratified,
-                                         zsobol)
+from drtlab.estimators.pointsets import (cmj, halton, independent, lhs, pmj02, presampled,
+                                         presampled_random, sobol, stratified, zsobol)
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
 from drtlab.errors import InputError
 
-_POINTSET_MODULES = (independent, stratified, lhs, cmj, halton, sobol, zsobol, pmj02)
+_POINTSET_MODULES = (independent, stratified, lhs, cmj, halton, sobol, zsobol, pmj02, presampled,
+                     presampled_random)
 POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
+
+
+def biased_pointsets() -> list[str]:
+    """Names of the point sets biased by design (PointSet.biased), in registry order."""
+    return [name for name, ps in POINTSETS.items() if ps.biased]
+
+
+def unbiased_pointsets() -> list[str]:
+    """Names of the point sets usable where unbiasedness / uniformity is required."""
+    return [name for name, ps in POINTSETS.items() if not ps.biased]
 
 # preset name -> (point set, strategy)
 PRESETS: dict[str, tuple[str, str]] = {
@@ -66,6 +77,8 @@ def parse_integrator(name: str, field: str = "integrator", unbiased: bool = Fals
     return INTEGRATORS[name]
 
 
-def all_sampler_names() -> list[str]:
-    """Every point set x strategy combination, canonical names (presets where they apply)."""
-    return [SamplerSpec(p, s).name for p in POINTSETS.values() for s in STRATEGIES.values()]
+def all_sampler_names(unbiased: bool = False) -> list[str]:
+    """Every point set x strategy combination, canonical names (presets where they apply); with
+    `unbiased`, only those whose point set is not biased by design."""
+    return [SamplerSpec(p, s).name for p in POINTSETS.values() for s in STRATEGIES.values()
+            if not (unbiased and p.biased)]

@@ -5,20 +5,25 @@ Test (tests/stats_util.py has the details): RUNS independent renders at SPP samp
 RES = 32 x 24, each reduced to 12 region values (8 x 8-pixel regions, mean of R + G + B); the
 reference is REF_RUNS renders with the `importance` sampler (independent points, MIS) at REF_SPP and
 other seeds. Per region a Welch t -> equal-p normal deviate; X = sum z^2 ~ chi-square(12) under
-"no bias". Multiple-test correction: Sidak over the full matrix, m = 9 scenes x 2 integrators x
-32 samplers (8 point sets x 4 strategies) = 576, so each test runs at alpha_test = 1 - 0.99^(1/576)
-= 1.74e-5 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
+"no bias". Multiple-test correction: Sidak over the full matrix, m = 11 scenes x 2 integrators x
+36 samplers (9 unbiased point sets x 4 strategies) = 792, so each test runs at alpha_test =
+1 - 0.99^(1/792) = 1.27e-5 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
 a subset of the matrix at the same alpha_test (its family-wise rate is then below 0.01 too).
 
-Coverage. Full tier (DRTLAB_TEST_TIER=full): all 144 combinations, RUNS x SPP = 32 x 128 (the
+Point sets biased by design (PointSet.biased: `presampled`, Cook's fixed table) are not in the
+matrix; test_presampled_table_is_rejected checks that this test rejects it on the glossy scene while
+its per-pixel randomised twin `presampled_random` (in the matrix like any other set) passes.
+
+Coverage. Full tier (DRTLAB_TEST_TIER=full): all combinations, RUNS x SPP = 32 x 128 (the
 reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt, path} x the three
 presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
 point sets on cornell-box and veach-mis, minus the HEAVY combinations (62 combinations), plus each
-of the six other point sets (lhs, cmj, halton, sobol, zsobol, pmj02) with the importance strategy
+of the seven other point sets (lhs, cmj, halton, sobol, zsobol, pmj02, presampled_random) with the
+importance strategy
 on two representative scene x integrator pairs (FAST_MODERN): cornell-box with path tracing (to
 depth 8, through every per-bounce dimension) and drt-showcase with drt (lens, shutter time, glossy
-reflection and transmission, area light): 12 combinations, 12 kernel variants (a variant costs a
-few seconds to compile; the full tier runs the other 540). The presets' kernel variants are shared
+reflection and transmission, area light): 14 combinations, 14 kernel variants (a variant costs a
+few seconds to compile; the full tier runs the other 610). The presets' kernel variants are shared
 with the other test files (test_render compiles the same built-in x preset variants), and the new
 sets' cornell-box path variants with test_analytic's white furnace.
 
@@ -72,14 +77,14 @@ REFERENCE_SAMPLER = "importance"
 
 SCENES = builtin_names()
 UNBIASED = [name for name, integ in INTEGRATORS.items() if not integ.biased]
-SAMPLERS = all_sampler_names()
+SAMPLERS = all_sampler_names(unbiased=True)     # biased-by-design point sets excluded (module doc)
 PRESETS = [name for name in registry.PRESETS]
 FAST_ALL_SAMPLERS = ("cornell-box", "veach-mis")
 FAST_ALL_POINTSETS = ("independent", "stratified")     # every strategy on FAST_ALL_SAMPLERS
 # (scene, integrator) on which the other point sets run in the fast tier, with FAST_MODERN_STRATEGY.
 FAST_MODERN = (("cornell-box", "path"), ("drt-showcase", "drt"))
 FAST_MODERN_STRATEGY = "importance"
-M_TESTS = 9 * 2 * 32
+M_TESTS = 11 * 2 * 36
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 # (scene, integrator or None for both, strategy): heavy-tailed estimators, HEAVY_SPP (module doc).
@@ -165,11 +170,14 @@ def matrix():
 def test_matrix_is_the_whole_product():
     assert len(matrix()) == M_TESTS == len(SCENES) * len(UNBIASED) * len(SAMPLERS)
     assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf"}
-    assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.POINTSETS) == {
-        "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02"}
+    assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.unbiased_pointsets()) \
+        == set(registry.POINTSETS) - {"presampled"} == {
+        "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
+        "presampled_random"}
+    assert registry.biased_pointsets() == ["presampled"]
     fast = [p.values for p in matrix() if not p.marks]
     modern = [c for c in fast if parse_sampler(c[2]).pointset.name not in FAST_ALL_POINTSETS]
-    assert len(fast) == 62 + 12 and len(modern) == 12
+    assert len(fast) == 62 + 14 and len(modern) == 14
 
 
 def test_biased_integrators_are_labelled_and_excluded():
@@ -253,3 +261,25 @@ def test_negative_control_is_rejected(name, monkeypatch):
           f"negative control {name}: fault {c_bad.summary()}")
     assert not c_clean.rejected, f"the estimator without the fault must pass: {c_clean.summary()}"
     assert c_bad.rejected, f"the fault {name} must be rejected: {c_bad.summary()}"
+
+
+# ---------------------------------------------------------------------------------------------------
+# Cook's pre-sampled table (estimators/pointsets/presampled.py): the fixed table is biased by design
+# (the same 16 directions for every pixel and seed), its per-pixel randomised twin is not.
+# ---------------------------------------------------------------------------------------------------
+
+PRESAMPLED_CASE = ("glossy", "drt")
+
+
+def test_presampled_table_is_rejected():
+    scene, integrator = PRESAMPLED_CASE
+    assert registry.POINTSETS["presampled"].biased
+    assert not registry.POINTSETS["presampled_random"].biased
+    c_fixed, est_fixed = agreement(scene, integrator, "presampled+importance")
+    c_random, est_random = agreement(scene, integrator, "presampled_random+importance")
+    print(f"\npresampled (fixed table): {c_fixed.summary()}\n"
+          f"presampled_random (per-pixel table): {c_random.summary()}")
+    for est in (est_fixed, est_random):
+        assert est.nonfinite == 0 and est.negative == 0
+    assert not c_random.rejected, f"the randomised table must pass: {c_random.summary()}"
+    assert c_fixed.rejected, f"the fixed (biased) table must be rejected: {c_fixed.summary()}"

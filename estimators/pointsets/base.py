@@ -17,3 +17,9 @@ class PointSet:
     description: str
     get1d: wp.Function
     get2d: wp.Function
+    # True when the set is biased BY DESIGN: some dimension's values are not uniform over pixels and
+    # seeds (e.g. `presampled` reuses one fixed table of directions for every pixel and seed, like
+    # Cook 1984's pre-computed reflection tables), so an estimator built on it converges to a wrong
+    # value. Tests that require unbiasedness or uniformity skip such sets (the per-pixel contract -
+    # a pure function of seed, pixel, index, dim - still holds); the unbiasedness test must reject it.
+    biased: bool = False
