@@ -8,7 +8,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled ground-truth clean bench-compare
 
 venv: $(STAMP)
 
