@@ -3,12 +3,19 @@
 A point set provides two Warp functions compiled into the render kernel:
     get1d(seed, pixel, index, dim, spp) -> float
     get2d(seed, pixel, index, dim, spp) -> wp.vec2   (uses dimensions dim and dim + 1 jointly)
+`pixel` is the set's `pixel_key(px, py, width)` (the scanline index unless the set says otherwise).
 `spp` is the number of samples the pixel will take, so a stratified set can lay its strata out;
 indices past `spp` start a new, independently permuted block of `spp` samples.
 """
 from dataclasses import dataclass
 
 import warp as wp
+
+
+@wp.func
+def linear_pixel_key(px: int, py: int, width: int) -> wp.uint32:
+    """The pixel key most sets see: the scanline index (any bijection of pixels would do)."""
+    return wp.uint32(py * width + px)
 
 
 @dataclass(frozen=True)
@@ -23,3 +30,7 @@ class PointSet:
     # value. Tests that require unbiasedness or uniformity skip such sets (the per-pixel contract -
     # a pure function of seed, pixel, index, dim - still holds); the unbiasedness test must reject it.
     biased: bool = False
+    # The key get1d/get2d receive as `pixel`, from the pixel's (px, py) and the image width: a set
+    # whose samples are laid out over pixels (zsobol: a Morton curve, so neighbouring pixels share
+    # nets) chooses its own. The image accumulates at the scanline index whatever the key.
+    pixel_key: wp.Function = linear_pixel_key

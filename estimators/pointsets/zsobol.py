@@ -11,14 +11,9 @@ with a per-dimension seed (not per pixel: the sequence is global). Index bits ab
 times large spp) select the Owen seed, so they cannot alias pixels either.
 
 Pixel key. The blue-noise diffusion needs P = Morton(px, py), so that 4 neighbouring pixels own 4
-consecutive blocks (a (0, k+2, 2)-net together, 16 a (0, k+4, 2)-net, ...). The renderer passes
-`pixel` = py * width + px and get1d/get2d see nothing else, so the hierarchy here runs along the
-scanline (pixel pairs, quads, ... of one row share nets): the error diffuses along rows only. The
-Z-curve needs one change outside the point set: the kernel computing the key as `morton2(px, py)`
-(`digital.morton2`, 16-bit coordinates; `zsobol_pixel_key` below) - e.g. an optional
-`PointSet.pixel_key` function (px, py, width) -> uint32, default py * width + px, that
-kernels/tracer.py calls for `pix` instead of its inline `py * sd.width + px` (the accumulation
-index stays linear). Per pixel everything else is unchanged either way.
+consecutive blocks (a (0, k+2, 2)-net together, 16 a (0, k+4, 2)-net, ...): the set's `pixel_key`
+(`zsobol_pixel_key`, `digital.morton2` of 16-bit coordinates) is what kernels/tracer.py passes as
+`pixel`; the image still accumulates at the scanline index. `points(..., pixel=P)` takes the key.
 
 Sample counts: spp must be a power of 2 for the per-pixel nets. At spp = 2^k each pixel's points
 are a (0,k,2)-net in every 2D dimension (one point per 1/spp stratum in 1D). At any other spp the
@@ -107,12 +102,13 @@ def zsobol_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint3
 
 @wp.func
 def zsobol_pixel_key(px: int, py: int, width: int) -> wp.uint32:
-    """The pixel key the Z-curve needs (not called yet: see the module docstring)."""
+    """The pixel key the Z-curve needs: Morton(px, py) (16-bit coordinates: images up to 65536
+    pixels wide and high keep distinct keys)."""
     return morton2(wp.uint32(px), wp.uint32(py))
 
 
 POINTSET = PointSet(
     "zsobol", "Sobol' along pixel order (Ahmed & Wonka 2020, pbrt-v4 ZSobol): base-4 digits "
               "permuted per dimension, Owen-scrambled; spp a power of 2 (else rounded up: spp of "
-              "the 2^k net); pixel order = renderer's linear id (scanline, not Morton)",
-    zsobol_1d, zsobol_2d)
+              "the 2^k net); pixels in Morton order",
+    zsobol_1d, zsobol_2d, pixel_key=zsobol_pixel_key)
