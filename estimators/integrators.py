@@ -6,7 +6,8 @@
     drt      Cook 1984: each sample chains pixel, lens, time, light area and one distributed
              reflection/refraction ray per bounce. Paths continue through glossy, specular and
              transmissive surfaces; at a diffuse surface direct light is gathered and the path ends
-             (no diffuse interreflection). Unbiased for that estimand.
+             (no diffuse interreflection). Plastic (diffuse base, glossy coat) counts as glossy: the
+             path continues through both its lobes. Unbiased for that estimand.
     path     Kajiya 1986 path tracing with next-event estimation: unbiased for the full rendering
              equation (up to max_depth, Mitsuba 3's convention), optional Russian roulette.
 """

@@ -1,5 +1,6 @@
 """`make bench`: render speed and compile time of every built-in scene, and how speed scales with
-resolution, spp, path depth and threads -> results/bench/render.json.
+resolution, spp, path depth, threads and primitive count -> results/bench/render.json (and the
+primitive-count figure results/bench/primitives.png, experiments/bench_primitives.py).
 
 Compile times are cold: Warp's kernel cache is pointed at an empty temporary folder, so each scene's
 variant is built from source (the first one also builds Warp's precompiled header, reported apart);
@@ -22,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from drtlab.experiments.bench_primitives import plot_primitives, primitives
 from drtlab.experiments.manifest import peak_rss_mib as _peak_rss_mib
 
 # The scaling sweeps: each varies one setting of --scaling-scene, the others at their defaults.
@@ -135,6 +137,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scaling-scene", default="cornell-box")
     ap.add_argument("--scaling-repeats", type=int, default=2)
     ap.add_argument("--no-scaling", action="store_true", help="only the per-scene table")
+    ap.add_argument("--scaling-primitives", action="store_true",
+                    help="only the primitive-count sweep (spheres: loop vs BVH; triangles), merged "
+                         "into --out; the default run includes it")
     ap.add_argument("--out", default="results/bench/render.json")
     args = ap.parse_args(argv)
 
@@ -149,6 +154,8 @@ def main(argv: list[str] | None = None) -> int:
     _wp()
     init_s = time.perf_counter() - t0
     threads_all = os.cpu_count() or 1
+    if args.scaling_primitives:
+        return _primitives_only(args, wp)
     rows = scene_rows(args.spp, args.sampler, args.repeats, threads_all)
     sc = None
     if not args.no_scaling:
@@ -172,6 +179,7 @@ def main(argv: list[str] | None = None) -> int:
         "note": "compile_seconds_cold of the first scene includes building Warp's precompiled header",
         "scenes": rows,
         "scaling": sc,
+        "primitives": None if args.no_scaling else _primitives(args),
         "peak_rss_mib_bench": _peak_rss_mib(),
         "peak_rss_mib_default_experiment": experiment_rss,
     }
@@ -182,6 +190,33 @@ def main(argv: list[str] | None = None) -> int:
     os.replace(tmp, out)
     print(f"peak RSS (bench): {result['peak_rss_mib_bench']} MiB; default experiment: "
           f"{experiment_rss if experiment_rss is not None else 'not measured yet (make experiment-stratified)'}")
+    print(f"wrote {out}")
+    return 0
+
+
+def _primitives(args) -> dict:
+    print("\nprimitive count: M samples/s on 1 thread (spheres: loop / BVH), BVH build seconds")
+    result = primitives(args.sampler, args.scaling_repeats)
+    figure = Path(args.out).with_name("primitives.png")
+    plot_primitives(result, figure)
+    print(f"sphere BVH crossover: {result['sphere_bvh_crossover']} spheres "
+          f"({result['seconds']} s); wrote {figure}")
+    return result
+
+
+def _primitives_only(args, wp) -> int:
+    """--scaling-primitives: the sweep alone, merged into an existing --out (other keys kept)."""
+    out = Path(args.out)
+    try:
+        result = json.loads(out.read_text()) if out.exists() else {}
+    except (OSError, ValueError):
+        result = {}
+    result["primitives"] = _primitives(args)
+    result["warp_version"] = wp.config.version
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(".tmp")
+    tmp.write_text(json.dumps(result, indent=2) + "\n")
+    os.replace(tmp, out)
     print(f"wrote {out}")
     return 0
 

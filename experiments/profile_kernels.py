@@ -95,13 +95,9 @@ def _reference_kernel():
 
 def _populations(scene, n: int, rng):
     """Camera rays through random pixels (numpy, float32), as the tracer builds them."""
+    from drtlab.kernels.device_scene import camera_basis
     cam = scene.camera
-    pos = np.asarray(cam.position, dtype=np.float64)
-    fwd = np.asarray(cam.look_at, dtype=np.float64) - pos
-    fwd /= np.linalg.norm(fwd)
-    right = np.cross(fwd, np.asarray(cam.up, dtype=np.float64))
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
+    pos, fwd, right, up = camera_basis(cam)
     hh = np.tan(np.radians(cam.vfov_deg) / 2)
     hw = hh * scene.width / scene.height
     sx = (2 * rng.random(n) - 1) * hw

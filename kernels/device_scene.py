@@ -1,8 +1,10 @@
 """The device copy of the scene: the SceneData struct the kernels read, and `upload` that fills it.
 
 Besides the model's values it holds what kernels/accel.py derives once per scene for the ray tests
-(quad records, box groups). Uploads of equal contents reuse the same device arrays (the kernels only
-read them), so the many renders of one scene in a study pay the upload once."""
+(quad records, box groups) and what kernels/mesh_accel.py builds (a wp.Bvh of its triangles' boxes
+per triangle mesh, one over many spheres, the mesh tables). Uploads of equal contents reuse the same
+device arrays (the kernels only read them), so the many renders of one scene in a study pay the
+upload once."""
 import math
 import os
 import threading
@@ -15,14 +17,16 @@ import warp as wp
 
 from drtlab.kernels.accel import quad_geometry, quad_groups
 from drtlab.kernels.colour import luminance
-from drtlab.kernels.features import material_kinds, splits_for
+from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.geometry import QuadGeom
+from drtlab.kernels.mesh_accel import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.scene import MATERIAL_CODE, Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
 # Shape kinds (Hit.kind, SceneData.light_shape_kind).
 SPHERE = wp.constant(0)
 QUAD = wp.constant(1)
+MESH = wp.constant(2)           # Hit.index: the face's index in the per-face arrays (tri_*)
 
 
 @wp.struct
@@ -54,6 +58,24 @@ class SceneData:
     qgroup_faces: wp.array(dtype=int)          # 6 per group: quad index by face slot, -1 none
     quad_group: wp.array(dtype=int)
     n_qgroups: int
+    # Triangle meshes (kernels/mesh_accel.py), vertices at shutter open: per mesh a wp.Bvh of its
+    # triangles' boxes (item k: the mesh's face k).
+    mesh_bvh: wp.array(dtype=wp.uint64)
+    mesh_face0: wp.array(dtype=int)            # n_meshes + 1 offsets into the per-face arrays
+    mesh_velocity: wp.array(dtype=wp.vec3)
+    mesh_material: wp.array(dtype=int)
+    mesh_light: wp.array(dtype=int)
+    mesh_smooth: wp.array(dtype=int)           # 1: shading normals interpolated from vert_normal
+    mesh_area: wp.array(dtype=float)
+    mesh_centroid: wp.array(dtype=wp.vec3)     # Whitted's point-light stand-in
+    mesh_normal_area: wp.array(dtype=wp.vec3)  # sum over faces of area * unit normal
+    n_meshes: int
+    tri_index: wp.array(dtype=wp.vec3i)        # per face: its vertices in mesh_points
+    tri_cdf: wp.array(dtype=float)             # per face: area cdf within its mesh
+    tri_mesh: wp.array(dtype=int)              # per face: its mesh
+    mesh_points: wp.array(dtype=wp.vec3)       # every mesh's vertices
+    vert_normal: wp.array(dtype=wp.vec3)       # per vertex (zeros in flat meshes)
+    sph_bvh: wp.uint64                         # wp.Bvh over the spheres' swept boxes; 0: none
     mat_kind: wp.array(dtype=int)
     mat_albedo: wp.array(dtype=wp.vec3)
     mat_albedo2: wp.array(dtype=wp.vec3)
@@ -101,6 +123,9 @@ def _scene_extent(scene: Scene) -> float:
     for s in scene.shapes:
         if s.kind == "sphere":
             pts += [s.center - s.radius, s.center + s.radius]
+        elif s.kind == "mesh":      # as uploaded, at shutter open (like its wp.Mesh)
+            v = _at_time(s.mesh.vertices, s.velocity, float(scene.camera.shutter[0]))
+            pts += [v.min(axis=0), v.max(axis=0)]
         else:
             pts += [s.origin, s.origin + s.edge_u + s.edge_v, s.origin + s.edge_u,
                     s.origin + s.edge_v]
@@ -141,7 +166,7 @@ def _cached(key, make: Callable):
 
 def _device_array(values, dtype, empty_shape, device: str):
     """`values` as a Warp array on `device`; an empty list becomes zeros of `empty_shape`."""
-    a = np.asarray(values, dtype=np.int32 if dtype is int else np.float32)
+    a = np.asarray(values, dtype=np.int32 if dtype in (int, wp.vec3i) else np.float32)
     if a.size == 0:
         a = np.zeros(empty_shape, dtype=a.dtype)
     a = np.ascontiguousarray(a)
@@ -205,18 +230,18 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     sd.mat_emission = arr([m.emission for m in materials], wp.vec3, (1, 3))
 
 
-def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Callable) -> None:
+def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
+                arr: Callable) -> None:
     """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
-    sphere_index = {id(s): i for i, s in enumerate(spheres)}
-    quad_index = {id(s): i for i, s in enumerate(quads)}
+    index = {id(s): i for group in (spheres, quads, meshes) for i, s in enumerate(group)}
+    code = {"sphere": SPHERE, "quad": QUAD, "mesh": MESH}
     emitters = [scene.shapes[i] for i in scene.emitter_shapes()]
     power = [max(luminance(scene.materials[s.material].emission), 1e-12) * s.area() * math.pi
              for s in emitters]
     pmf = np.array(power) / np.sum(power) if power else np.zeros(0)
     cdf = np.cumsum(pmf) if power else np.zeros(0)
-    sd.light_shape_kind = arr([SPHERE if s.kind == "sphere" else QUAD for s in emitters], int, (1,))
-    sd.light_shape = arr([sphere_index[id(s)] if s.kind == "sphere" else quad_index[id(s)]
-                          for s in emitters], int, (1,))
+    sd.light_shape_kind = arr([code[s.kind] for s in emitters], int, (1,))
+    sd.light_shape = arr([index[id(s)] for s in emitters], int, (1,))
     sd.light_pmf = arr(pmf, float, (1,))
     sd.light_cdf = arr(cdf, float, (1,))
     sd.n_lights = len(emitters)
@@ -229,14 +254,20 @@ def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     sd.n_dir_lights = len(dirs)
 
 
-def _put_camera(sd: SceneData, scene: Scene) -> None:
-    cam = scene.camera
+def camera_basis(cam) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(position, forward, right, up) of a camera, float64 unit vectors: the frame the kernels'
+    camera rays are built in."""
     pos = np.asarray(cam.position, dtype=np.float64)
     fwd = np.asarray(cam.look_at, dtype=np.float64) - pos
     fwd /= np.linalg.norm(fwd)
     right = np.cross(fwd, np.asarray(cam.up, dtype=np.float64))
     right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
+    return pos, fwd, right, np.cross(right, fwd)
+
+
+def _put_camera(sd: SceneData, scene: Scene) -> None:
+    cam = scene.camera
+    pos, fwd, right, up = camera_basis(cam)
     sd.cam_position = wp.vec3(*_f3(pos))
     sd.cam_right = wp.vec3(*_f3(right))
     sd.cam_up = wp.vec3(*_f3(up))
@@ -250,6 +281,47 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     sd.shutter_close = float(cam.shutter[1])
 
 
+def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device: str,
+                extent: float) -> list:
+    """The meshes' BVHs and tables; returns the wp.Bvh objects, which must outlive sd."""
+    light_of = {id(scene.shapes[i]): li for li, i in enumerate(scene.emitter_shapes())}
+    t_open = float(scene.camera.shutter[0])
+    tables = mesh_tables(meshes, t_open, extent)
+    built = [_cached(("bvh", device, lo.tobytes(), hi.tobytes()),
+                     lambda lo=lo, hi=hi: build_bvh(lo, hi, device))
+             for lo, hi in tables.boxes]
+    sd.mesh_bvh = wp.array(np.array([b.id for b in built] or [0], dtype=np.uint64),
+                           dtype=wp.uint64, device=device)
+    sd.mesh_face0 = arr(tables.face0, int, (1,))
+    sd.tri_index = arr(tables.tri_index, wp.vec3i, (1, 3))
+    sd.mesh_points = arr(tables.points, wp.vec3, (1, 3))
+    sd.mesh_velocity = arr([s.velocity for s in meshes], wp.vec3, (1, 3))
+    sd.mesh_material = arr([s.material for s in meshes], int, (1,))
+    sd.mesh_light = arr([light_of.get(id(s), -1) for s in meshes], int, (1,))
+    sd.mesh_smooth = arr(tables.smooth, int, (1,))
+    sd.mesh_area = arr(tables.area, float, (1,))
+    sd.mesh_centroid = arr(tables.centroid, wp.vec3, (1, 3))
+    sd.mesh_normal_area = arr(tables.normal_area, wp.vec3, (1, 3))
+    sd.n_meshes = len(meshes)
+    sd.tri_cdf = arr(tables.cdf, float, (1,))
+    sd.tri_mesh = arr(tables.tri_mesh, int, (1,))
+    sd.vert_normal = arr(tables.vert_normal, wp.vec3, (1, 3))
+    return built
+
+
+def _put_sphere_bvh(sd: SceneData, scene: Scene, spheres: list, device: str,
+                    extent: float) -> list:
+    """A wp.Bvh over the spheres when they are many (features.uses_sphere_bvh); returns it."""
+    sd.sph_bvh = wp.uint64(0)
+    if not uses_sphere_bvh(scene):
+        return []
+    lowers, uppers = sphere_boxes(spheres, *map(float, scene.camera.shutter), extent)
+    bvh = _cached(("bvh", device, lowers.tobytes(), uppers.tobytes()),
+                  lambda: build_bvh(lowers, uppers, device))
+    sd.sph_bvh = wp.uint64(bvh.id)
+    return [bvh]
+
+
 def _at_time(position, velocity, t: float):
     """A shape's position at time t (unchanged, bit for bit, at t = 0)."""
     return position if t == 0.0 else position + velocity * t
@@ -261,13 +333,19 @@ def upload(scene: Scene, device: str) -> SceneData:
     arr = partial(_device_array, device=device)
     spheres = [s for s in scene.shapes if s.kind == "sphere"]
     quads = [s for s in scene.shapes if s.kind == "quad"]
+    meshes = [s for s in scene.shapes if s.kind == "mesh"]
     sd = SceneData()
     _put_shapes(sd, scene, spheres, quads, arr, device)
+    # SceneData holds only the ids of these; the objects ride along so that they outlive it (a
+    # Warp struct takes no attributes of its own, hence __dict__).
+    extent = _scene_extent(scene)
+    sd.__dict__["_accel"] = (_put_meshes(sd, scene, meshes, arr, device, extent)
+                             + _put_sphere_bvh(sd, scene, spheres, device, extent))
     _put_materials(sd, scene.materials, arr)
-    _put_lights(sd, scene, spheres, quads, arr)
+    _put_lights(sd, scene, spheres, quads, meshes, arr)
     _put_camera(sd, scene)
     sd.background = wp.vec3(*_f3(scene.background))
-    sd.eps = float(1e-6 * _scene_extent(scene))
+    sd.eps = float(1e-6 * extent)
     sd.width = int(scene.width)
     sd.height = int(scene.height)
     sd.max_depth = int(scene.max_depth)

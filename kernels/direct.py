@@ -2,7 +2,9 @@
 
 `make_direct(features, strategy, rays, bsdf, lights)` (rays from make_intersect, bsdf from make_bsdf,
 lights from make_lights) returns Warp functions:
-    direct_delta_lights(sd, kind, albedo, exponent, ior, p, n, wo, dt) -> point and directional light
+    direct_delta_lights(sd, kind, albedo, exponent, ior, p, n, ns, wo, dt) -> point and directional
+        light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
+        sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
     next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, dt) -> beta times one
         area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
     hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
@@ -12,9 +14,9 @@ from types import SimpleNamespace
 import warp as wp
 
 from drtlab.estimators.strategies import Strategy
-from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.device_scene import MESH, SceneData
 from drtlab.kernels.features import DROP_COSINE, Features
-from drtlab.kernels.geometry import Hit, offset_origin
+from drtlab.kernels.geometry import Hit, offset_origin, shading_consistent
 
 
 def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: SimpleNamespace,
@@ -24,6 +26,7 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
     MIS = strategy.mis
     COUNT_HITS = strategy.counts_hits
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
+    MESHES = f.meshes
     visible = rays.visible
     eval_bsdf = bsdf.eval_bsdf
     pdf_bsdf = bsdf.pdf_bsdf
@@ -33,7 +36,8 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
 
     @wp.func
     def direct_delta_lights(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float,
-                            ior: float, p: wp.vec3, n: wp.vec3, wo: wp.vec3, dt: float) -> wp.vec3:
+                            ior: float, p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3,
+                            dt: float) -> wp.vec3:
         L = wp.vec3(0.0)
         if wp.static(POINTS):
             i = int(0)
@@ -41,7 +45,9 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
                 d = sd.pl_position[i] - p
                 dist = wp.length(d)
                 wi = d / dist
-                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
+                if wp.static(MESHES):
+                    fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, wp.length(sd.pl_position[i] - o), dt, -1, -1) == 1:
@@ -51,7 +57,9 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
             i = int(0)
             while i < sd.n_dir_lights:
                 wi = -sd.dl_direction[i]
-                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
+                if wp.static(MESHES):
+                    fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, 1.0e30, dt, -1, -1) == 1:
@@ -66,16 +74,25 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
         li = pick_light(sd, u_light)
         ls = sample_light(sd, li, h.p, u_point, dt)
         if ls.valid == 1:
-            fc = eval_bsdf(kind, albedo, exponent, ior, h.n, wo, ls.wi)
+            ns = h.n
+            if wp.static(MESHES):
+                ns = h.ns
+            fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, ls.wi)
+            if wp.static(MESHES):
+                fc = fc * shading_consistent(h.n, ns, wo, ls.wi)
             if wp.static(FAULT_DROP_COSINE):
                 fc = fc / wp.abs(wp.dot(h.n, ls.wi))
             if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                 so = offset_origin(h.p, h.n, ls.wi, sd.eps)
                 lk = sd.light_shape_kind[li]
-                if visible(sd, so, ls.wi, ls.dist, dt, lk, sd.light_shape[li]) == 1:
+                target = sd.light_shape[li]
+                if wp.static(MESHES):
+                    if lk == MESH:
+                        target = ls.prim        # visible() needs the face, not just the mesh
+                if visible(sd, so, ls.wi, ls.dist, dt, lk, target) == 1:
                     w = float(1.0)
                     if wp.static(MIS):
-                        pb = pdf_bsdf(kind, exponent, ior, h.n, wo, ls.wi)
+                        pb = pdf_bsdf(kind, exponent, ior, ns, wo, ls.wi)
                         w = ls.pdf * ls.pdf / (ls.pdf * ls.pdf + pb * pb)
                     return wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
         return wp.vec3(0.0)

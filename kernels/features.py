@@ -13,6 +13,18 @@ PDF_HIGH_10PCT = "pdf_high_10pct"   # scattered rays are weighted as if their pd
 RR_NO_REWEIGHT = "rr_no_reweight"   # roulette kills paths without dividing survivors by their probability
 LIGHT_JACOBIAN = "light_jacobian"   # area light samples reach solid angle without the cosine at the light
 FAULTS = (DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, LIGHT_JACOBIAN)
+# Faults of mesh code, whose negative controls live in tests/test_meshes.py (the ones above are
+# controlled on built-in scenes by tests/test_unbiased.py).
+MESH_PDF_HIGH_10PCT = "mesh_pdf_high_10pct"  # mesh lights claim an area density 10% too high
+MESH_FAULTS = (MESH_PDF_HIGH_10PCT,)
+
+# Scenes with at least this many spheres find them through a wp.Bvh of their bounding boxes instead
+# of a loop over all of them. `make bench` measures the crossover (experiments/bench_primitives.py,
+# results/bench/render.json "primitives"): the BVH is as fast as the loop at 15-17 spheres on the
+# sphere-grid scene (2-core x86 CPU, Warp 1.19; 0.85x the loop's speed at 4, 2.2x at 100, 120x at
+# 10^4), so from 20 on. A module value so that the bench and the tests can force either side
+# (SPHERE_BVH_MIN = 0: always, a huge value: never).
+SPHERE_BVH_MIN = 20
 
 # Features the kernels test at runtime (a branch per sample or hit), not at code generation.
 RUNTIME_SWITCHES = ("lens", "motion", "checker", "background")
@@ -50,6 +62,8 @@ class Features:
     # Deliberately wrong estimators, compiled in only for the tests' negative controls (see FAULTS).
     faults: frozenset = frozenset()
     moments: bool = False   # also sum each sample's square (a per-pixel variance image)
+    meshes: bool = False    # triangle meshes (wp.Mesh ray queries; absent: compiled out)
+    sphere_bvh: bool = False  # spheres found through a wp.Bvh (uses_sphere_bvh), else by a loop
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -90,7 +104,8 @@ class Features:
 
     def key(self) -> str:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
-                             "point_lights", "dir_lights", "roulette", "background") if getattr(self, n)]
+                             "point_lights", "dir_lights", "roulette", "background", "meshes",
+                             "sphere_bvh") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += "+moments" if self.moments else ""
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
@@ -111,4 +126,11 @@ def features_of(scene: Scene, integrator: str) -> Features:
         dir_lights=bool(scene.directional_lights),
         roulette=scene.russian_roulette and integrator == "path",
         background=bool(np.any(np.asarray(scene.background) > 0)),
+        meshes=any(shape.kind == "mesh" for shape in scene.shapes),
+        sphere_bvh=uses_sphere_bvh(scene),
     )
+
+
+def uses_sphere_bvh(scene: Scene) -> bool:
+    """Whether the scene's spheres are many enough for the BVH (SPHERE_BVH_MIN, read at call time)."""
+    return sum(shape.kind == "sphere" for shape in scene.shapes) >= max(SPHERE_BVH_MIN, 1)

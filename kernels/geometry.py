@@ -10,12 +10,15 @@ EDGE_TOLERANCE = wp.constant(1.0e-6)
 class Hit:
     t: float
     p: wp.vec3
-    n: wp.vec3          # unit geometric normal: outward for spheres, edge_u x edge_v for quads
+    n: wp.vec3          # unit geometric normal: outward for spheres, edge_u x edge_v for quads,
+                        # (b - a) x (c - a) for a mesh triangle (a, b, c)
+    ns: wp.vec3         # unit shading normal (Features.meshes only): n, or a mesh's interpolated
+                        # vertex normal turned to n's side
     uv: wp.vec2
     material: int
     light: int          # index into the area-light list, -1 if the shape does not emit
-    kind: int           # 0 sphere, 1 quad, -1 no hit
-    index: int          # index within its kind, -1 no hit
+    kind: int           # 0 sphere, 1 quad, 2 mesh triangle, -1 no hit
+    index: int          # index within its kind (a triangle: in the per-face arrays), -1 no hit
 
 
 @wp.struct
@@ -219,6 +222,20 @@ def slab_hit(lo: wp.vec3, ld: wp.vec3, rank: int, tmax: float) -> BoxHit:
             if h.slot >= 0:
                 h.t = t_far
     return h
+
+
+@wp.func
+def shading_consistent(ng: wp.vec3, ns: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    """1 when the shading normal ns and the geometric normal ng agree on whether wo -> wi is a
+    reflection or a transmission, else 0. A BSDF evaluated about an interpolated normal otherwise
+    reflects light through the geometric surface (a leak) or transmits it back out at grazing
+    angles; f is zero there instead, in evaluation (light samples) and in sampling alike, so the
+    density a sample carries stays that of the proposal and MIS stays consistent."""
+    shading = wp.dot(ns, wo) * wp.dot(ns, wi) > 0.0
+    geometric = wp.dot(ng, wo) * wp.dot(ng, wi) > 0.0
+    if shading == geometric:
+        return 1.0
+    return 0.0
 
 
 @wp.func

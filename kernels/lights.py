@@ -1,7 +1,7 @@
 """Area-light sampling, built per kernel variant.
 
-`make_lights(motion, solid_angle, power_pick, wrong_jacobian)` returns Warp functions callable on
-their own:
+`make_lights(motion, solid_angle, power_pick, wrong_jacobian, meshes, mesh_fault)` returns Warp
+functions callable on their own:
     pick_light(sd, u) -> light index;  light_pick_pmf(sd, li) -> its probability
     sample_light(sd, li, x, u, dt) -> LightSample (direction, distance, radiance, solid-angle pdf
         including the light choice)
@@ -9,6 +9,9 @@ their own:
 `solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it);
 rectangles are always area-sampled. `power_pick` picks lights proportionally to emitted power.
 `wrong_jacobian` compiles in the tests' fault features.LIGHT_JACOBIAN (no cosine at the light).
+`meshes` compiles in emitting triangle meshes, area-sampled like rectangles: a triangle picked with
+probability proportional to its area (SceneData.tri_cdf), a uniform point on it, so the density is
+1 / (the mesh's area) everywhere on it; `mesh_fault` compiles features.MESH_PDF_HIGH_10PCT.
 """
 from types import SimpleNamespace
 
@@ -16,7 +19,7 @@ import warp as wp
 
 from drtlab.estimators.warps import (PI, cone_pdf, frame_to_world, square_to_cone,
                                      square_to_uniform_sphere)
-from drtlab.kernels.device_scene import SPHERE, SceneData
+from drtlab.kernels.device_scene import MESH, SPHERE, SceneData
 from drtlab.kernels.intersect import make_motion
 
 
@@ -27,6 +30,14 @@ class LightSample:
     radiance: wp.vec3
     pdf: float          # solid-angle pdf, including the light choice
     valid: int
+    prim: int           # a mesh light's face the point lies on (in the per-face arrays)
+
+
+@wp.struct
+class TrianglePoint:
+    y: wp.vec3
+    n: wp.vec3          # the face's unit normal (b - a) x (c - a): the side it emits to
+    face: int
 
 
 @wp.func
@@ -40,13 +51,63 @@ def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
     return wp.vec2(sin2 / (1.0 + cos_max), dc)
 
 
-def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
-                wrong_jacobian: bool = False) -> SimpleNamespace:
+def _make_mesh_lights(meshes: bool, mesh_fault: bool, mesh_shift) -> SimpleNamespace:
+    MESHES = meshes
+    # features.MESH_PDF_HIGH_10PCT: the area a mesh light's density is taken from is 10% short.
+    MESH_AREA_SCALE = 1.0 / 1.1 if mesh_fault else 1.0
+
+    @wp.func
+    def flat_area(sd: SceneData, k: int, s: int) -> float:
+        """The area of a light that is not a sphere: a quad, or (meshes) a whole mesh."""
+        if wp.static(MESHES):
+            if k == MESH:
+                return sd.mesh_area[s] * wp.static(MESH_AREA_SCALE)
+        return sd.quad_area[s]
+
+    @wp.func
+    def sample_triangle(sd: SceneData, s: int, u: wp.vec2, dt: float) -> TrianglePoint:
+        """A point on mesh s: the face whose cdf interval holds u[0] (binary search), then u[0]
+        rescaled to that interval and u[1] make a uniform point on it (the square-root warp). The
+        rescaled u[0] keeps 24 - log2(1 / the face's probability) bits of resolution."""
+        lo = sd.mesh_face0[s]
+        hi = sd.mesh_face0[s + 1] - 1
+        while lo < hi:
+            mid = (lo + hi) / 2
+            if u[0] < sd.tri_cdf[mid]:
+                hi = mid
+            else:
+                lo = mid + 1
+        c0 = float(0.0)
+        if lo > sd.mesh_face0[s]:
+            c0 = sd.tri_cdf[lo - 1]
+        u0 = wp.clamp((u[0] - c0) / (sd.tri_cdf[lo] - c0), 0.0, 1.0)
+        idx = sd.tri_index[lo]
+        shift = mesh_shift(sd, s, dt)
+        a = sd.mesh_points[idx[0]] + shift
+        b = sd.mesh_points[idx[1]] + shift
+        c = sd.mesh_points[idx[2]] + shift
+        su = wp.sqrt(u0)
+        b1 = (1.0 - u[1]) * su
+        b2 = u[1] * su
+        tp = TrianglePoint()
+        tp.y = a + (b - a) * b1 + (c - a) * b2
+        tp.n = wp.normalize(wp.cross(b - a, c - a))
+        tp.face = lo
+        return tp
+
+    return SimpleNamespace(flat_area=flat_area, sample_triangle=sample_triangle)
+
+
+def make_lights(motion: bool, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False,
+                meshes: bool = False, mesh_fault: bool = False) -> SimpleNamespace:
     motion_funcs = make_motion(motion)
     sphere_center = motion_funcs.sphere_center
     quad_origin = motion_funcs.quad_origin
     SOLID_ANGLE = solid_angle
     POWER_PICK = power_pick
+    MESHES = meshes
+    mesh_lights = _make_mesh_lights(meshes, mesh_fault, motion_funcs.mesh_shift)
+    flat_area, sample_triangle = mesh_lights.flat_area, mesh_lights.sample_triangle
 
     @wp.func
     def light_pick_pmf(sd: SceneData, li: int) -> float:
@@ -86,7 +147,7 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
                 pdf = dist2 / (cos_l * 4.0 * PI * r * r)
         else:
             if cos_l > 0.0:
-                pdf = dist2 / (cos_l * sd.quad_area[s])
+                pdf = dist2 / (cos_l * flat_area(sd, k, s))
         return pdf * light_pick_pmf(sd, li)
 
     @wp.func
@@ -123,10 +184,20 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
                 ny = square_to_uniform_sphere(u)
                 y = c + ny * r
         else:
-            m = sd.quad_material[s]
-            q0 = quad_origin(sd, s, dt)
-            y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
-            ny = sd.quad_normal[s]
+            is_quad = True
+            if wp.static(MESHES):
+                if k == MESH:
+                    tp = sample_triangle(sd, s, u, dt)
+                    m = sd.mesh_material[s]
+                    y = tp.y
+                    ny = tp.n
+                    ls.prim = tp.face
+                    is_quad = False
+            if is_quad:
+                m = sd.quad_material[s]
+                q0 = quad_origin(sd, s, dt)
+                y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
+                ny = sd.quad_normal[s]
         if pdf == 0.0:
             d = y - x
             dist = wp.length(d)
@@ -140,7 +211,7 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
             if k == SPHERE:
                 area = 4.0 * PI * sd.sph_radius[s] * sd.sph_radius[s]
             else:
-                area = sd.quad_area[s]
+                area = flat_area(sd, k, s)
             pdf = dist * dist / (cos_l * area)
             if wp.static(wrong_jacobian):
                 pdf = dist * dist / area
@@ -155,4 +226,5 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool,
         return ls
 
     return SimpleNamespace(light_pick_pmf=light_pick_pmf, pick_light=pick_light,
-                           sphere_cone=sphere_cone, light_pdf=light_pdf, sample_light=sample_light)
+                           sphere_cone=sphere_cone, light_pdf=light_pdf, sample_light=sample_light,
+                           flat_area=flat_area, sample_triangle=sample_triangle)

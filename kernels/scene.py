@@ -1,7 +1,8 @@
 """In-memory scene model: what the loader (`scene_file.py`) produces and `device_scene.upload` copies.
 
-All geometry is in world space, float64 numpy arrays of shape (3,). Boxes are expanded by the loader
-into six quads with outward normals, so the tracer only knows spheres and quads.
+All geometry is in world space (the loader applies each shape's `transform`), float64 numpy arrays
+of shape (3,). Boxes are expanded by the loader into six quads with outward normals (and sphere grids
+into spheres), so the tracer only knows spheres, quads and triangle meshes.
 """
 from __future__ import annotations
 
@@ -10,7 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-MATERIAL_KINDS = ("diffuse", "glossy", "mirror", "dielectric", "glossy_dielectric", "emitter")
+# New kinds go at the end: the codes of the existing ones stay what compiled kernels and caches saw.
+MATERIAL_KINDS = ("diffuse", "glossy", "mirror", "dielectric", "glossy_dielectric", "emitter",
+                  "plastic")
 # The integer code of each material kind, as the kernels see it (SceneData.mat_kind).
 MATERIAL_CODE = {kind: code for code, kind in enumerate(MATERIAL_KINDS)}
 INTEGRATORS = ("whitted", "drt", "path")
@@ -36,10 +39,12 @@ class Material:
     name: str
     kind: str                                   # one of MATERIAL_KINDS
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
-    albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy only)
+    albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy/plastic)
     checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters
-    exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric)
-    ior: float = 1.5                            # dielectric, glossy_dielectric (outside is vacuum)
+    exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric,
+                                                # plastic's coat)
+    ior: float = 1.5                            # dielectric, glossy_dielectric, plastic's coat
+                                                # (outside is vacuum)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))  # emitted radiance
 
     @property
@@ -48,8 +53,30 @@ class Material:
 
 
 @dataclass
+class TriangleMesh:
+    """A triangle mesh in world space (kernels/mesh_file.py loads and validates it): the front of a
+    triangle (a, b, c) is the side of (b - a) x (c - a), which is also the side an emitter lights."""
+    vertices: np.ndarray                        # (V, 3) float64
+    faces: np.ndarray                           # (F, 3) int32 vertex indices
+    normals: np.ndarray | None = None           # (V, 3) unit vertex normals (smooth shading), or None
+    source: str = ""                            # the file or generator it came from
+
+    def triangle_areas(self) -> np.ndarray:
+        a, b, c = (self.vertices[self.faces[:, k]] for k in range(3))
+        return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+    def digest(self) -> str:
+        """Hash of the geometry: what a scene's content_hash cannot see in its TOML text."""
+        h = hashlib.sha256(np.ascontiguousarray(self.vertices).tobytes())
+        h.update(np.ascontiguousarray(self.faces).tobytes())
+        if self.normals is not None:
+            h.update(np.ascontiguousarray(self.normals).tobytes())
+        return h.hexdigest()
+
+
+@dataclass
 class Shape:
-    kind: str                                   # "sphere" | "quad"
+    kind: str                                   # "sphere" | "quad" | "mesh"
     material: int                               # index into Scene.materials
     name: str = ""
     center: np.ndarray | None = None            # sphere
@@ -58,10 +85,13 @@ class Shape:
     edge_u: np.ndarray | None = None            # quad: first edge; normal = normalize(edge_u x edge_v)
     edge_v: np.ndarray | None = None            # quad: second edge
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))  # world units per unit time
+    mesh: TriangleMesh | None = None            # mesh: its triangles (moving rigidly with velocity)
 
     def area(self) -> float:
         if self.kind == "sphere":
             return 4.0 * np.pi * self.radius ** 2
+        if self.kind == "mesh":
+            return float(np.sum(self.mesh.triangle_areas()))
         return float(np.linalg.norm(np.cross(self.edge_u, self.edge_v)))
 
 
@@ -103,6 +133,9 @@ class Scene:
         h = hashlib.sha256(self.text.encode())
         h.update(repr((self.width, self.height, self.integrator, self.max_depth, self.rr_depth,
                        self.russian_roulette)).encode())
+        for s in self.shapes:           # a mesh file may change under an unchanged TOML text
+            if s.mesh is not None:
+                h.update(s.mesh.digest().encode())
         return h.hexdigest()[:16]
 
     @property

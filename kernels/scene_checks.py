@@ -18,8 +18,9 @@ def _reaches_front(shape: Shape, origin: np.ndarray, normal: np.ndarray) -> bool
     """Whether some part of `shape` lies strictly in front of the plane (origin, normal)."""
     if shape.kind == "sphere":
         return float(np.dot(shape.center - origin, normal)) + shape.radius > 0.0
-    heights = (_corners(shape) - origin) @ normal
-    scale = max(float(np.abs(_corners(shape) - origin).max()), 1e-30)
+    points = shape.mesh.vertices if shape.kind == "mesh" else _corners(shape)
+    heights = (points - origin) @ normal
+    scale = max(float(np.abs(points - origin).max()), 1e-30)
     return bool(np.any(heights > 1e-9 * scale))
 
 

@@ -52,6 +52,7 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
     except tomllib.TOMLDecodeError as exc:
         raise InputError("scene", f"malformed TOML in {path}: {exc}") from None
     _apply_overrides(data, overrides or {})
+    _anchor_mesh_files(data, path.parent)
     return build_scene(data, name=name, source=source, text=text + _overrides_suffix(overrides))
 
 
@@ -95,6 +96,17 @@ def _read_text(path: Path) -> str:
         raise InputError("scene", f"malformed TOML in {path}: not UTF-8 ({exc})") from None
     except OSError as exc:
         raise InputError("scene", f"cannot read {path}: {exc.strerror or exc}") from None
+
+
+def _anchor_mesh_files(data: dict, folder: Path) -> None:
+    """A mesh shape's relative `file` names a file next to the scene file, wherever the process runs
+    (an inline scene dict keeps paths relative to the working directory)."""
+    shapes = data.get("shapes")
+    for shape in shapes if isinstance(shapes, list) else ():
+        if isinstance(shape, dict) and shape.get("kind") == "mesh" and isinstance(shape.get("file"), str):
+            file = Path(shape["file"]).expanduser()
+            if not file.is_absolute():
+                shape["file"] = str(folder / file)
 
 
 def _overrides_suffix(overrides: dict | None) -> str:

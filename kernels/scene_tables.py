@@ -17,6 +17,8 @@ from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
 from drtlab.kernels.scene import (INTEGRATORS, MATERIAL_KINDS, Camera, DirectionalLight, Material,
                                   PointLight, Scene, Shape)
+from drtlab.kernels.transforms import parse_transform, transform_quad, transform_sphere
+from drtlab.kernels.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
 TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights")
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
@@ -31,13 +33,17 @@ MATERIAL_KEYS = {
     "dielectric": ("kind", "albedo", "ior", "emission"),
     "glossy_dielectric": ("kind", "albedo", "exponent", "ior", "emission"),
     "emitter": ("kind", "emission"),
+    "plastic": ("kind", "albedo", "albedo2", "checker", "exponent", "ior", "emission"),
 }
-SHAPE_FILE_KINDS = ("sphere", "quad", "box")   # what a file may say; boxes become quads
-SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity")
+# What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/mesh_file.py).
+SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
+SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
 SHAPE_KEYS = {
     "sphere": SHAPE_COMMON_KEYS + ("center", "radius"),
     "quad": SHAPE_COMMON_KEYS + ("origin", "edge_u", "edge_v"),
     "box": SHAPE_COMMON_KEYS + ("min", "max"),
+    "mesh": SHAPE_COMMON_KEYS + MESH_KEYS,
+    "sphere_grid": SHAPE_COMMON_KEYS + SPHERE_GRID_KEYS,
 }
 LIGHT_KEYS = {
     "point": ("kind", "position", "intensity"),
@@ -231,10 +237,13 @@ def _parse_material(name: str, value: Any) -> Material:
                                                   f"channel > 0, got {show(m.emission.tolist())}")
         return m
     m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
-    if kind in ("glossy", "glossy_dielectric"):
+    if kind in ("glossy", "glossy_dielectric", "plastic"):
         m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
     if kind in ("dielectric", "glossy_dielectric"):
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
+    if kind == "plastic":       # a coat of index 1 reflects nothing; below 1 it is no coat at all
+        m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 1 (the coat's index of refraction)",
+                       lambda x: x > 1.0)
     if t.has("albedo2"):
         m.albedo2 = _albedo(t.data["albedo2"], t.field("albedo2"))
         m.checker = _checker(t.get("checker", [8, 8], ""), t.field("checker"))
@@ -258,7 +267,28 @@ def _parse_shapes(value: Any, materials: list[Material]) -> list[Shape]:
     index = {m.name: i for i, m in enumerate(materials)}
     shapes: list[Shape] = []
     for i, body in enumerate(value):
-        shapes.extend(_parse_shape(i, body, materials, index))
+        shapes.extend(_transformed(i, body, _parse_shape(i, body, materials, index), materials))
+    return shapes
+
+
+def _transformed(i: int, value: dict, shapes: list[Shape], materials: list[Material]) -> list[Shape]:
+    """The shapes of shapes[i] under its optional `transform` (kernels/transforms.py), applied to
+    their defining points: sphere centres (a similarity also scales the radius), quad origins and
+    edges (a box's six quads). Other kinds (meshes) apply it to their vertices in their own parser.
+    Velocities stay world-space."""
+    if "transform" not in value or not shapes:
+        return shapes
+    field = f"shapes[{i}].transform"
+    m, spelled = parse_transform(value["transform"], field)
+    emissive = materials[shapes[0].material].emissive
+    for s in shapes:
+        if s.kind == "sphere":
+            s.center, s.radius = transform_sphere(m, s.center, s.radius, field, spelled)
+        elif s.kind == "quad":
+            s.origin, s.edge_u, s.edge_v = transform_quad(m, s.origin, s.edge_u, s.edge_v)
+        else:
+            continue
+        _check_area(s, field, emissive)
     return shapes
 
 
@@ -278,6 +308,10 @@ def _parse_shape(i: int, value: Any, materials: list[Material], index: dict[str,
     emissive = materials[material].emissive
     common = dict(material=material, velocity=velocity)
 
+    if kind == "mesh":
+        return [parse_mesh_shape(t, name, material, velocity)]
+    if kind == "sphere_grid":
+        return parse_sphere_grid(t, name, material, velocity)
     if kind == "sphere":
         center = _vec3(t.get("center", REQUIRED, "a list of 3 finite numbers"), t.field("center"))
         radius = number(t.get("radius", REQUIRED, "a finite number > 0"), t.field("radius"), "> 0",

@@ -13,7 +13,7 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, Features
-from drtlab.kernels.geometry import offset_origin
+from drtlab.kernels.geometry import offset_origin, shading_consistent
 from drtlab.kernels.materials import DIELECTRIC, DIFFUSE, EMITTER, MIRROR, emitted, surface_albedo
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
@@ -38,6 +38,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
     RR_REWEIGHT = RR_NO_REWEIGHT not in f.faults
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
     FAULT_PDF_HIGH = PDF_HIGH_10PCT in f.faults
+    MESHES = f.meshes
     # drt stops at the emission hit after a diffuse scatter; nothing to find there when emitters
     # count only through light samples and the background is black.
     DRT = f.drt
@@ -95,6 +96,11 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
             exponent = sd.mat_exponent[m]
             ior = sd.mat_ior[m]
             is_delta = kind == MIRROR or kind == DIELECTRIC
+            # The BSDF sees the shading normal (a mesh's interpolated one); offsets and the side
+            # test stay geometric (geometry.shading_consistent).
+            ns = h.n
+            if wp.static(MESHES):
+                ns = h.ns
             if not is_delta:
                 if wp.static(NEE):
                     ul = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_CHOICE)), spp)
@@ -103,12 +109,15 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
                     L += next_event(sd, beta, kind, albedo, exponent, ior, h, wo, ul, up, dt)
                 if wp.static(DELTA_LIGHTS):
                     L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior,
-                                                             h.p, h.n, wo, dt))
+                                                             h.p, h.n, ns, wo, dt))
             u_lobe = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LOBE_CHOICE)), spp)
             u_dir = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.DIRECTION)), spp)
-            s = sample_bsdf(kind, albedo, exponent, ior, h.n, wo, u_lobe, u_dir)
+            s = sample_bsdf(kind, albedo, exponent, ior, ns, wo, u_lobe, u_dir)
             if s.valid == 0:
                 break
+            if wp.static(MESHES):
+                if shading_consistent(h.n, ns, wo, s.wi) == 0.0:
+                    break
             beta = wp.cw_mul(beta, s.weight)
             if wp.static(FAULT_DROP_COSINE):
                 if s.delta == 0:

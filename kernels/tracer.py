@@ -25,7 +25,7 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.camera import grid_ray_dir, make_camera
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import make_direct
-from drtlab.kernels.features import LIGHT_JACOBIAN, Features
+from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, Features
 from drtlab.kernels.intersect import make_intersect
 from drtlab.kernels.lights import make_lights
 from drtlab.kernels.materials import make_bsdf
@@ -47,11 +47,13 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     rays = make_intersect(f)
     bsdf = make_bsdf(f.kinds, strategy.lobe)
     lights = make_lights(True, strategy.solid_angle, strategy.power_pick,
-                         LIGHT_JACOBIAN in f.faults)
+                         LIGHT_JACOBIAN in f.faults, meshes=f.meshes,
+                         mesh_fault=MESH_PDF_HIGH_10PCT in f.faults)
     lighting = make_direct(f, strategy, rays, bsdf, lights)
     sample_ray = make_camera(f, pointset).sample_ray
     trace_whitted = make_whitted(f, rays, bsdf, lighting).trace_whitted
     trace = make_trace(f, pointset, strategy, rays, bsdf, lighting).trace
+    pixel_key = pointset.pixel_key
 
     @wp.kernel(enable_backward=False, module="unique")
     def render_tile(sd: SceneData, seed: wp.uint32, index0: int, count: int, spp: int,
@@ -62,7 +64,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         if px >= sd.width or py >= sd.height:
             return
         pixel = py * sd.width + px
-        pix = wp.uint32(pixel)
+        pix = pixel_key(px, py, sd.width)
         uspp = wp.uint32(spp)
         total = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
         total2 = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))

@@ -2,18 +2,20 @@
 
 `make_whitted(features, rays, bsdf, lighting)` (from make_intersect, make_bsdf and make_direct)
 returns trace_whitted(sd, o, d) -> radiance and light_centres(sd, kind, albedo, exponent,
-ior, p, n, wo) -> the area lights' light at p, each seen as a point source at its centre.
+ior, p, n, ns, wo) -> the area lights' light at p, each seen as a point source at its centre (a mesh
+light: at its area-weighted centroid; n geometric, ns shading normal, as in kernels/direct.py).
 """
 from types import SimpleNamespace
 
 import warp as wp
 
 from drtlab.estimators.warps import PI
-from drtlab.kernels.device_scene import QUAD, SPHERE, SceneData
+from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
 from drtlab.kernels.features import Features
-from drtlab.kernels.geometry import offset_origin
+from drtlab.kernels.geometry import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
-                                      MIRROR, emitted, interface, refract_dir, surface_albedo)
+                                      MIRROR, PLASTIC, emitted, interface, refract_dir,
+                                      surface_albedo)
 
 
 def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
@@ -21,16 +23,20 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
     AREA_CENTRES = f.light_centres
     DELTA_LIGHTS = f.delta_lights
     SPLITS = f.whitted_splits
+    MESHES = f.meshes
     intersect = rays.intersect
     visible = rays.visible
+    visible_mesh = rays.visible_mesh
     eval_bsdf = bsdf.eval_bsdf
     direct_delta_lights = lighting.direct_delta_lights
 
     @wp.func
     def light_centres(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                      p: wp.vec3, n: wp.vec3, wo: wp.vec3) -> wp.vec3:
+                      p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
         # Whitted's shadow rays to area-light centres: each light acts as a point source with its
-        # radiant intensity towards p (sphere: Le * pi r^2; one-sided quad: Le * A * cos).
+        # radiant intensity towards p (sphere: Le * pi r^2; one-sided quad: Le * A * cos; a mesh:
+        # its one-sided flat part |N| cos plus its closed part (A - |N|) / 4, N = sum of area x
+        # normal, exact for flat and for closed convex meshes).
         L = wp.vec3(0.0)
         for li in range(sd.n_lights):
             k = sd.light_shape_kind[li]
@@ -42,19 +48,38 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
                 c = sd.sph_center[s]
                 intensity = PI * sd.sph_radius[s] * sd.sph_radius[s]
                 m = sd.sph_material[s]
-            else:
+            elif k == QUAD:
                 c = sd.quad_origin[s] + 0.5 * (sd.quad_u[s] + sd.quad_v[s])
                 m = sd.quad_material[s]
+            if wp.static(MESHES):
+                if k == MESH:
+                    c = sd.mesh_centroid[s]
+                    m = sd.mesh_material[s]
             d = c - p
             dist = wp.length(d)
             wi = d / dist
             if k == QUAD:
                 intensity = sd.quad_area[s] * wp.max(0.0, -wp.dot(sd.quad_normal[s], wi))
+            if wp.static(MESHES):
+                if k == MESH:
+                    na = sd.mesh_normal_area[s]
+                    intensity = (wp.max(0.0, -wp.dot(na, wi))
+                                 + 0.25 * wp.max(0.0, sd.mesh_area[s] - wp.length(na)))
             if intensity > 0.0:
-                fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+                fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
+                if wp.static(MESHES):
+                    fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
-                    if visible(sd, o, wi, wp.length(c - o), 0.0, k, s) == 1:
+                    seen = int(0)
+                    if wp.static(MESHES):
+                        if k == MESH:
+                            seen = visible_mesh(sd, o, wi, wp.length(c - o), 0.0, s)
+                        else:
+                            seen = visible(sd, o, wi, wp.length(c - o), 0.0, k, s)
+                    else:
+                        seen = visible(sd, o, wi, wp.length(c - o), 0.0, k, s)
+                    if seen == 1:
                         L += wp.cw_mul(fc, sd.mat_emission[m]) * (intensity / (dist * dist))
         return L
 
@@ -84,19 +109,23 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
                 if kind == EMITTER:
                     break
                 albedo = surface_albedo(sd, m, h.uv)
-                cos_o = wp.dot(h.n, wo)
-                nf = h.n
+                ns = h.n                # the shading normal (a mesh's interpolated one)
+                if wp.static(MESHES):
+                    ns = h.ns
+                cos_o = wp.dot(ns, wo)
+                nf = ns
                 if cos_o < 0.0:
-                    nf = -h.n
+                    nf = -ns
                 co = wp.abs(cos_o)
-                if kind == DIFFUSE or kind == GLOSSY:
+                # Non-delta kinds end the ray with their direct light (plastic as glossy).
+                if kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC:
                     direct = wp.vec3(0.0)
                     if wp.static(AREA_CENTRES):
                         direct += light_centres(sd, kind, albedo, sd.mat_exponent[m],
-                                                sd.mat_ior[m], h.p, h.n, wo)
+                                                sd.mat_ior[m], h.p, h.n, ns, wo)
                     if wp.static(DELTA_LIGHTS):
                         direct += direct_delta_lights(sd, kind, albedo, sd.mat_exponent[m],
-                                                      sd.mat_ior[m], h.p, h.n, wo, 0.0)
+                                                      sd.mat_ior[m], h.p, h.n, ns, wo, 0.0)
                     L += wp.cw_mul(beta, direct)
                     break
                 wi = 2.0 * co * nf - wo
@@ -104,7 +133,7 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
                     beta = wp.cw_mul(beta, albedo)
                 if wp.static(SPLITS > 0):
                     if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC:
-                        it = interface(h.n, wo, sd.mat_ior[m])
+                        it = interface(ns, wo, sd.mat_ior[m])
                         eta = it.eta
                         F = it.F
                         if F < 1.0:
@@ -116,6 +145,9 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
                             else:
                                 beta = beta * F
                             used += 1
+                if wp.static(MESHES):
+                    if shading_consistent(h.n, ns, wo, wi) == 0.0:
+                        break           # reflected through the geometric surface: no leak
                 o = offset_origin(h.p, h.n, wi, sd.eps)
                 d = wi
                 depth += 1

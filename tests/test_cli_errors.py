@@ -145,7 +145,7 @@ def test_scenes_lists_all_builtins(capsys):
     captured = capsys.readouterr()
     assert captured.err == ""
     names = first_words(captured.out)
-    assert len(builtin_names()) == 9
+    assert len(builtin_names()) == 11
     assert names == builtin_names()
 
 

@@ -52,7 +52,8 @@ Additions for this project:
   pdf evaluated separately for the same direction, and the weight against f|cos|/pdf.
 
 Modules: `domains` (the parameter grids), `harness` (the test: pooling, ChiSquareTest, run_chi2,
-sidak), `adapters` (the Warp adapters and upload_scene). Every public name is re-exported here, so
+sidak), `adapters` (the Warp adapters and upload_scene), `mesh_adapter` (`MeshLightAdapter`: light
+sampling of scenes with triangle-mesh emitters). Every public name is re-exported here, so
 `from drtlab.experiments import chi2 as C; C.ChiSquareTest(...)` is the way to use the harness.
 """
 from drtlab.experiments.chi2.domains import (CapDomain, ConeDomain, Domain, PlanarDomain,
@@ -64,6 +65,7 @@ from drtlab.experiments.chi2.adapters import (ALL_KINDS, CONE, COSINE_HEMISPHERE
                                               PHONG, SQUARE, UNIFORM_HEMISPHERE, UNIFORM_SPHERE,
                                               BSDFAdapter, BSDFSamples, LightAdapter, LightSamples,
                                               WarpsAdapter, uniform, upload_scene)
+from drtlab.experiments.chi2.mesh_adapter import MeshLightAdapter, MeshLightSamples
 
 __all__ = [
     # domains
@@ -74,5 +76,5 @@ __all__ = [
     # adapters
     "uniform", "UNIFORM_HEMISPHERE", "UNIFORM_SPHERE", "COSINE_HEMISPHERE", "PHONG", "CONE", "DISK",
     "SQUARE", "WarpsAdapter", "KIND_INDEX", "ALL_KINDS", "BSDFSamples", "BSDFAdapter",
-    "LightSamples", "LightAdapter", "upload_scene",
+    "LightSamples", "LightAdapter", "upload_scene", "MeshLightAdapter", "MeshLightSamples",
 ]

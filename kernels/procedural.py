@@ -1,0 +1,95 @@
+"""Procedural shape sources, so that scenes with many primitives need no download: triangle meshes
+made by `generate = NAME` in a mesh shape (GENERATORS), and the `sphere_grid` shape (many spheres).
+
+Each generator is a pure function of its parameters (the seed included) returning world-space
+(vertices, faces, normals): faces wound so that (b - a) x (c - a) points out of the displaced sphere
+and up from the terrain, and vertex normals computed from the faces (trimesh's area- and
+angle-weighted average), since a generated mesh has no file to take them from. Parameters are
+validated by kernels/mesh_file.py with the same one-line errors as every other scene value.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+# Bounds that keep a typo from asking for billions of triangles: 8 subdivisions of an icosahedron are
+# 1.3M triangles, a 1024-cell terrain 2.1M.
+MAX_SUBDIVISIONS = 8
+MAX_RESOLUTION = 1024
+MAX_GRID = 320              # sphere_grid: count x count spheres (~10^5; each one a Shape)
+
+
+def _waves(seed: int, count: int, dims: int):
+    """Random plane waves (directions, frequencies, phases, weights) of a smooth noise field."""
+    rng = np.random.default_rng(seed)
+    dirs = rng.normal(size=(count, dims))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    freq = rng.uniform(1.5, 6.0, count)
+    phase = rng.uniform(0.0, 2.0 * np.pi, count)
+    weight = 1.0 / freq                   # smoother: low frequencies carry more of the amplitude
+    return dirs, freq, phase, weight / weight.sum()
+
+
+def _noise(points: np.ndarray, seed: int, dims: int) -> np.ndarray:
+    """A smooth field in [-1, 1] at `points` (N, dims): a weighted sum of 12 sines."""
+    dirs, freq, phase, weight = _waves(seed, 12, dims)
+    return np.sin((points @ dirs.T) * freq + phase) @ weight
+
+
+def _normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    import trimesh                          # only scenes with generated meshes pay its import
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    return np.asarray(mesh.vertex_normals, dtype=np.float64)
+
+
+def displaced_sphere(center, radius: float, subdivisions: int, amplitude: float, seed: int):
+    """An icosphere of `subdivisions` (20 * 4^s triangles) whose radius varies smoothly by up to
+    `amplitude` (< radius, so the surface never folds through the centre)."""
+    import trimesh
+    ico = trimesh.creation.icosphere(subdivisions=int(subdivisions), radius=1.0)
+    dirs = np.asarray(ico.vertices, dtype=np.float64)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    r = radius + amplitude * _noise(dirs, seed, 3)
+    vertices = np.asarray(center, dtype=np.float64) + dirs * r[:, None]
+    faces = np.asarray(ico.faces, dtype=np.int64)
+    return vertices, faces, _normals(vertices, faces)
+
+
+def terrain(center, size: float, resolution: int, height: float, seed: int):
+    """A height field over the square of side `size` around `center` (in x and z), `resolution`
+    cells per side (2 * resolution^2 triangles), heights center.y + height * noise in [-1, 1]."""
+    n = int(resolution) + 1
+    s = np.linspace(-0.5, 0.5, n) * size
+    x, z = np.meshgrid(s, s, indexing="xy")
+    xz = np.column_stack([x.ravel(), z.ravel()])
+    y = height * _noise(xz / size * 4.0, seed, 2)
+    c = np.asarray(center, dtype=np.float64)
+    vertices = np.column_stack([xz[:, 0] + c[0], y + c[1], xz[:, 1] + c[2]])
+    i = np.arange(n - 1)
+    a = (i[None, :] + n * i[:, None]).ravel()          # cell corners: a (x, z), b (x+1), c (z+1)
+    b, cc, d = a + 1, a + n, a + n + 1
+    # (cc - a) x (b - a) = (+z) x (+x) = +y: wound to face up.
+    faces = np.concatenate([np.column_stack([a, cc, b]), np.column_stack([b, cc, d])])
+    return vertices, faces, _normals(vertices, faces)
+
+
+# name -> (function, {parameter: (default, kind)}); kind: "vec3", "positive", "nonneg", "count", "seed".
+GENERATORS = {
+    "displaced_sphere": (displaced_sphere, {
+        "center": ([0.0, 0.0, 0.0], "vec3"), "radius": (1.0, "positive"),
+        "subdivisions": (3, ("count", 0, MAX_SUBDIVISIONS)), "amplitude": (0.1, "nonneg"),
+        "seed": (0, "seed")}),
+    "terrain": (terrain, {
+        "center": ([0.0, 0.0, 0.0], "vec3"), "size": (10.0, "positive"),
+        "resolution": (32, ("count", 1, MAX_RESOLUTION)), "height": (1.0, "nonneg"),
+        "seed": (0, "seed")}),
+}
+
+
+def sphere_grid_centres(count: int, center, size: float) -> np.ndarray:
+    """count x count centres filling the square of side `size` around `center` in x and z (cells
+    of side size / count, a centre in each), row by row: more spheres, same square."""
+    cell = size / count
+    k = (np.arange(count) + 0.5) * cell - 0.5 * size
+    i, j = np.meshgrid(k, k, indexing="ij")
+    offsets = np.column_stack([i.ravel(), np.zeros(i.size), j.ravel()])
+    return np.asarray(center, dtype=np.float64) + offsets
