@@ -289,26 +289,35 @@ class LightAdapter:
     the pdf consistency check, which a chi-square test of the directions cannot see."""
 
     _kernels: dict = {}
+    # What the kernel writes per sample: LightSamples' fields in order, then `_EXTRA` fields.
+    _OUTPUTS = (wp.vec3, float, float, int, int, float, wp.vec3, float)
+    _SAMPLES = LightSamples
+    _EXTRA: tuple = ()
 
     def __init__(self, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False):
         key = (bool(solid_angle), bool(power_pick), bool(wrong_jacobian))
-        if key not in LightAdapter._kernels:
-            LightAdapter._kernels[key] = _make_light_kernel(*key)
-        self.kernel = LightAdapter._kernels[key]
+        kernels = type(self)._kernels
+        if key not in kernels:
+            kernels[key] = self._build(*key)
+        self.kernel = kernels[key]
+
+    @staticmethod
+    def _build(*key):
+        return _make_light_kernel(*key)
 
     def _launch(self, mode, sd, x, n, seed, pts=None):
         wp = _wp()
         inp, n = _input_points(pts, n)
-        arrays = _outputs(n, wp.vec3, float, float, int, int, float, wp.vec3, float)
+        arrays = _outputs(n, *self._OUTPUTS)
         wp.launch(self.kernel, dim=n, device="cpu",
                   inputs=[int(mode), sd, _as_vec3(x), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, sd, x, n: int, seed: int = 0) -> LightSamples:
-        wi, dist, pdf, valid, li, pdf_eval, rad, pmf = self._launch(0, sd, x, n, seed)
-        return LightSamples(wi=wi, dist=dist, pdf=pdf.astype(np.float64), valid=valid == 1,
-                            light=li, pdf_eval=pdf_eval.astype(np.float64), radiance=rad,
-                            pmf=pmf.astype(np.float64))
+        wi, dist, pdf, valid, li, pdf_eval, rad, pmf, *extra = self._launch(0, sd, x, n, seed)
+        return self._SAMPLES(wi=wi, dist=dist, pdf=pdf.astype(np.float64), valid=valid == 1,
+                             light=li, pdf_eval=pdf_eval.astype(np.float64), radiance=rad,
+                             pmf=pmf.astype(np.float64), **dict(zip(self._EXTRA, extra)))
 
     def sampler(self, sd, x) -> SampleFunc:
         def sample(n, seed):

@@ -17,8 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from drtlab.experiments.chi2.adapters import LightSamples, _as_vec3, _input_points, _outputs, uniform
-from drtlab.experiments.chi2.harness import PdfFunc, SampleFunc
+from drtlab.experiments.chi2.adapters import LightAdapter, LightSamples, uniform
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
 from drtlab.warp_runtime import warp as _wp
 
@@ -28,39 +27,20 @@ class MeshLightSamples(LightSamples):
     face: np.ndarray = None     # a mesh light's sampled face (in the per-face arrays), else 0
 
 
-class MeshLightAdapter:
+class MeshLightAdapter(LightAdapter):
+    """LightAdapter's harness interface over a kernel that also samples mesh lights (and reports
+    the sampled face)."""
     _kernels: dict = {}
+    _OUTPUTS = LightAdapter._OUTPUTS + (int,)
+    _SAMPLES = MeshLightSamples
+    _EXTRA = ("face",)
 
     def __init__(self, solid_angle: bool = True, power_pick: bool = True, mesh_fault: bool = False):
-        key = (bool(solid_angle), bool(power_pick), bool(mesh_fault))
-        if key not in MeshLightAdapter._kernels:
-            MeshLightAdapter._kernels[key] = _make_mesh_light_kernel(*key)
-        self.kernel = MeshLightAdapter._kernels[key]
+        super().__init__(solid_angle, power_pick, mesh_fault)
 
-    def _launch(self, mode, sd, x, n, seed, pts=None):
-        wp = _wp()
-        inp, n = _input_points(pts, n)
-        arrays = _outputs(n, wp.vec3, float, float, int, int, float, wp.vec3, float, int)
-        wp.launch(self.kernel, dim=n, device="cpu",
-                  inputs=[int(mode), sd, _as_vec3(x), wp.uint32(seed), inp, *arrays])
-        return [a.numpy() for a in arrays]
-
-    def sample(self, sd, x, n: int, seed: int = 0) -> MeshLightSamples:
-        wi, dist, pdf, valid, li, pdf_eval, rad, pmf, face = self._launch(0, sd, x, n, seed)
-        return MeshLightSamples(wi=wi, dist=dist, pdf=pdf.astype(np.float64), valid=valid == 1,
-                                light=li, pdf_eval=pdf_eval.astype(np.float64), radiance=rad,
-                                pmf=pmf.astype(np.float64), face=face)
-
-    def sampler(self, sd, x) -> SampleFunc:
-        def sample(n, seed):
-            s = self.sample(sd, x, n, seed)
-            return s.wi, s.valid
-        return sample
-
-    def pdf(self, sd, x) -> PdfFunc:
-        def pdf(pts):
-            return self._launch(1, sd, x, 0, 0, pts)[5].astype(np.float64)
-        return pdf
+    @staticmethod
+    def _build(*key):
+        return _make_mesh_light_kernel(*key)
 
 
 @wp.func
