@@ -587,3 +587,47 @@ def test_points_bad_input():
                    dict(name="sobol", n=4, dims=2, pixel=1 << 32)):
         with pytest.raises(InputError):
             points(**kwargs)
+
+
+# ---------------------------------------------------------------------------------------------------
+# zsobol: screen-space blue noise of the error (Ahmed & Wonka 2020)
+# ---------------------------------------------------------------------------------------------------
+
+def _morton(x: int, y: int) -> int:
+    return sum((((x >> b) & 1) << (2 * b)) | (((y >> b) & 1) << (2 * b + 1)) for b in range(16))
+
+
+def _error_low_fraction(name: str, seed: int, keys: str, width: int = 32, spp: int = 16) -> float:
+    """Low-frequency share of the power of a width^2 error image whose pixels all estimate one disk
+    integral from the light-position slot, each with its own spp points, at pixel key Morton(x, y)
+    (what the renderer passes for zsobol), the scanline index, or a shuffle of the scanline keys."""
+    from drtlab.estimators import dimensions as D
+    from drtlab.experiments.error_spectrum import image_spectrum
+    lp = D.BOUNCE_BASE + D.LIGHT_POSITION
+    shuffled = np.random.default_rng(seed).permutation(width * width)
+    err = np.empty((width, width))
+    for y in range(width):
+        for x in range(width):
+            key = {"morton": _morton(x, y), "scanline": y * width + x,
+                   "shuffled": int(shuffled[y * width + x])}[keys]
+            u = points(name, spp, lp + 2, seed=seed, pixel=key)[:, lp:lp + 2]
+            err[y, x] = np.mean((u[:, 0] - 0.5) ** 2 + (u[:, 1] - 0.45) ** 2 < 0.1) - math.pi * 0.1
+    return image_spectrum(err)["low_fraction"]
+
+
+def test_zsobol_error_is_blue_noise_along_the_morton_curve():
+    """Neighbouring pixels along the Morton curve own consecutive blocks of one (0,2)-sequence, so
+    their errors on a shared integrand cancel: the error image's low-frequency power (below 1/4 of
+    Nyquist; white noise: ~0.05 of the total) is far below sobol's, whose pixels are scrambled
+    independently. One-sided Welch t-tests over 12 seeds, level 0.001 with a Sidak correction over
+    the two. Negative control: zsobol's own points with the pixel keys shuffled (no neighbour shares
+    a block) lose the effect and are not rejected. Measured (32^2 pixels, 16 spp): zsobol 0.0151,
+    sobol 0.0405 (p = 4e-7), shuffled keys 0.0446 (p = 0.83)."""
+    seeds = range(12)
+    z = [_error_low_fraction("zsobol", s, "morton") for s in seeds]
+    sob = [_error_low_fraction("sobol", s, "scanline") for s in seeds]
+    shuffled = [_error_low_fraction("zsobol", s, "shuffled") for s in seeds]
+    level = 1 - (1 - 1e-3) ** 0.5
+    assert stats.ttest_ind(z, sob, equal_var=False, alternative="less").pvalue < level
+    assert np.mean(z) < 0.6 * np.mean(sob)
+    assert stats.ttest_ind(shuffled, sob, equal_var=False, alternative="less").pvalue > level
