@@ -17,7 +17,8 @@ The matrix:
   scales 10^-3 ... 10^4 (furnace and lit plane: self-intersection offsets must scale); rays through
   edges and corners (furnace looking into a corner, one face split in two quads; the glass cube's
   corner); a camera inside a sphere; a moving object with zero velocity (motion compiled in); a thin
-  lens focused at the object and at infinity.
+  lens focused at the object and at infinity; the grazing cases again with the plane a triangle
+  mesh (a graded 24 x 24 grid cut along random diagonals: many shared edges at grazing angles).
 
 Samplers: `importance` and `stratified` (uniform strategy) where the uniform strategy has a testable
 variance. It is left out for Phong exponents 10^3 and 10^6 (uniform hemisphere directions hit a lobe
@@ -28,8 +29,11 @@ Tiers: fast RUNS x SPP = 8 x 64, full 16 x 256 (same cases).
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -37,6 +41,7 @@ import pytest
 from drtlab.experiments.chi2 import sidak
 
 import scene_util as su
+from mesh_util import graded_plane, mesh, unit, write_mesh
 from stats_util import ALPHA, compare, render_estimate, tier
 
 BLOCK = 4
@@ -83,6 +88,20 @@ def _light_size(kind: str, size: float):
                                quad_normal=(0.0, -1.0, 0.0), name=f"quad-light-a{size:g}", **cam)
 
 
+_MESH_DIR = tempfile.TemporaryDirectory(prefix="drtlab-hard-mesh-")     # removed at exit
+
+
+def _meshed(cf: su.ClosedForm) -> su.ClosedForm:
+    """The same closed form with its plane (the scene's first shape) as a triangle mesh."""
+    plane = cf.scene["shapes"][0]
+    vertices, faces = graded_plane(plane)
+    normal = unit(np.cross(plane["edge_u"], plane["edge_v"]))
+    path = write_mesh(Path(_MESH_DIR.name) / f"{cf.name}.obj", vertices, faces,
+                      np.tile(normal, (len(vertices), 1)))
+    shapes = [mesh(plane["material"], file=path, name="plane")] + list(cf.scene["shapes"][1:])
+    return dataclasses.replace(cf, name=cf.name + "-mesh", scene=dict(cf.scene, shapes=shapes))
+
+
 LENS_KW = dict(light_pos=(-0.7, 0.15, 0.0), size=0.05, le=400.0, bg=0.05, fov=12.0, checker=True)
 # Distance from the camera (0, 2.2, 3) to the look-at point (0.1, 0, 0) on the plane.
 OBJECT_DISTANCE = math.dist((0.0, 2.2, 3.0), (0.1, 0.0, 0.0))
@@ -121,6 +140,8 @@ CASES = {
     "thin-lens-focus-object": (lambda: su.light_over_plane("sphere", lens=(0.3, OBJECT_DISTANCE),
                                                            name="lens-focus-object", **LENS_KW),
                                BOTH),
+    "mesh-grazing-camera": (lambda: _meshed(_grazing_camera()), BOTH),
+    "mesh-grazing-quad-light": (lambda: _meshed(_grazing_quad_light()), BOTH),
     "thin-lens-focus-infinity": (lambda: su.light_over_plane("sphere", lens=(0.1, 1.0e7),
                                                              name="lens-focus-infinity", **LENS_KW),
                                  BOTH),
