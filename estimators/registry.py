@@ -16,6 +16,11 @@ _POINTSET_MODULES = (independent, stratified, lhs, cmj, halton, sobol, zsobol, p
 POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
 
 
+# Cook's tables (presampled*) replace only the bounce-direction dimensions; every other dimension is
+# `stratified` itself, so studies of the pixel dimensions alone (the integrand testbed) skip them.
+DIRECTION_ONLY_POINTSETS = ("presampled", "presampled_random")
+
+
 def biased_pointsets() -> list[str]:
     """Names of the point sets biased by design (PointSet.biased), in registry order."""
     return [name for name, ps in POINTSETS.items() if ps.biased]

@@ -3,8 +3,8 @@ integrals (experiments/integrands.py), against the rates theory predicts.
 
     python -m drtlab.experiments.integrand_study [--profile quick|full] [--out DIR]
 
-For every point set (estimators/registry.py POINTSETS, or the list in integrands.toml), sample count
-N (powers of 4) and repetition r, the points are `points(name, N, 2, seed=s)` - the pixel slot's
+For every point set (estimators/registry.py POINTSETS but DIRECTION_ONLY_POINTSETS, or the list in
+integrands.toml), sample count N (powers of 4) and repetition r, the points are `points(name, N, 2, seed=s)` - the pixel slot's
 dimensions 0 and 1, exactly the values a render reads - with s = blake2b(root, point set, N, r).
 Every integrand is evaluated on the same points (vectorised over the repetitions); the estimate is
 the mean of f over the N points and its error the difference to the exact integral. A randomised
@@ -118,7 +118,7 @@ def _expected(table, pointsets) -> dict:
 
 def load_study(profile: str = DEFAULT_PROFILE, path: Path = STUDY_FILE) -> Study:
     """Parse and validate the study file for `profile`; raises InputError, writes nothing."""
-    from drtlab.estimators.registry import POINTSETS
+    from drtlab.estimators.registry import DIRECTION_ONLY_POINTSETS, POINTSETS
     text = Path(path).read_text()
     try:
         data = tomllib.loads(text)
@@ -134,7 +134,8 @@ def load_study(profile: str = DEFAULT_PROFILE, path: Path = STUDY_FILE) -> Study
                                       f"got {fields.show(profile)}")
     pr = fields.Table(profiles[profile], f"profile.{profile}", "run sizes")
     pr.check_keys(["n", "repetitions"])
-    pointsets = _names(st.get("pointsets", "all", ""), st.field("pointsets"), list(POINTSETS))
+    pointsets = _names(st.get("pointsets", "all", ""), st.field("pointsets"),
+                       [p for p in POINTSETS if p not in DIRECTION_ONLY_POINTSETS])
     return Study(
         description=fields.nonempty_string(st.get("description", fields.REQUIRED, "one line"),
                                            st.field("description")),
