@@ -357,6 +357,18 @@ def _diagnostics_section(summary: Summary) -> list[str]:
     return lines
 
 
+def _where_section(records: dict) -> list[str]:
+    """How many runs each process rendered (`worker` in runs.csv: local, or a Dask worker)."""
+    counts: dict[str, int] = {}
+    for rec in records.values():
+        w = rec.get("worker") or "local"
+        counts[w] = counts.get(w, 0) + 1
+    if not counts:
+        return []
+    return ["## Where the runs rendered\n",
+            "; ".join(f"`{w}`: {n} runs" for w, n in sorted(counts.items())) + ".\n"]
+
+
 def _reproduce_section(exp) -> list[str]:
     return ["## Reproduce\n",
             f"`drtlab experiment {exp.name} --profile {exp.profile}` reruns only what is missing; "
@@ -379,5 +391,6 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
         lines += _cell_table(study)
     lines += _noise_floor_section(summary)
     lines += _diagnostics_section(summary)
+    lines += _where_section(records)
     lines += _reproduce_section(exp)
     atomic_write_text(out_dir / "report.md", "\n".join(lines) + "\n")

@@ -256,6 +256,7 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
     assert all(float(r["render_seconds"]) > 0 for r in rows)
     for name in ("summary.json", "report.md", "manifest.json", "images/soft-shadows.png"):
         assert (out / name).is_file(), name
+    assert "## Where the runs rendered\n\n`local`: 8 runs." in (out / "report.md").read_text()
     gt_dirs = list(gt.iterdir())
     assert len(gt_dirs) == 1
     man = json.loads((gt_dirs[0] / "manifest.json").read_text())
