@@ -290,9 +290,9 @@ class LightAdapter:
 
     _kernels: dict = {}
     # What the kernel writes per sample: LightSamples' fields in order, then `_EXTRA` fields.
-    _OUTPUTS = (wp.vec3, float, float, int, int, float, wp.vec3, float)
+    _OUTPUTS = (wp.vec3, float, float, int, int, float, wp.vec3, float, int)
     _SAMPLES = LightSamples
-    _EXTRA: tuple = ()
+    _EXTRA: tuple = ()          # names of the kept outputs past LightSamples' (the face: unused)
 
     def __init__(self, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False):
         key = (bool(solid_angle), bool(power_pick), bool(wrong_jacobian))
@@ -315,6 +315,7 @@ class LightAdapter:
 
     def sample(self, sd, x, n: int, seed: int = 0) -> LightSamples:
         wi, dist, pdf, valid, li, pdf_eval, rad, pmf, *extra = self._launch(0, sd, x, n, seed)
+        extra = extra[:len(self._EXTRA)]
         return self._SAMPLES(wi=wi, dist=dist, pdf=pdf.astype(np.float64), valid=valid == 1,
                              light=li, pdf_eval=pdf_eval.astype(np.float64), radiance=rad,
                              pmf=pmf.astype(np.float64), **dict(zip(self._EXTRA, extra)))
@@ -331,14 +332,58 @@ class LightAdapter:
         return pdf
 
 
-def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool):
-    wp = _wp()
-    from drtlab.kernels.geometry import hit_quad, hit_sphere
-    from drtlab.kernels.lights import make_lights
+@wp.func
+def face_normal(sd: SceneData, face: int) -> wp.vec3:
+    idx = sd.tri_index[face]
+    a = sd.mesh_points[idx[0]]
+    return wp.normalize(wp.cross(sd.mesh_points[idx[1]] - a, sd.mesh_points[idx[2]] - a))
 
-    L = make_lights(False, solid_angle, power_pick, wrong_jacobian)
+
+def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
+                       meshes: bool = False, mesh_fault: bool = False):
+    """The light-sampling kernel of LightAdapter (spheres and quads) and, with `meshes`, of
+    chi2.mesh_adapter.MeshLightAdapter (mesh lights too; `mesh_fault` compiles its negative control).
+    The mesh branches are compiled out without `meshes`."""
+    wp = _wp()
+    from drtlab.kernels.device_scene import MESH, QUAD
+    from drtlab.kernels.geometry import hit_quad, hit_sphere
+    from drtlab.kernels.intersect import make_motion
+    from drtlab.kernels.lights import make_lights
+    from drtlab.kernels.mesh_rays import make_mesh_rays, ray_shear
+
+    L = make_lights(False, solid_angle, power_pick, wrong_jacobian, meshes=meshes,
+                    mesh_fault=mesh_fault)
+    nearest_in_mesh = make_mesh_rays(make_motion(False).mesh_shift).nearest_in_mesh
     pick_light, light_pdf, sample_light, pick_pmf = (L.pick_light, L.light_pdf, L.sample_light,
                                                      L.light_pick_pmf)
+
+    @wp.func
+    def direction_pdf(sd: SceneData, x: wp.vec3, w: wp.vec3) -> float:
+        """The claimed density of direction w: every light met facing x, at its nearest point."""
+        total = float(0.0)
+        for li in range(sd.n_lights):
+            k = sd.light_shape_kind[li]
+            s = sd.light_shape[li]
+            t = float(1.0e30)
+            ny = wp.vec3(0.0)
+            if k == SPHERE:
+                c = sd.sph_center[s]
+                t = hit_sphere(x, w, c, sd.sph_radius[s], 1.0e30)
+                if t < 1.0e30:
+                    ny = wp.normalize(x + w * t - c)
+            elif k == QUAD:
+                t = hit_quad(x, w, sd.quad_origin[s], sd.quad_u[s], sd.quad_v[s], 1.0e30)
+                ny = sd.quad_normal[s]
+            elif wp.static(meshes):
+                if k == MESH:
+                    mh = nearest_in_mesh(sd, s, x, ray_shear(w), w, 1.0e30, 0.0)
+                    if mh.mesh >= 0:
+                        t = mh.t
+                        ny = mh.n
+            if t < 1.0e30:
+                if wp.dot(ny, w) < 0.0:
+                    total += light_pdf(sd, li, x, x + w * t, ny, 0.0)
+        return total
 
     @wp.kernel(enable_backward=False, module="unique")
     def light_kernel(mode: int, sd: SceneData, x: wp.vec3, seed: wp.uint32,
@@ -346,14 +391,12 @@ def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool
                      out_dist: wp.array(dtype=float), out_pdf: wp.array(dtype=float),
                      out_valid: wp.array(dtype=int), out_light: wp.array(dtype=int),
                      out_pdf_eval: wp.array(dtype=float), out_rad: wp.array(dtype=wp.vec3),
-                     out_pmf: wp.array(dtype=float)):
+                     out_pmf: wp.array(dtype=float), out_face: wp.array(dtype=int)):
         tid = wp.tid()
         if mode == 0:
             i = wp.uint32(tid)
-            u0 = uniform(seed, i, 0)
-            u = wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2))
-            li = pick_light(sd, u0)
-            ls = sample_light(sd, li, x, u, 0.0)
+            li = pick_light(sd, uniform(seed, i, 0))
+            ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0.0)
             out_light[tid] = li
             out_pmf[tid] = pick_pmf(sd, li)
             out_valid[tid] = ls.valid
@@ -362,34 +405,21 @@ def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool
                 out_dist[tid] = ls.dist
                 out_pdf[tid] = ls.pdf
                 out_rad[tid] = ls.radiance
-                # The pdf of the same point evaluated on its own, as MIS does from a BSDF hit.
                 y = x + ls.wi * ls.dist
                 s = sd.light_shape[li]
+                k = sd.light_shape_kind[li]
                 ny = wp.vec3(0.0)
-                if sd.light_shape_kind[li] == SPHERE:
+                if k == SPHERE:
                     ny = wp.normalize(y - sd.sph_center[s])
-                else:
+                elif k == QUAD:
                     ny = sd.quad_normal[s]
+                elif wp.static(meshes):
+                    ny = face_normal(sd, ls.prim)
+                    out_face[tid] = ls.prim
+                # The pdf of the same point evaluated on its own, as MIS does from a BSDF hit.
                 out_pdf_eval[tid] = light_pdf(sd, li, x, y, ny, 0.0)
         else:
-            w = wp.normalize(pts[tid])
-            total = float(0.0)
-            for li in range(sd.n_lights):
-                s = sd.light_shape[li]
-                t = float(1.0e30)
-                ny = wp.vec3(0.0)
-                if sd.light_shape_kind[li] == SPHERE:
-                    c = sd.sph_center[s]
-                    t = hit_sphere(x, w, c, sd.sph_radius[s], 1.0e30)
-                    if t < 1.0e30:
-                        ny = wp.normalize(x + w * t - c)
-                else:
-                    t = hit_quad(x, w, sd.quad_origin[s], sd.quad_u[s], sd.quad_v[s], 1.0e30)
-                    ny = sd.quad_normal[s]
-                if t < 1.0e30:
-                    if wp.dot(ny, w) < 0.0:
-                        total += light_pdf(sd, li, x, x + w * t, ny, 0.0)
-            out_pdf_eval[tid] = total
+            out_pdf_eval[tid] = direction_pdf(sd, x, wp.normalize(pts[tid]))
 
     return light_kernel
 
