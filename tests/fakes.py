@@ -76,3 +76,13 @@ class FakeRenderer:
 def fake_backend(**kw) -> tuple[Backend, FakeRenderer]:
     r = FakeRenderer(**kw)
     return r.backend(), r
+
+
+def tiny_real_experiment(description: str, scenes: list[str]) -> str:
+    """A TOML experiment small enough for the real renderer in a test: 16x12 pixels, spp 1 and 4,
+    2 repetitions, 256-spp references in 64-spp batches, `uniform` against `stratified`."""
+    return (f'[experiment]\ndescription = "{description}"\nseed = 5\nspp = [1, 4]\n'
+            f'repetitions = 2\nresolution = [16, 12]\ngt_spp = 256\ngt_batch_spp = 64\n\n'
+            f'[[study]]\nname = "real"\nscenes = {scenes!r}\n'
+            f'samplers = ["uniform", "stratified"]\n').replace("'", '"')
+

@@ -6,7 +6,6 @@ one costs seconds."""
 import contextlib
 import csv
 import os
-import textwrap
 
 import numpy as np
 import pytest
@@ -19,23 +18,10 @@ from drtlab.experiments import distributed as dist              # noqa: E402
 from drtlab.experiments.backend import default_backend          # noqa: E402
 from drtlab.experiments.config import load_experiment           # noqa: E402
 from drtlab.experiments.runner import run_experiment            # noqa: E402
+from fakes import tiny_real_experiment                          # noqa: E402
 
 # Two groups (two ground truths), 16 runs, 8 ground-truth batches: tiny but every path.
-TINY = textwrap.dedent("""
-    [experiment]
-    description = "distributed sweep, tiny"
-    seed = 5
-    spp = [1, 4]
-    repetitions = 2
-    resolution = [16, 12]
-    gt_spp = 256
-    gt_batch_spp = 64
-
-    [[study]]
-    name = "real"
-    scenes = ["soft-shadows", "aa-edges"]
-    samplers = ["uniform", "stratified"]
-""")
+TINY = tiny_real_experiment("distributed sweep, tiny", ["soft-shadows", "aa-edges"])
 N_RUNS = 16
 TIMING = {"render_seconds", "compile_seconds", "wall_seconds", "samples_per_second", "worker"}
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from drtlab.experiments.config import load_experiment
-from fakes import fake_backend
+from fakes import fake_backend, tiny_real_experiment
 from drtlab.experiments.run_store import CSV_COLUMNS
 from drtlab.experiments.runner import plan_runs, run_experiment
 
@@ -230,21 +230,7 @@ def _real_renderer_available():
 @pytest.mark.skipif(not _real_renderer_available(), reason="renderer not present")
 def test_real_renderer_tiny_scene_end_to_end(tmp_path):
     p = tmp_path / "real.toml"
-    p.write_text(textwrap.dedent("""
-        [experiment]
-        description = "real renderer, tiny"
-        seed = 5
-        spp = [1, 4]
-        repetitions = 2
-        resolution = [16, 12]
-        gt_spp = 256
-        gt_batch_spp = 64
-
-        [[study]]
-        name = "real"
-        scenes = ["soft-shadows"]
-        samplers = ["uniform", "stratified"]
-    """))
+    p.write_text(tiny_real_experiment("real renderer, tiny", ["soft-shadows"]))
     exp = load_experiment(str(p))
     out, gt = tmp_path / "out", tmp_path / "gt"
     from drtlab.experiments.backend import default_backend
