@@ -182,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         "primitives": None if args.no_scaling else _primitives(args),
         "peak_rss_mib_bench": _peak_rss_mib(),
         "peak_rss_mib_default_experiment": experiment_rss,
+        "mitsuba_comparison": _mitsuba_comparison(Path(args.out)),
     }
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -190,8 +191,32 @@ def main(argv: list[str] | None = None) -> int:
     os.replace(tmp, out)
     print(f"peak RSS (bench): {result['peak_rss_mib_bench']} MiB; default experiment: "
           f"{experiment_rss if experiment_rss is not None else 'not measured yet (make experiment-stratified)'}")
+    cmp = result["mitsuba_comparison"]
+    if cmp is None:
+        print("Mitsuba 3 comparison: not measured yet (make bench-compare)")
+    else:
+        print(f"Mitsuba 3 comparison ({cmp['file']}): drtlab / llvm_ad_rgb samples/s "
+              f"{cmp['samples_per_second_drtlab_over_mitsuba_llvm_best']}x, time to equal RMSE "
+              f"{cmp['time_to_equal_rmse_drtlab_over_mitsuba_llvm_best']}x")
     print(f"wrote {out}")
     return 0
+
+
+def _mitsuba_comparison(out: Path) -> dict | None:
+    """The headline ratios of `make bench-compare`'s compare.json beside --out, when it exists (the
+    comparison needs the [compare] extra and LLVM 19, so it is its own target)."""
+    path = out.with_name("compare.json")
+    try:
+        d = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    r = d.get("ratios") or {}
+    keys = ("samples_per_second_drtlab_over_mitsuba_llvm_best",
+            "samples_per_cpu_second_drtlab_over_mitsuba_llvm",
+            "time_to_equal_rmse_drtlab_over_mitsuba_llvm_best",
+            "rmse_at_equal_spp_drtlab_over_mitsuba_llvm")
+    return {"file": str(path), "resolution": d.get("settings", {}).get("resolution"),
+            "spp": d.get("settings", {}).get("spp"), **{k: r.get(k) for k in keys}}
 
 
 def _primitives(args) -> dict:
