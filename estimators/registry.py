@@ -16,9 +16,9 @@ _POINTSET_MODULES = (independent, stratified, lhs, cmj, halton, sobol, zsobol, p
 POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
 
 
-# Cook's tables (presampled*) replace only the bounce-direction dimensions; every other dimension is
-# `stratified` itself, so studies of the pixel dimensions alone (the integrand testbed) skip them.
-DIRECTION_ONLY_POINTSETS = ("presampled", "presampled_random")
+# Sets that differ from another only in the bounce directions (PointSet.same_as_outside_directions:
+# Cook's tables): studies of the pixel dimensions alone (the integrand testbed) skip them.
+DIRECTION_ONLY_POINTSETS = tuple(n for n, ps in POINTSETS.items() if ps.same_as_outside_directions)
 
 
 def biased_pointsets() -> list[str]:

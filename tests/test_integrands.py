@@ -212,10 +212,12 @@ def test_study_file_covers_every_point_set():
     from drtlab.estimators.registry import DIRECTION_ONLY_POINTSETS, POINTSETS
     others = tuple(p for p in POINTSETS if p not in DIRECTION_ONLY_POINTSETS)
     assert QUICK.pointsets == others and set(QUICK.expected) == set(others)
+    assert DIRECTION_ONLY_POINTSETS == ("presampled", "presampled_random")
     for name in DIRECTION_ONLY_POINTSETS:
+        same = POINTSETS[name].same_as_outside_directions
         for seed, pixel in ((0, 0), (7, 12345)):
             assert np.array_equal(points(name, 64, 2, seed=seed, pixel=pixel),
-                                  points("stratified", 64, 2, seed=seed, pixel=pixel))
+                                  points(same, 64, 2, seed=seed, pixel=pixel))
     assert study.load_study("full").n[-1] == 65536 and QUICK.n[-1] == 4096
 
 

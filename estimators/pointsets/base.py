@@ -34,3 +34,6 @@ class PointSet:
     # whose samples are laid out over pixels (zsobol: a Morton curve, so neighbouring pixels share
     # nets) chooses its own. The image accumulates at the scanline index whatever the key.
     pixel_key: wp.Function = linear_pixel_key
+    # The set whose values this one returns in every dimension but the bounce directions (Cook's
+    # tables: "stratified"); None for a set of its own. Studies of the pixel dimensions skip such sets.
+    same_as_outside_directions: str | None = None

@@ -114,8 +114,10 @@ def presampled_random_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, di
 
 POINTSET = PointSet("presampled", "Cook 1984 pre-sampled table: bounce directions from one fixed "
                     "4 x 4 jittered table of 16 points, the same for every pixel and seed (biased); "
-                    "other dimensions stratified", presampled_1d, presampled_2d, biased=True)
+                    "other dimensions stratified", presampled_1d, presampled_2d, biased=True,
+                    same_as_outside_directions="stratified")
 RANDOM_POINTSET = PointSet("presampled_random", "Cook 1984 table randomised: bounce directions from "
                            "a 4 x 4 jittered table of 16 points re-drawn per pixel, seed and block "
                            "of 16 samples (unbiased); other dimensions stratified",
-                           presampled_random_1d, presampled_random_2d)
+                           presampled_random_1d, presampled_random_2d,
+                           same_as_outside_directions="stratified")
