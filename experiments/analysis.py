@@ -348,6 +348,7 @@ def _study_result(study, plan, group_results: dict) -> StudyResult:
         integrator=study.integrator, samplers=list(study.samplers), baseline=study.baseline,
         metric=study.metric, metric_label=metric.label, mse_label=metric.mse_label,
         spp=list(settings.spp), repetitions=settings.repetitions,
+        runs_per_spp=settings.runs_per_spp, samples_per_cell=settings.samples_per_cell,
         resolution=list(settings.resolution) if settings.resolution else None,
         gt_spp=settings.gt_spp, seed=study.seed, strip_spp=list(settings.strip_spp),
         scenes=[_scene_result(study, scene_ref, group_results[group_of[scene_ref]])

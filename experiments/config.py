@@ -12,6 +12,7 @@ studies of other experiment files, each resolved with its own settings for the s
     include     = ["stratified", ...]        # other experiment files (names or paths)
     spp         = [1, 4, 16, 64, 256]        # the ladder, strictly increasing, >= 2 entries
     repetitions = 4                          # independent seeds per (scene, sampler, spp), >= 2
+    samples_per_cell = 320                   # optional: runs per cell >= this / spp (equal samples)
     resolution  = [48, 36]                   # [width, height]; omit for each scene's own
     gt_spp      = 16384                      # ground-truth samples per pixel
     gt_batch_spp = 512                       # ground truth is accumulated in batches of this size
@@ -44,8 +45,8 @@ from drtlab.errors import InputError
 EXPERIMENT_DIR = Path(__file__).resolve().parent
 DEFAULT_PROFILE = "quick"
 
-SETTINGS_KEYS = ("spp", "repetitions", "resolution", "gt_spp", "gt_batch_spp", "target_rmse",
-                 "strip_spp")
+SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
+                 "target_rmse", "strip_spp")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 STUDY_METRICS = ("mse", "relmse")
@@ -53,6 +54,7 @@ SCENE_KEYS = ("name", "overrides", "label")
 DEFAULTS: dict[str, Any] = {
     "spp": (1, 4, 16, 64, 256),
     "repetitions": 4,
+    "samples_per_cell": None,
     "resolution": None,
     "gt_spp": 16384,
     "gt_batch_spp": 512,
@@ -60,6 +62,7 @@ DEFAULTS: dict[str, Any] = {
     "strip_spp": None,
 }
 MIN_GT_BATCHES = 4
+MAX_RUNS_PER_CELL = 4096
 
 
 @dataclass(frozen=True)
@@ -89,6 +92,21 @@ class Settings:
     gt_batch_spp: int
     target_rmse: float | None
     strip_spp: tuple[int, ...]
+    samples_per_cell: int | None = None
+
+    def runs_at(self, spp: int) -> int:
+        """Repetitions of a cell at `spp`: `repetitions`, or with `samples_per_cell` at least
+        ceil(samples_per_cell / spp). Equal samples per cell matter under heavy tails: a rare, huge
+        sample then has the same chance to land in every cell, so the cells' means are biased alike
+        (by the samples none of them saw) and the slope is not; with equal runs the small-spp cells
+        see it least often and the fitted error falls too slowly (tests/test_slope_fit.py)."""
+        if self.samples_per_cell is None:
+            return self.repetitions
+        return max(self.repetitions, -(-self.samples_per_cell // spp))
+
+    @property
+    def runs_per_spp(self) -> list[int]:
+        return [self.runs_at(n) for n in self.spp]
 
 
 @dataclass(frozen=True)
@@ -176,6 +194,8 @@ def _setting(key, v, fld):
         return out
     if key == "repetitions":
         return _int(v, fld, 2)
+    if key == "samples_per_cell":
+        return _int(v, fld, 2)
     if key == "resolution":
         return fields.resolution(v, fld, name_elements=True)
     if key in ("gt_spp", "gt_batch_spp"):
@@ -215,9 +235,15 @@ def _settings(exp_table, profile_table, profile) -> Settings:
         for i, s in enumerate(strip):
             if s not in spp:
                 raise InputError(f"{where['strip_spp']}[{i}]", f"{s} is not on the spp ladder {list(spp)}")
+    per_cell = vals["samples_per_cell"]
+    if per_cell is not None and -(-per_cell // spp[0]) > MAX_RUNS_PER_CELL:
+        raise InputError(where["samples_per_cell"], f"would need {-(-per_cell // spp[0])} runs at "
+                         f"spp = {spp[0]}; at most {MAX_RUNS_PER_CELL} runs per cell, so at most "
+                         f"{MAX_RUNS_PER_CELL * spp[0]} here, got {per_cell}")
     return Settings(spp=spp, repetitions=vals["repetitions"], resolution=vals["resolution"],
                     gt_spp=vals["gt_spp"], gt_batch_spp=vals["gt_batch_spp"],
-                    target_rmse=vals["target_rmse"], strip_spp=tuple(strip))
+                    target_rmse=vals["target_rmse"], strip_spp=tuple(strip),
+                    samples_per_cell=per_cell)
 
 
 def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:

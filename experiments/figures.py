@@ -94,12 +94,14 @@ def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xl
 
 
 def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
-    """Error against spp, log-log, with the fitted line and its 95% credible band."""
+    """Error against spp, log-log, with the fitted line and its 95% credible band; a slope the runs
+    do not resolve gets no line (its points and their intervals say all the runs know)."""
     def draw(ax, scene: SceneResult, s: str, cells: list[Cell], style: dict) -> None:
         fit = scene.fit(s)
         label = s
         if fit is not None:
             label = f"{s}: {fit.slope_text()}"
+        if fit is not None and fit.resolved is not False:
             ax.plot(fit.line.n, fit.line.median, linestyle=style["linestyle"], color=style["color"], lw=1.2)
             ax.fill_between(fit.line.n, fit.line.lo, fit.line.hi, color=style["color"], alpha=0.15, lw=0)
         _errbar(ax, [c.spp for c in cells], [c.error(study.metric) for c in cells], style, label)
@@ -107,7 +109,7 @@ def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
     return _panels(study, path, draw, xscale={"base": 2}, xlabel="samples per pixel N",
                    ylabel=f"{study.metric_label} (GT noise removed)",
                    title=f"{study.name}: {study.metric_label} vs samples (points: mean ± 95% CI; "
-                         f"lines: fit ± 95% CrI)")
+                         f"lines: likelihood fit ± 95% CrI, where resolved)")
 
 
 def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):

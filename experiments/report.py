@@ -21,8 +21,9 @@ INTRO = (
     "fast the error falls: RMSE ∝ N^b, so b = −0.5 is plain Monte Carlo and a more negative b is "
     "faster; it is fitted to the RMSE itself (the root of the mean MSE over repetitions), and the "
     "*typical-error* slope (of the geometric mean of the runs' errors, what most single runs show) "
-    "stands beside it where heavy tails make the two differ. Brackets are 95% intervals (confidence intervals over repetitions for measured values, "
-    "credible intervals for fitted slopes). *Speed-up* compares the render time each sampler needs to "
+    "stands beside it where heavy tails make the two differ. Brackets are 95% intervals (confidence intervals over repetitions for measured values; "
+    "for fitted slopes the union of the likelihood fit's credible interval and the t-interval of a "
+    "regression of the cells' log mean errors, which assumes no law of a run's error). *Speed-up* compares the render time each sampler needs to "
     "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
     "efficiency means the same quality in half the time.\n\n"
     "**Render time is a calibrated cost, not a stopwatch reading of each cell.** A render of a few "
@@ -126,9 +127,11 @@ def _study_intro(study: StudyResult) -> list[str]:
     if study.description:
         lines.append(f"{study.description}\n")
     res = f"{study.resolution[0]}×{study.resolution[1]}" if study.resolution else "each scene's own"
+    per_cell = (f" (equal samples: at least {study.samples_per_cell} per pixel in every cell, so that "
+                f"rare bright samples are as likely in each)" if study.samples_per_cell else "")
     lines.append(
         f"Integrator `{study.integrator}`; samplers {', '.join(f'`{s}`' for s in study.samplers)} "
-        f"(baseline `{study.baseline}`); N ∈ {study.spp}; {study.repetitions} repetitions per cell; "
+        f"(baseline `{study.baseline}`); N ∈ {study.spp}; {study.repetitions_text}{per_cell}; "
         f"resolution {res}; reference {study.gt_spp} spp (`independent+importance`, same integrator); "
         f"root seed {study.seed}.\n")
     if study.metric != "mse":
@@ -171,7 +174,7 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
 
 def _study_table(study: StudyResult) -> list[str]:
     E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
-    lines = [f"| Scene | Sampler | Slope b [95% CrI] | Typical-error slope | {E} at N={top_n} [95% CI] | "
+    lines = [f"| Scene | Sampler | Slope b [95% interval] | Typical-error slope | {E} at N={top_n} [95% CI] | "
              f"{M} ÷ {base}'s at N={top_n} | Time to target (s) | Speed-up vs {base} [95% CI] | "
              f"Efficiency vs {base} [95% CI] |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -179,10 +182,11 @@ def _study_table(study: StudyResult) -> list[str]:
     lines.append("")
     if any(scene.slopes[s].resolved is False for scene in study.scenes for s in study.samplers
            if s in scene.slopes):
-        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, or one run "
-                     "carries nearly all of a cell's error, so these runs cannot tell N^-0.5 from N^-0.75 "
-                     "or N^-1 (rare, huge samples that most runs miss); more repetitions per cell "
-                     "resolve it.\n")
+        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, one run "
+                     "carries nearly all of a cell's error, or the likelihood fit and the regression of "
+                     "the cell means disagree, so these runs cannot tell N^-0.5 from N^-0.75 "
+                     "or N^-1 (rare, huge samples that most runs miss); more samples per cell "
+                     "(`samples_per_cell`, `repetitions`) resolve it.\n")
     if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):
         lines.append("‡ heavy-tailed errors: the scatter around the fitted line is over "
                      f"{ERRATIC_TXT}, far above pixel noise; the slope is poorly determined.\n")
@@ -201,9 +205,9 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
     vs = scene.comparison(s, top_n)
     txt = f"`{s}`"
     if fit and bfit:
-        rate = (f"N^{fit.slope:.2f} (95% CrI {fit.slope_lo:.2f} to {fit.slope_hi:.2f})"
+        rate = (f"N^{fit.slope:.2f} (95% interval {fit.slope_lo:.2f} to {fit.slope_hi:.2f})"
                 if fit.resolved is not False else
-                f"a rate these runs do not resolve (95% CrI N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
+                f"a rate these runs do not resolve (95% interval N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
         base_rate = f"N^{bfit.slope:.2f}" if bfit.resolved is not False else "an unresolved rate"
         txt += f" converges as {rate} against {base_rate} for `{base}`"
     if vs and math.isfinite(vs.mse_ratio.ratio):
@@ -229,7 +233,7 @@ def _repetitions_needed(study: StudyResult, scene: SceneResult, samplers: list[s
     if not counts:
         return ""
     return (f"; a ±10% {study.mse_label} per cell would need at least {min(counts)}–{max(counts)} "
-            f"repetitions (now {study.repetitions})")
+            f"repetitions (now: {study.repetitions_text})")
 
 
 def _findings(study: StudyResult) -> list[str]:

@@ -176,6 +176,12 @@ class SlopeFit:
     slope_lo: float | None = None
     slope_hi: float | None = None
     resolved: bool | None = None        # interval narrow enough to tell the rates apart
+    model_slope_lo: float | None = None # the Gamma likelihood's own interval (slope_lo/hi: the union
+    model_slope_hi: float | None = None # of it and the cell means' t-interval)
+    cell_means_slope: float | None = None   # least squares of log cell-mean RMSE on log N
+    cell_means_lo: float | None = None
+    cell_means_hi: float | None = None
+    estimates_agree: bool | None = None # the two intervals overlap
     intercept: float | None = None
     intercept_lo: float | None = None
     intercept_hi: float | None = None
@@ -187,7 +193,7 @@ class SlopeFit:
     floor: float | None = None
     censored: int | None = None
     at_floor: list | None = None
-    saturated_cells: list | None = None # sample counts where one run carries the cell's error        # sample counts left out of the fit (at the noise floor)
+    saturated_cells: list | None = None # sample counts where one run carries the cell's error
     cells: list | None = None
     acceptance_fraction: float | None = None
     autocorr_time: list | None = None
@@ -334,6 +340,16 @@ class StudyResult:
     seed: int
     strip_spp: list[int]
     scenes: list[SceneResult]
+    runs_per_spp: list[int] = field(default_factory=list)   # repetitions of each cell, along `spp`
+    samples_per_cell: int | None = None                      # the setting behind runs_per_spp
+
+    @property
+    def repetitions_text(self) -> str:
+        """'5 repetitions per cell', or with equal samples per cell the runs along the ladder."""
+        runs = self.runs_per_spp or [self.repetitions] * len(self.spp)
+        if len(set(runs)) == 1:
+            return f"{runs[0]} repetitions per cell"
+        return f"{'/'.join(map(str, runs))} repetitions at N = {'/'.join(map(str, self.spp))}"
 
     def to_json(self) -> dict:
         return _fields_json(self, scenes=lambda scenes: [scene.to_json(self.metric) for scene in scenes])

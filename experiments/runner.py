@@ -34,6 +34,7 @@ from drtlab.experiments.seeds import run_seed, short_hash
 
 OUTPUT_NAMES = ("runs", "runs.csv", "summary.json", "report.md", "plots", "images", "manifest.json",
                 "calibration.json")
+CSV_EVERY = 2.0             # seconds between rewrites of runs.csv during a sweep
 CAL_SECONDS = 0.15          # target length of one calibration render
 CAL_REPEATS = 8             # calibration renders per (scene, sampler) at that length
 CAL_LOW_REPEATS = 6         # and at the ladder's smallest spp (overhead)
@@ -78,7 +79,7 @@ def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
             res = res_cache[(scene_ref, settings.resolution)]
             for sampler in study.samplers:
                 for spp in settings.spp:
-                    for rep in range(settings.repetitions):
+                    for rep in range(settings.runs_at(spp)):
                         seed = run_seed(study.seed, scene_ref.key, sampler, study.integrator, res, spp, rep)
                         r = RunSpec(scene_ref, sampler, study.integrator, res, spp, rep, seed, (study.name,))
                         old = plan.get(r.run_id)
@@ -258,6 +259,7 @@ class _Sweep:
         total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
         self.bar = _Progress(total, len(candidates), progress)
         self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0, "runs_refreshed": 0}
+        self._csv_written = time.monotonic()
         try:
             groups: dict = {}
             for r in self.plan:
@@ -265,7 +267,18 @@ class _Sweep:
             for g, runs in groups.items():
                 self._group(g, runs, *gt_req[g])
         finally:
+            if self.stats["runs_new"] or self.stats["runs_refreshed"]:
+                self._write_csv()
             self.bar.close()
+
+    def _write_csv(self, every: float = 0.0) -> None:
+        """runs.csv from the records, if `every` seconds have passed since the last write. Per run
+        it would be quadratic in the runs (60% of a 10,000-run sweep); the records are the commit
+        points, and the table catches up at the end of each scene and of the sweep."""
+        now = time.monotonic()
+        if now - self._csv_written >= every:
+            write_runs_csv(self.out_dir / "runs.csv", self.plan, self.records)
+            self._csv_written = now
 
     def _group(self, g, runs: list[RunSpec], gt_spp: int, gt_batch: int) -> None:
         scene_ref, integrator, res = g
@@ -301,6 +314,7 @@ class _Sweep:
         if self.executor is None:
             for r, fp in todo:
                 self._render(r, scene, gt, gt_lab, fp)
+            self._write_csv()
             return
         fps = {r.run_id: fp for r, fp in todo}
         workers = self.stats.setdefault("workers", {})
@@ -308,6 +322,7 @@ class _Sweep:
                                                                  [r for r, _ in todo], self.threads):
             self._commit(r, result, wall, gt, gt_lab, fps[r.run_id], worker)
             workers[worker] = workers.get(worker, 0) + 1
+        self._write_csv()
 
     def _render(self, r: RunSpec, scene, gt, gt_lab, fingerprint: str) -> None:
         t0 = self.clock()
@@ -317,14 +332,14 @@ class _Sweep:
 
     def _commit(self, r: RunSpec, result, wall: float, gt, gt_lab, fingerprint: str,
                 worker: str) -> None:
-        """A rendered run: its metrics, its files (the record last: the commit point), runs.csv."""
+        """A rendered run: its metrics and its files (the record last: the commit point)."""
         img = np.asarray(result.image, dtype=np.float64)
         metrics = image_metrics(img, gt.mean, gt.stderr, gt_lab)
         rec = _run_record(r, fingerprint, img, result, wall, gt, metrics, self.backend.code_version,
                           worker)
         save_run(self.out_dir / "runs", r.run_id, img, rec)          # the record is the commit point
         self.records[r.run_id] = rec
-        write_runs_csv(self.out_dir / "runs.csv", self.plan, self.records)
+        self._write_csv(every=CSV_EVERY)
         self.stats["runs_new"] += 1
         self.bar.update(r.spp * r.resolution[0] * r.resolution[1],
                         f"{r.scene.label} {r.sampler} {r.spp}spp", run_done=True)

@@ -68,6 +68,19 @@ def test_shipped_set_and_stratified_contents():
     assert "stratification" in names and "mis" in names and "uniform" in names
 
 
+def test_samples_per_cell_sets_runs_along_the_ladder(tmp_path):
+    """Equal samples per cell: ceil(samples_per_cell / N) runs, never fewer than `repetitions`; the
+    shipped convergence studies use it (320 per cell in the quick profile)."""
+    p = write(tmp_path, GOOD.replace("repetitions = 2", "repetitions = 2\nsamples_per_cell = 10"))
+    st = load_experiment(str(p), "quick", scene_loader=FAKE.load_scene).studies[0].settings
+    assert st.spp == (1, 4, 16) and st.runs_per_spp == [10, 3, 2]
+    assert load_experiment(str(write(tmp_path, GOOD)), scene_loader=FAKE.load_scene
+                           ).studies[0].settings.runs_per_spp == [2, 2, 2]
+    for name in ("stratified", "uniform", "importance"):
+        for st in load_experiment(name, check_scenes=False).studies:
+            assert st.settings.runs_per_spp == [320, 80, 20, 5], (name, st.name)
+
+
 def test_profiles_override_experiment_settings(tmp_path):
     p = write(tmp_path, GOOD)
     quick = load_experiment(str(p), "quick", scene_loader=FAKE.load_scene)
@@ -79,6 +92,9 @@ def test_profiles_override_experiment_settings(tmp_path):
 
 @pytest.mark.parametrize("edit, field", [
     (("repetitions = 2", "repetitions = 1"), "experiment.repetitions"),
+    (("repetitions = 2", "repetitions = 2\nsamples_per_cell = 1"), "experiment.samples_per_cell"),
+    (("repetitions = 2", "repetitions = 2\nsamples_per_cell = 4.5"), "experiment.samples_per_cell"),
+    (("repetitions = 2", "repetitions = 2\nsamples_per_cell = 5000"), "experiment.samples_per_cell"),
     (("spp = [1, 4, 16]", "spp = [4, 1]"), "experiment.spp[1]"),
     (("spp = [1, 4, 16]", "spp = [1]"), "experiment.spp"),
     (("spp = [1, 4, 16, 64]", "spp = [1, 'x']"), "profile.full.spp[1]"),

@@ -190,9 +190,13 @@ def test_kill_9_mid_sweep_then_resume(tmp_path):
     for f in (out / "runs").glob("*.json"):
         json.loads(f.read_text())
     done = len(list((out / "runs").glob("*.json")))
-    rows = list(csv.DictReader(open(out / "runs.csv")))
-    # runs.csv lags the run records by at most the run being committed when the kill came.
-    assert len({r["run_id"] for r in rows}) == len(rows) and done - 1 <= len(rows) <= done < 48
+    assert 12 <= done < 48
+    # runs.csv (rewritten every CSV_EVERY seconds and at each scene's end) lags the run records
+    # but lists only committed runs, once each.
+    if (out / "runs.csv").exists():
+        rows = list(csv.DictReader(open(out / "runs.csv")))
+        ids = {f.stem for f in (out / "runs").glob("*.json")}
+        assert len({r["run_id"] for r in rows}) == len(rows) and {r["run_id"] for r in rows} <= ids
     _, fake = run(exp, out, gt)
     assert fake.calls == 48 - done
     assert (out / "runs.csv").read_bytes() == (ref / "runs.csv").read_bytes()

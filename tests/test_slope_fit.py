@@ -48,15 +48,18 @@ def synth(beta, rng, reps=3, npix=64, sigma=0.3):
     return np.array(n, dtype=float), np.array(r)
 
 
-def heavy(beta, rng, ladder=QUICK_LADDER, reps=5, npix=64, q=0.005, bright=0.9, var=0.09):
+def heavy(beta, rng, ladder=QUICK_LADDER, reps=5, npix=64, q=0.005, bright=0.9, var=0.09,
+          samples_per_cell=None):
     """(spp, per-run MSE): per sample Gaussian (variance (1 - bright) var) + H * Bernoulli(q) with
-    H^2 q (1 - q) = bright * var, so E[MSE at N] = var / N exactly; rescaled by N^(1 - 2 beta)."""
+    H^2 q (1 - q) = bright * var, so E[MSE at N] = var / N exactly; rescaled by N^(1 - 2 beta).
+    `samples_per_cell`: runs per cell as the experiments' setting of that name gives them."""
     h = math.sqrt(bright * var / (q * (1 - q)))
     n, m = [], []
     for N in ladder:
-        hits = rng.binomial(N, q, size=(reps, npix))
-        e = rng.standard_normal((reps, npix)) * math.sqrt((1 - bright) * var / N) + h * (hits / N - q)
-        n += [N] * reps
+        runs = reps if samples_per_cell is None else max(reps, -(-samples_per_cell // N))
+        hits = rng.binomial(N, q, size=(runs, npix))
+        e = rng.standard_normal((runs, npix)) * math.sqrt((1 - bright) * var / N) + h * (hits / N - q)
+        n += [N] * runs
         m += list(np.mean(e * e, axis=1) * N ** (1 - 2 * beta))
     return np.array(n, dtype=float), np.array(m)
 
@@ -171,11 +174,15 @@ def test_rmse_slope_coverage_gaussian():
     covered, fits = _coverage(data, fit_rmse_slope, SHORT)
     assert calibrated(covered, trials), covered / trials
     assert np.mean([f["lack_of_fit_p"] < 0.01 for f in fits]) <= 0.05     # few false alarms
-    # Not covering by being wide: about as wide as the exact t-interval, which on Gaussian errors
-    # is calibrated for the same slope (the geometric mean and the RMSE then scale alike).
-    ratio = [(f["slope_hi"] - f["slope_lo"]) / np.subtract(*t_interval(n, np.sqrt(m))[::-1])
-             for (_, n, m), f in zip(data, fits)]
-    assert 0.8 < np.mean(ratio) < 1.25, np.mean(ratio)
+    # Not covering by being wide: the likelihood's interval is about as wide as the exact t-interval,
+    # which on Gaussian errors is calibrated for the same slope (the geometric mean and the RMSE then
+    # scale alike); the reported union with the cell means' interval costs about 40% more (measured
+    # 1.40x), the price of holding where the likelihood's law of a run does not.
+    exact = [np.subtract(*t_interval(n, np.sqrt(m))[::-1]) for _, n, m in data]
+    model = [(f["model_slope_hi"] - f["model_slope_lo"]) / w for f, w in zip(fits, exact)]
+    union = [(f["slope_hi"] - f["slope_lo"]) / w for f, w in zip(fits, exact)]
+    assert 0.8 < np.mean(model) < 1.25, np.mean(model)
+    assert np.mean(model) < np.mean(union) < 1.6, np.mean(union)
 
 
 def test_rmse_slope_coverage_heavy_tailed_and_typical_fit_fails():
@@ -195,6 +202,35 @@ def test_rmse_slope_coverage_heavy_tailed_and_typical_fit_fails():
     assert not calibrated(covered_t, len(typical)), covered_t / len(typical)
     assert covered_t / len(typical) < 0.75
     assert np.median([f["slope"] + b for (b, _, _), f in zip(typical, fits_t)]) > 0.1
+
+
+@pytest.mark.parametrize("q", [1e-3, 3e-4])
+def test_rare_samples_need_equal_samples_per_cell(q):
+    """Rarer bright samples (q = 0.001: about 0.3 per cell of 5 runs x 64 pixels at N = 1, 20 at
+    N = 64; q = 3e-4: 0.1 ... 6). With 5 runs in every cell the small-N cells usually see none and
+    fall short of E[MSE] by more than the large-N cells: the Gamma likelihood's slope is too shallow
+    and its own interval misses (negative control; measured 42/60 and 27/60 covering, median error
+    +0.08 / +0.22). The reported interval, the union with the cell means' t-interval, still covers
+    (59/60, 58/60) by being wide (median 1.1 / 1.5): not resolved, as it should be. With the
+    experiments' `samples_per_cell = 320` (320/80/20/5 runs) every cell has the same chance to see
+    the rare samples, the shortfall is alike in every cell and cancels from the slope: unbiased
+    (median error +0.005 / +0.007), covering (59/60, 59/60) and mostly resolved (58/60, 35/60)."""
+    trials = 200 if FULL else 60
+    fixed, equal = [], []
+    for i in range(trials):
+        beta = 0.5 if i % 2 else 0.75
+        fixed.append((beta,) + heavy(beta, np.random.default_rng([88, i]), q=q))
+        equal.append((beta,) + heavy(beta, np.random.default_rng([88, i]), q=q, samples_per_cell=320))
+    assert [int(np.sum(equal[0][1] == v)) for v in QUICK_LADDER] == [320, 80, 20, 5]
+    covered_f, fits_f = _coverage(fixed, fit_rmse_slope, SHORT)
+    covered_e, fits_e = _coverage(equal, fit_rmse_slope, SHORT)
+    model_f = sum(f["model_slope_lo"] <= -b <= f["model_slope_hi"] for (b, _, _), f in zip(fixed, fits_f))
+    err_f = np.median([f["slope"] + b for (b, _, _), f in zip(fixed, fits_f)])
+    err_e = np.median([f["slope"] + b for (b, _, _), f in zip(equal, fits_e)])
+    assert not calibrated(model_f, trials) and err_f > 0.04, (model_f, err_f)
+    assert calibrated(covered_f, trials) and np.mean([f["resolved"] for f in fits_f]) < 0.1
+    assert calibrated(covered_e, trials) and abs(err_e) < 0.03, (covered_e, err_e)
+    assert np.mean([f["resolved"] for f in fits_e]) > (0.8 if q > 5e-4 else 0.4)
 
 
 def test_rmse_slope_censors_values_below_the_floor():
