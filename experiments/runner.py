@@ -34,7 +34,7 @@ from drtlab.experiments.seeds import run_seed, short_hash
 
 OUTPUT_NAMES = ("runs", "runs.csv", "summary.json", "report.md", "plots", "images", "manifest.json",
                 "calibration.json")
-CSV_EVERY = 2.0             # seconds between rewrites of runs.csv during a sweep
+CSV_EVERY = 15.0            # seconds between rewrites of runs.csv during a sweep (and at each scene end)
 CAL_SECONDS = 0.15          # target length of one calibration render
 CAL_REPEATS = 8             # calibration renders per (scene, sampler) at that length
 CAL_LOW_REPEATS = 6         # and at the ladder's smallest spp (overhead)
