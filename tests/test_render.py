@@ -372,3 +372,19 @@ def test_cli_exr_has_metadata_and_the_render_pixels(scenes, tmp_path, capsys):
     inp.close()
     assert (spec.width, spec.height, spec.nchannels) == (16, 12, 3)
     assert preview.max() > 0
+
+
+def test_uploads_are_shared_by_content_and_follow_in_place_changes():
+    """`upload` packs a scene once per content (a study renders one scene thousands of times): an
+    equal scene loaded again shares the packed data; a scene changed in place is packed anew and
+    renders differently (the cache key is the content, not the object)."""
+    from drtlab.kernels.device_scene import upload
+    a, b = load_scene("glossy"), load_scene("glossy")
+    assert upload(a, "cpu") is upload(b, "cpu")
+    before = render(a, spp=2, sampler="uniform", seed=1, res=(16, 12), threads=1)
+    a.background = a.background + 0.25
+    assert upload(a, "cpu") is not upload(b, "cpu")
+    after = render(a, spp=2, sampler="uniform", seed=1, res=(16, 12), threads=1)
+    assert not np.array_equal(before, after)
+    np.testing.assert_array_equal(render(b, spp=2, sampler="uniform", seed=1, res=(16, 12), threads=1),
+                                  before)
