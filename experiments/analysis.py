@@ -59,7 +59,9 @@ def _interp_loglog(x0, y0, x1, y1, y):
     if ly1 == ly0:
         return x1
     t = (math.log(y) - ly0) / (ly1 - ly0)
-    return math.exp(math.log(x0) + t * (math.log(x1) - math.log(x0)))
+    lx = math.log(x0) + t * (math.log(x1) - math.log(x0))
+    # A nearly flat extrapolation (a bootstrap replicate of a heavy-tailed cell) can need 10^300 s.
+    return math.exp(lx) if lx < 700.0 else float("inf")
 
 
 def time_to_target(times, rmses, target: float) -> dict:

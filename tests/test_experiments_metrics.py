@@ -75,3 +75,7 @@ def test_time_to_target():
     assert time_to_target(t, e, 0.5)["how"] == "at_most"
     r = time_to_target(t, e, 0.05)
     assert r["how"] == "extrapolated" and math.isclose(r["seconds"], 6.4)
+    # A nearly flat last step (a bootstrap replicate of a heavy-tailed cell: it crashed a report with
+    # OverflowError) extrapolates to an infinite time, not an exception.
+    r = time_to_target([0.1, 0.4], [0.4, 0.4 * (1 - 1e-12)], 0.01)
+    assert r["how"] == "extrapolated" and r["seconds"] == float("inf")
