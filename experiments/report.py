@@ -32,7 +32,8 @@ INTRO = (
     "seconds are cost(N) = overhead + per-sample cost × pixels × N: the per-sample cost from those "
     "long renders (95% t interval over them, plus 5% for run-to-run drift), the overhead from the "
     "scene's short renders. On the CPU backend the clock is the render call's CPU time (all threads), "
-    "which other jobs on the machine do not inflate. Speed-ups carry a 95% bootstrap interval "
+    "of the faster half of the renders (a job sharing the cores slows some renders, never speeds one "
+    "up). Speed-ups carry a 95% bootstrap interval "
     "(repetitions resampled, the cost drawn from its interval); efficiency ratios a delta-method 95% "
     "interval from both errors and both costs.\n")
 

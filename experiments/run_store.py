@@ -162,8 +162,10 @@ def _faster_half(values) -> list:
 def _per_sample(entry: dict | None, recs: list, overhead: float) -> tuple[np.ndarray, bool]:
     if entry and entry.get("seconds"):
         work = entry["pixels"] * entry["spp"]
-        # CPU seconds do not grow with other jobs' load: every render counts; wall times: the faster half.
-        ts = entry["seconds"] if entry.get("clock") == "cpu" else _faster_half(entry["seconds"])
+        # The faster half, of wall and of CPU seconds alike: a job sharing the two cores inflates the
+        # CPU time of a render too (five reruns beside a test suite: speed-ups +-30-50% with every
+        # render counted).
+        ts = _faster_half(entry["seconds"])
         return np.array([max(t - overhead, 1e-3 * t) / work for t in ts]), True
     top = max(rec["spp"] for rec in recs)            # no calibration: the sweep's top cell
     return np.array([max(rec["render_seconds"] - overhead, 1e-3 * rec["render_seconds"])

@@ -374,8 +374,9 @@ class _Sweep:
         res = g[2]
         pixels = res[0] * res[1]
 
-        # CPU backend: cost in CPU seconds of the render call (process_time, all threads: blind to
-        # other jobs' load, which doubles wall times on a busy 2-core VM); render_seconds otherwise.
+        # CPU backend: cost in CPU seconds of the render call (process_time, all threads: far less
+        # moved by other jobs' load, which doubles wall times on a busy 2-core VM, though not blind to
+        # it: run_store keeps the faster half); render_seconds otherwise.
         cpu = self.backend.name == "warp-cpu"
 
         def render(sampler, spp, i):
