@@ -266,15 +266,19 @@ class _Sweep:
                 groups.setdefault(r.group, []).append(r)
             for g, runs in groups.items():
                 self._group(g, runs, *gt_req[g])
-        finally:
+        except BaseException:
+            # An interrupted sweep's table catches up; a finished one is written by each scene's end
+            # and, from the plan's records, by the analysis.
             if self.stats["runs_new"] or self.stats["runs_refreshed"]:
                 self._write_csv()
+            raise
+        finally:
             self.bar.close()
 
     def _write_csv(self, every: float = 0.0) -> None:
         """runs.csv from the records, if `every` seconds have passed since the last write. Per run
         it would be quadratic in the runs (60% of a 10,000-run sweep); the records are the commit
-        points, and the table catches up at the end of each scene and of the sweep."""
+        points, and the table catches up at the end of each scene and of an interrupted sweep."""
         now = time.monotonic()
         if now - self._csv_written >= every:
             write_runs_csv(self.out_dir / "runs.csv", self.plan, self.records)
