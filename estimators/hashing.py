@@ -100,5 +100,9 @@ def permute(i: wp.uint32, n: wp.uint32, key: wp.uint32) -> wp.uint32:
         x = (left << half) | right
         if x < n:
             done = 1
-    # A keyed rotation makes every position exactly uniform over keys.
-    return (x + mix32(key + _GOLDEN) % n) % n
+    # A keyed rotation makes every position exactly uniform over keys. x and the rotation are
+    # below n: one conditional subtraction is the "% n" of their sum (a division the less).
+    y = x + mix32(key + _GOLDEN) % n
+    if y >= n:
+        y = y - n
+    return y

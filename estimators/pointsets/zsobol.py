@@ -26,7 +26,7 @@ an Owen seed keyed by b.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import hash_key, mix32, unit_float
+from drtlab.estimators.hashing import bit_length, hash_key, mix32, unit_float
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_scramble, sobol_bits
 
@@ -41,12 +41,21 @@ _PERM4 = wp.constant(wp.types.vector(length=24, dtype=wp.uint32)(*_packed_permut
 _SALT_DIGITS = wp.constant(wp.uint32(0x2D1B5A0F))
 _SALT_OWEN = wp.constant(wp.uint32(0x7A3C11E5))
 _SY = wp.constant(wp.uint32(0x4F6CDD1D))
+_M55 = wp.constant(wp.uint32(0x55555555))
 
 
 @wp.func
 def _digit_hash(higher: wp.uint64, dkey: wp.uint32) -> wp.uint32:
     # wp.uint32(u64) keeps the low 32 bits (a literal 0xFFFFFFFF mask would be emitted as int32 -1).
     return mix32(wp.uint32(higher) ^ mix32(wp.uint32(higher >> wp.uint64(32)) ^ dkey))
+
+
+@wp.func
+def _bit_length64(x: wp.uint64) -> int:
+    hi = wp.uint32(x >> wp.uint64(32))
+    if hi != wp.uint32(0):
+        return 32 + bit_length(hi)
+    return bit_length(wp.uint32(x))
 
 
 @wp.func
@@ -57,9 +66,22 @@ def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
     dkey = hash_key(seed, _SALT_DIGITS, wp.uint32(0), dim)
     odd = k % 2
     n4 = 16 + k / 2
+    # Every digit at or above m's top bit is 0 with all higher digits 0, so one hash permutes all
+    # of them alike: they are one constant digit c0 each (the leading 32 - log2(pixels) bits of a
+    # small image's keys), set at once; only the digits below are permuted one by one.
+    top = _bit_length64(m)
+    p0 = (_digit_hash(wp.uint64(0), dkey) >> wp.uint32(8)) % wp.uint32(24)
+    c0 = wp.uint64(_PERM4[int(p0)] & wp.uint32(3))
+    first = (top - odd + 1) / 2             # digits t' = 0 .. first - 1 have shift 2 t' + odd < top
     out = wp.uint64(0)
-    for t in range(n4):
-        shift = 2 * (n4 - 1 - t) + odd
+    if first < n4:
+        ones = (wp.uint64(_M55) | (wp.uint64(_M55) << wp.uint64(32))) << wp.uint64(2 * first + odd)
+        if 2 * n4 + odd < 64:               # the digits' bits: 0 .. 2 n4 + odd - 1 = 31 + k
+            ones = ones & ((wp.uint64(1) << wp.uint64(2 * n4 + odd)) - wp.uint64(1))
+        out = c0 * ones                     # c0 at every constant digit (one bit per digit)
+    t = wp.min(first, n4) - 1
+    while t >= 0:
+        shift = 2 * t + odd
         digit = wp.uint32((m >> wp.uint64(shift)) & wp.uint64(3))
         higher = wp.uint64(0)
         if shift + 2 < 64:                  # k = 32 (spp > 2^31) would shift by 64
@@ -67,6 +89,7 @@ def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
         p = (_digit_hash(higher, dkey) >> wp.uint32(8)) % wp.uint32(24)
         digit = (_PERM4[int(p)] >> (wp.uint32(2) * digit)) & wp.uint32(3)
         out = out | (wp.uint64(digit) << wp.uint64(shift))
+        t -= 1
     if odd == 1:
         flip = _digit_hash(m >> wp.uint64(1), dkey ^ wp.uint32(1)) & wp.uint32(1)
         out = out | ((m & wp.uint64(1)) ^ wp.uint64(flip))
