@@ -86,6 +86,9 @@ def build_parser() -> Parser:
                    help="render drtlab without Russian roulette (Mitsuba keeps its default rr_depth "
                         "5): more work per drtlab sample, less variance")
     p.add_argument("--no-scalar", action="store_true", help="leave out Mitsuba's scalar_rgb variant")
+    p.add_argument("--no-sampler-pairs", action="store_true",
+                   help="leave out the matched sampler pairs (drtlab stratified / cmj / sobol against "
+                        "Mitsuba stratified / multijitter / ldsampler, --seeds renders each)")
     p.add_argument("--warm-caches", action="store_true",
                    help="use Warp's and Dr.Jit's on-disk kernel caches as found (WARP_CACHE_PATH, "
                         "DRJIT_CACHE_DIR or ~/.drjit); by default both start empty, so the compile "
@@ -290,11 +293,18 @@ def _run_compare(args, ms, base: dict, cold_dir: Path | None, t_start: float) ->
     light = cs.add_rmse(renderers, images, ref_stack, args.spp)
     cs.add_time_to_equal_rmse(renderers, args.spp)
     agree, extra = cs.all_agreements(images, ref_stack)
+    pairs = None
+    if not args.no_sampler_pairs:
+        from drtlab.experiments.compare_samplers import sampler_pairs
+        baseline = {"drtlab": (np.stack(images[DRTLAB]), renderers[DRTLAB]["best_seconds"]),
+                    "mitsuba": (ref_stack, renderers[LLVM]["best_seconds"])}
+        pairs = sampler_pairs(rig, max(args.seeds, args.repeats), baseline, ref_stack)
     result = {
         **base, "skipped": False, "renderers": renderers, "ratios": cs.ratios(renderers),
         "reference": _reference_facts(ref_stack, ref_seconds, args.spp, ms),
         "equal_rmse": _equal_rmse_facts(renderers, light, args.spp, ms),
         "agreement": agree, "agreement_extra": extra,
+        **({"sampler_pairs": pairs} if pairs is not None else {}),
         "load_average_1_5_15_at_end": [round(x, 2) for x in os.getloadavg()],
         "peak_rss_mib": peak_rss_mib(),
         "total_seconds": round(time.perf_counter() - t_start, 1),

@@ -48,10 +48,11 @@ class Rig:
         return LLVM if variant == self.ms.LLVM_VARIANT else SCALAR
 
 
-def drtlab_render(scene, spp: int, seed: int, threads: int) -> tuple[np.ndarray, dict]:
+def drtlab_render(scene, spp: int, seed: int, threads: int,
+                  sampler: str = SAMPLER) -> tuple[np.ndarray, dict]:
     from drtlab.kernels.render import render_with_stats
     c0, t0 = time.process_time(), time.perf_counter()
-    st = render_with_stats(scene, spp=spp, sampler=SAMPLER, integrator="path", seed=seed,
+    st = render_with_stats(scene, spp=spp, sampler=sampler, integrator="path", seed=seed,
                            threads=threads, progress=False)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return st.image, {"seed": seed, "seconds": st.render_seconds, "cpu_seconds": cpu,

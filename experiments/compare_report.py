@@ -4,6 +4,7 @@ only the result dict written to compare.json, so it can be re-made from that fil
 from __future__ import annotations
 
 from drtlab.experiments.compare_render import DRTLAB, LLVM, RENDERERS, SAMPLER, SCALAR
+from drtlab.experiments.compare_samplers import markdown_rows
 from drtlab.experiments.compare_stats import time_to_equal
 
 LABELS = {DRTLAB: f"drtlab ({SAMPLER}, Warp CPU)", LLVM: "Mitsuba 3 llvm_ad_rgb",
@@ -106,4 +107,6 @@ def _agreement_section(r: dict) -> list[str]:
 
 
 def markdown(r: dict) -> str:
-    return "\n".join(_header(r) + _speed_table(r) + _reference_paragraph(r) + _agreement_section(r))
+    pairs = markdown_rows(r["sampler_pairs"]) if "sampler_pairs" in r else []
+    return "\n".join(_header(r) + _speed_table(r) + _reference_paragraph(r) + _agreement_section(r)
+                     + pairs)

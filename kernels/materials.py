@@ -177,6 +177,11 @@ def plastic_coat_probability(co: float, ior: float) -> float:
     return fresnel(co, ior)
 
 
+# The material kinds whose sample_bsdf reads u_lobe (a choice between a reflection and a transmission
+# or a coat lobe); every other kind samples one lobe.
+LOBE_CHOICE_KINDS = frozenset({"dielectric", "glossy_dielectric", "plastic"})
+
+
 def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
     densities = _make_densities(kinds, lobe)
     sample_bsdf = _make_sampler(kinds, lobe, densities.eval_bsdf, densities.pdf_bsdf)

@@ -14,7 +14,8 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, Features
 from drtlab.kernels.geometry import offset_origin, shading_consistent
-from drtlab.kernels.materials import DIELECTRIC, DIFFUSE, EMITTER, MIRROR, emitted, surface_albedo
+from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR, emitted,
+                                     surface_albedo)
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
@@ -39,6 +40,9 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
     FAULT_PDF_HIGH = PDF_HIGH_10PCT in f.faults
     MESHES = f.meshes
+    # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
+    # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
+    LOBE_CHOICE = bool(f.kinds & LOBE_CHOICE_KINDS)
     # drt stops at the emission hit after a diffuse scatter; nothing to find there when emitters
     # count only through light samples and the background is black.
     DRT = f.drt
@@ -103,14 +107,19 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
                 ns = h.ns
             if not is_delta:
                 if wp.static(NEE):
-                    ul = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_CHOICE)), spp)
+                    ul = float(0.0)
+                    if sd.n_lights > 1:     # one light is picked whatever ul is
+                        ul = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_CHOICE)),
+                                   spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
                                spp)
                     L += next_event(sd, beta, kind, albedo, exponent, ior, h, wo, ul, up, dt)
                 if wp.static(DELTA_LIGHTS):
                     L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior,
                                                              h.p, h.n, ns, wo, dt))
-            u_lobe = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LOBE_CHOICE)), spp)
+            u_lobe = float(0.0)
+            if wp.static(LOBE_CHOICE):
+                u_lobe = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LOBE_CHOICE)), spp)
             u_dir = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.DIRECTION)), spp)
             s = sample_bsdf(kind, albedo, exponent, ior, ns, wo, u_lobe, u_dir)
             if s.valid == 0:
