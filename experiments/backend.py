@@ -27,19 +27,25 @@ class Backend:
     # hash of the kernel + estimator sources: a change invalidates ground truth and runs
     code_version: str
     name: str = "warp-cpu"
+    # precompile(jobs, threads) -> facts: compile the variants of (scene, sampler, integrator) jobs
+    # side by side before a sweep needs them one by one; None: nothing to compile (fakes)
+    precompile: Callable[..., Any] | None = None
 
 
 def default_backend(device: str = "cpu") -> Backend:
     from drtlab.kernels import CODE_VERSION
-    from drtlab.kernels.render import render_with_stats
+    from drtlab.kernels.render import compile_variants, render_with_stats
     from drtlab.kernels.scene_file import load_scene
 
     def render(scene, *, spp, sampler, integrator, seed, res, threads=None):
         return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
                                  res=res, threads=threads, device=device, progress=False)
 
+    def precompile(jobs, threads=None):
+        return compile_variants(jobs, threads=threads, device=device)
+
     return Backend(load_scene=load_scene, render=render, code_version=CODE_VERSION,
-                   name=f"warp-{device}")
+                   name=f"warp-{device}", precompile=precompile)
 
 
 def default_scene_loader():

@@ -3,7 +3,7 @@
     python -m drtlab.experiments.profile_kernels rays   [--scene cornell-box] [--rays 200000]
     python -m drtlab.experiments.profile_kernels render [--scene cornell-box ...] [--res 64] [--spp 64]
     python -m drtlab.experiments.profile_kernels check  [--scene ...]
-    python -m drtlab.experiments.profile_kernels compile [--experiment stratified]
+    python -m drtlab.experiments.profile_kernels compile [--experiment stratified] [--threads 2]
     python -m drtlab.experiments.profile_kernels images (--save F.npz | --compare F.npz)
 
 `rays` times the scene's intersection alone, on three ray populations built from the scene: camera
@@ -14,7 +14,9 @@ times whole renders (best of --repeats, 1 thread unless --threads). `check` comp
 `hit_quad` / `hit_sphere` (the reference formulas of tests/test_geometry.py): how many rays disagree
 on the shape hit, and the largest relative difference of the hit distance. `compile` builds, in an
 empty Warp kernel cache, every kernel variant an experiment needs (its scenes x samplers, and the
-ground truth's sampler) and sums their cold compile seconds. `images` renders every built-in scene
+ground truth's sampler) and sums their cold compile seconds, one after the other; with --threads N
+it compiles them N at a time as an experiment does (`render.compile_variants`) and reports the wall
+time. `images` renders every built-in scene
 with each of its integrators and a range of samplers at a small size and saves them, or compares them
 with saved ones (bit for bit, and the largest difference relative to the image's mean): the check
 that a speed change left the images alone.
@@ -260,6 +262,15 @@ def cmd_compile(args) -> int:
             for sampler in (*study.samplers, GT_SAMPLER):
                 jobs[(ref.name, sampler, study.integrator)] = dict(ref.overrides)
     from drtlab.kernels.scene_file import load_scene
+    if args.threads > 1:
+        from drtlab.kernels.render import compile_variants
+        c0 = time.process_time()
+        facts = compile_variants([(load_scene(scene, ov or None), sampler, integ)
+                                  for (scene, sampler, integ), ov in jobs.items()], threads=args.threads)
+        print(f"total cold compile {facts['wall_seconds']:.1f} s wall on {facts['threads']} threads "
+              f"({facts['compile_seconds']:.1f} s of compiles, {time.process_time() - c0:.1f} s CPU) "
+              f"over {len(jobs)} (scene, sampler) pairs, {facts['compiled']} compiles")
+        return 0
     total, total_cpu, first, compiles = 0.0, 0.0, None, 0
     for (scene, sampler, integ), overrides in jobs.items():
         c0 = time.process_time()

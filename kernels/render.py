@@ -30,6 +30,10 @@ DEVICES = ("cpu", "cuda")
 
 _lock = threading.Lock()
 _kernels: dict = {}
+_compiling: dict = {}        # variant key -> the lock its one compile holds
+# Building a variant's Warp functions (the kernel factory) registers them in their Python module's
+# Warp module: one factory at a time, or two variants can pick up each other's closures.
+_factory_lock = threading.Lock()
 _pools: dict = {}
 
 
@@ -64,8 +68,10 @@ class RenderStats:
 
 def _after_fork_in_child() -> None:
     # A forked child inherits the pools but not their worker threads (and maybe a held lock).
-    global _lock
+    global _lock, _factory_lock
     _lock = threading.Lock()
+    _factory_lock = threading.Lock()
+    _compiling.clear()
     _pools.clear()
 
 
@@ -94,15 +100,46 @@ def get_kernel(features: Features, spec: SamplerSpec, device: str):
     key = (features, spec.pointset.name, spec.strategy.name, device)
     with _lock:
         entry = _kernels.get(key)
-        if entry is None:
-            from drtlab.kernels.tracer import build_kernel
+        if entry is not None:
+            return entry[0], 0.0
+        variant_lock = _compiling.setdefault(key, threading.Lock())
+    # One lock per variant: a variant compiles once, different variants at once (Warp runs its
+    # codegen under its own lock and the native compile, most of the time, unlocked).
+    with variant_lock:
+        with _lock:
+            entry = _kernels.get(key)
+        if entry is not None:
+            return entry[0], 0.0
+        from drtlab.kernels.tracer import build_kernel
+        with _factory_lock:
             kernel = build_kernel(features, spec.pointset, spec.strategy)
-            t0 = time.perf_counter()
-            wp.load_module(kernel.module, device=device)
-            entry = (kernel, time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        wp.load_module(kernel.module, device=device)
+        entry = (kernel, time.perf_counter() - t0)
+        with _lock:
             _kernels[key] = entry
-            return entry
-    return entry[0], 0.0
+        return entry
+
+
+def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> dict:
+    """Compile (or load from Warp's cache) the kernel variants of `jobs`, (scene, sampler, integrator)
+    triples, on `threads` threads at once: a cold experiment's compiles are most of its first minute,
+    and one compile keeps one core busy. Returns {"variants", "compiled", "wall_seconds",
+    "compile_seconds" (their sum), "threads"}."""
+    threads = fields.integer_in((os.cpu_count() or 1) if threads is None else threads, "threads", 1, 1024)
+    keys = {}
+    for scene, sampler, integrator in jobs:
+        scene = _resolve_scene(scene, None)
+        integ = parse_integrator(integrator if integrator is not None else scene.integrator).name
+        f = features_of(scene, integ)
+        spec = parse_sampler(sampler)
+        keys.setdefault((f.code_key(), spec.name), (f, spec))
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="drtlab-compile") as pool:
+        seconds = list(pool.map(lambda fs: get_kernel(fs[0], fs[1], device)[1], keys.values()))
+    return {"variants": len(keys), "compiled": sum(1 for x in seconds if x > 0.2),
+            "wall_seconds": time.perf_counter() - t0, "compile_seconds": sum(seconds),
+            "threads": threads}
 
 
 # Buffers per pixel: the float64 sums (24 bytes, 48 with moments) on the device, and on the host the
