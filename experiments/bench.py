@@ -198,6 +198,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"Mitsuba 3 comparison ({cmp['file']}): drtlab / llvm_ad_rgb samples/s "
               f"{cmp['samples_per_second_drtlab_over_mitsuba_llvm_best']}x, time to equal RMSE "
               f"{cmp['time_to_equal_rmse_drtlab_over_mitsuba_llvm_best']}x")
+        pairs = cmp["time_to_equal_rmse_drtlab_over_mitsuba_by_sampler_pair"]
+        if pairs:
+            print("  time to equal RMSE by sampler pair: " +
+                  ", ".join(f"{k} {v}x" for k, v in pairs.items()))
     print(f"wrote {out}")
     return 0
 
@@ -215,8 +219,12 @@ def _mitsuba_comparison(out: Path) -> dict | None:
             "samples_per_cpu_second_drtlab_over_mitsuba_llvm",
             "time_to_equal_rmse_drtlab_over_mitsuba_llvm_best",
             "rmse_at_equal_spp_drtlab_over_mitsuba_llvm")
+    pairs = {f"{p['drtlab_sampler']} / {p['mitsuba_sampler']}":
+             p["time_to_equal_rmse_drtlab_over_mitsuba"]["full"]["time_ratio"]
+             for p in (d.get("sampler_pairs") or {}).get("pairs", [])}
     return {"file": str(path), "resolution": d.get("settings", {}).get("resolution"),
-            "spp": d.get("settings", {}).get("spp"), **{k: r.get(k) for k in keys}}
+            "spp": d.get("settings", {}).get("spp"), **{k: r.get(k) for k in keys},
+            "time_to_equal_rmse_drtlab_over_mitsuba_by_sampler_pair": pairs}
 
 
 def _primitives(args) -> dict:
