@@ -162,7 +162,7 @@ class _Progress:
             self.runs_done += 1
         if self.bar is not None:
             if what:
-                self.bar.set_postfix_str(f"{what} | runs {self.runs_done}/{self.runs_total}", refresh=False)
+                self.bar.set_postfix_str(f"{what} | runs {self.runs_done}/{self.runs_total}", refresh=not n)
             self.bar.update(n)
 
     def close(self):
@@ -289,6 +289,7 @@ class _Sweep:
             for sampler in (r.sampler, gtmod.GT_SAMPLER):
                 jobs.setdefault((r.scene, sampler, r.integrator),
                                 (scenes[r.scene], sampler, r.integrator))
+        self.bar.update(0, "compiling kernel variants")
         facts = self.backend.precompile(list(jobs.values()), self.threads)
         self.stats["kernel_precompile"] = {k: round(v, 3) if isinstance(v, float) else v
                                            for k, v in facts.items()}
