@@ -97,7 +97,9 @@ def write_manifest(out_dir: Path, exp, backend, plan, records: dict, gts: dict, 
         "wall_seconds": {
             "this_invocation": wall_seconds,
             "render_total": sum(r["render_seconds"] for r in recs),
+            # kernel compiles inside runs, and the sweep's side-by-side compile before its first run
             "compile_total": sum(r["compile_seconds"] for r in recs),
+            "kernel_precompile": (stats.get("kernel_precompile") or {}).get("wall_seconds", 0.0),
             "ground_truth_total": sum((info.get("wall_seconds") or 0.0) for info in gts.values()),
         },
         "peak_rss_mib": peak_rss_mib(),

@@ -60,6 +60,32 @@ def run(exp, out, gt, fake_kw=None, analyze=False, **kw):
     return s, fake
 
 
+def test_the_sweep_compiles_every_variant_it_needs_first(tmp_path):
+    # One precompile call before any render, with each (scene, sampler, integrator) the plan and its
+    # ground truths need exactly once; its facts reach the manifest.
+    from dataclasses import replace
+    from drtlab.experiments.groundtruth import GT_SAMPLER
+    exp = tiny_experiment(tmp_path)
+    backend, fake = fake_backend()
+    seen = []
+
+    def precompile(jobs, threads):
+        seen.append(([(scene.name, sampler, integ) for scene, sampler, integ in jobs], fake.calls))
+        return {"variants": len(jobs), "compiled": 0, "wall_seconds": 1.5, "compile_seconds": 0.0,
+                "threads": 2}
+
+    run_experiment(exp, out_dir=tmp_path / "out", gt_root=tmp_path / "gt",
+                   backend=replace(backend, precompile=precompile), progress=False, clock=Clock(),
+                   log=lambda m: None, analyze=True)
+    assert len(seen) == 1 and seen[0][1] == 0           # once, before the first render
+    want = {(scene, sampler, "drt") for scene in ("aa-edges", "glossy")
+            for sampler in ("uniform", "stratified", GT_SAMPLER)}
+    assert sorted(seen[0][0]) == sorted(want)
+    m = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert m["runs"]["kernel_precompile"]["variants"] == 6
+    assert m["wall_seconds"]["kernel_precompile"] == 1.5
+
+
 REL_STUDY = """
 [[study]]
 name = "rel"
