@@ -59,6 +59,22 @@ def _errbar(ax, xs, intervals: list[Interval], style, label):
 Draw = Callable[..., None]      # draw(ax, scene, sampler, cells, style): one sampler in one panel
 
 
+def _two_and_five_labels():
+    """A log axis's minor-tick formatter that labels only 2 x and 5 x 10^k: matplotlib labels every
+    minor tick of an axis showing fewer than two powers of ten, and in a 3.4-inch panel those labels
+    run into each other."""
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    class TwoAndFive(LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            mantissa = x / 10.0 ** math.floor(math.log10(x)) if x > 0 else 0.0
+            if not any(abs(mantissa - m) < 1e-6 for m in (2.0, 5.0)):
+                return ""
+            return super().__call__(x, pos)
+
+    return TwoAndFive(labelOnlyBase=False)
+
+
 def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xlabel: str, ylabel: str,
             xscale: dict, extra: Callable[..., None] | None = None):
     """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`;
@@ -77,6 +93,9 @@ def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xl
             extra(ax, scene)
         ax.set_xscale("log", **xscale)
         ax.set_yscale("log")
+        if xscale.get("base", 10) == 10:
+            ax.xaxis.set_minor_formatter(_two_and_five_labels())
+        ax.yaxis.set_minor_formatter(_two_and_five_labels())
         ax.set_title(scene.scene)
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
