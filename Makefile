@@ -17,11 +17,14 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[dev]'
 	@touch $(STAMP)
 
+# Tests run on every core (pytest-xdist): most of a cold run is kernel compiles, one core each.
+TEST_WORKERS ?= auto
+
 test: venv
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_WORKERS)
 
 test-full: venv
-	DRTLAB_TEST_TIER=full $(PY) -m pytest -q
+	DRTLAB_TEST_TIER=full $(PY) -m pytest -q -n $(TEST_WORKERS)
 
 bench: venv
 	$(PY) -m drtlab.experiments.bench

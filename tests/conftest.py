@@ -7,8 +7,10 @@ os.environ.setdefault("WARP_CACHE_PATH", str(Path(__file__).resolve().parent.par
 
 
 def pytest_sessionfinish(session, exitstatus):
-    """For .ci/run: pytest's exit status and the number of tests run, which `make` would hide."""
+    """For .ci/run: pytest's exit status and the number of tests run, which `make` would hide.
+    Written by the controlling process only: pytest-xdist's workers (`workerinput`) finish first,
+    each with a share of the tests."""
     path = os.environ.get("DRTLAB_PYTEST_STATUS")
-    if path:
+    if path and not hasattr(session.config, "workerinput"):
         with open(path, "w") as f:
             f.write(f"{int(exitstatus)} {session.testscollected}\n")
