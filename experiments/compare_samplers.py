@@ -30,8 +30,9 @@ METHOD = ("Every render of a pair uses the main comparison's settings (resolutio
           "of the reference's own noise, which at these errors is as large as the MSE itself (each "
           "sampler's agreement with the shared reference is reported beside it). The time to equal "
           "RMSE at this spp is the ratio of best seconds x MSE, with a 90% interval from the MSEs' "
-          "jackknife variances over the renders (the best time is one number). The independent baseline is the main comparison's renders at the same spp: drtlab's independent renders and Mitsuba-LLVM's "
-          "reference batches.")
+          "jackknife variances over the renders (the best time is one number). The independent "
+          "baseline is the main comparison's renders at the same spp: drtlab's independent renders "
+          "and Mitsuba-LLVM's reference batches.")
 
 
 def _mse_and_variance(stack: np.ndarray, region: np.ndarray) -> tuple[float, float]:
@@ -123,6 +124,7 @@ def markdown_rows(section: dict) -> list[str]:
              "| drtlab sampler | Mitsuba sampler | M samples/s drtlab / Mitsuba | time to equal RMSE "
              "vs own independent: drtlab / Mitsuba | drtlab vs Mitsuba: samples/s, time to equal RMSE |",
              "|---|---|---:|---:|---:|"]
+
     def ratio(x: dict, nd: int) -> str:
         return f"{x['time_ratio']:.{nd}f}x [{x['ci90'][0]:.{nd}f}, {x['ci90'][1]:.{nd}f}]"
 

@@ -90,6 +90,11 @@ def _pool(threads: int) -> ThreadPoolExecutor:
         return pool
 
 
+def _variant_key(features: Features, spec: SamplerSpec, device: str) -> tuple:
+    """What tells two compiled kernels apart (features as Features.code_key() gives them)."""
+    return (features, spec.pointset.name, spec.strategy.name, device)
+
+
 def get_kernel(features: Features, spec: SamplerSpec, device: str):
     """The compiled kernel for (features, sampler); compiled once per process, cached on disk."""
     wp = _wp()
@@ -97,7 +102,7 @@ def get_kernel(features: Features, spec: SamplerSpec, device: str):
         # Whitted reads no sampler: one variant serves every sampler name.
         spec = parse_sampler("uniform")
     features = features.code_key()
-    key = (features, spec.pointset.name, spec.strategy.name, device)
+    key = _variant_key(features, spec, device)
     with _lock:
         entry = _kernels.get(key)
         if entry is not None:
@@ -129,11 +134,9 @@ def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> d
     threads = fields.integer_in((os.cpu_count() or 1) if threads is None else threads, "threads", 1, 1024)
     keys = {}
     for scene, sampler, integrator in jobs:
-        scene = _resolve_scene(scene, None)
-        integ = parse_integrator(integrator if integrator is not None else scene.integrator).name
+        spec, scene, integ = _resolve_job(scene, sampler, integrator, None)
         f = features_of(scene, integ)
-        spec = parse_sampler(sampler)
-        keys.setdefault((f.code_key(), spec.name), (f, spec))
+        keys.setdefault(_variant_key(f.code_key(), spec, device), (f, spec))
     t0 = time.perf_counter()
     with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="drtlab-compile") as pool:
         seconds = list(pool.map(lambda fs: get_kernel(fs[0], fs[1], device)[1], keys.values()))
@@ -173,6 +176,13 @@ def _resolve_scene(scene, res) -> Scene:
     return scene
 
 
+def _resolve_job(scene, sampler: str, integrator: str | None, res) -> tuple:
+    """(sampler spec, Scene at `res`, integrator name) of a render's arguments."""
+    spec = parse_sampler(sampler)
+    scene = _resolve_scene(scene, res)
+    return spec, scene, parse_integrator(integrator if integrator is not None else scene.integrator).name
+
+
 def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
                       threads=None, tile=None, device="cpu", progress=None,
                       faults=(), variance=False) -> RenderStats:
@@ -182,9 +192,7 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     the negative control that a statistical test must reject. Never set it for real renders.
     `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
     """
-    spec = parse_sampler(sampler)
-    scene = _resolve_scene(scene, res)
-    integ = parse_integrator(integrator if integrator is not None else scene.integrator).name
+    spec, scene, integ = _resolve_job(scene, sampler, integrator, res)
     spp = fields.integer_in(scene.spp if spp is None else spp, "spp", 1, 2**31 - 1)
     seed = fields.integer_in(seed, "seed", 0, 2**32 - 1)
     threads = fields.integer_in((os.cpu_count() or 1) if threads is None else threads, "threads", 1, 1024)
