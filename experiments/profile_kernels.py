@@ -324,25 +324,32 @@ def cmd_images(args) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="profile_kernels")
+def _parser():
+    from drtlab.cli_args import Parser, int_flag
+    ap = Parser(prog="python -m drtlab.experiments.profile_kernels")
     ap.add_argument("mode", choices=("rays", "render", "check", "compile", "images"))
     ap.add_argument("--save", default=None)
     ap.add_argument("--compare", default=None)
     ap.add_argument("--experiment", default="stratified")
     ap.add_argument("--profile", default="quick")
     ap.add_argument("--scene", nargs="+", default=["cornell-box"])
-    ap.add_argument("--rays", type=int, default=200_000)
-    ap.add_argument("--res", type=int, default=64)
-    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--rays", type=int_flag(1, 1 << 28), default=200_000)
+    ap.add_argument("--res", type=int_flag(1, 1 << 14), default=64)
+    ap.add_argument("--spp", type=int_flag(1, 1 << 20), default=64)
     ap.add_argument("--sampler", default="importance")
     ap.add_argument("--integrator", default=None)
-    ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--tile", type=int, default=None)
-    ap.add_argument("--repeats", type=int, default=5)
-    args = ap.parse_args(argv)
-    return {"rays": cmd_rays, "render": cmd_render, "check": cmd_check,
-            "compile": cmd_compile, "images": cmd_images}[args.mode](args)
+    ap.add_argument("--threads", type=int_flag(1, 1024), default=1)
+    ap.add_argument("--tile", type=int_flag(1, 1 << 16), default=None)
+    ap.add_argument("--repeats", type=int_flag(1, 1000), default=5)
+    commands = {"rays": cmd_rays, "render": cmd_render, "check": cmd_check, "compile": cmd_compile,
+                "images": cmd_images}
+    ap.set_defaults(func=lambda args: commands[args.mode](args))
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    from drtlab.cli_args import run_main
+    return run_main(_parser, argv)
 
 
 if __name__ == "__main__":
