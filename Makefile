@@ -45,7 +45,7 @@ experiment-all: venv
 	$(DRT) experiment all
 
 experiment-integrands: venv
-	$(PY) -m drtlab.experiments.integrand_study
+	$(PY) -m drtlab.experiments.integrands
 
 experiment-pointsets: venv
 	$(DRT) experiment pointsets
@@ -76,4 +76,4 @@ bench-compare: venv
 	  fi; \
 	  [ -n "$$llvm" ] || echo "bench-compare: no LLVM 19 for Mitsuba's llvm_ad_rgb: $${why:-libllvm19 is installed but no libLLVM-19.so was found}"; \
 	fi; \
-	DRJIT_LIBLLVM_PATH="$$llvm" $(PY) -m drtlab.experiments.bench_compare $(BENCH_COMPARE_ARGS)
+	DRJIT_LIBLLVM_PATH="$$llvm" $(PY) -m drtlab.experiments.bench.mitsuba $(BENCH_COMPARE_ARGS)

@@ -30,8 +30,8 @@ def load_scene(scene, overrides: dict | None = None):
 
 
 def load_experiment(*args, **kwargs):
-    """`drtlab.experiments.config.load_experiment`: a built-in name or .toml path -> an Experiment."""
-    from drtlab.experiments.config import load_experiment as _load_experiment
+    """`drtlab.experiments.study.config.load_experiment`: a built-in name or .toml path -> an Experiment."""
+    from drtlab.experiments.study.config import load_experiment as _load_experiment
     return _load_experiment(*args, **kwargs)
 
 
@@ -42,10 +42,10 @@ def run_experiment(experiment, profile: str = "quick", name: str = "inline", **k
     shaped like the TOML file (then called `name`; its results go to results/NAME unless `out_dir`).
     Returns an `ExperimentResult`: `.runs`, `.cells`, `.slopes` (pandas DataFrames, one row per run /
     cell / fit), `.plot_convergence()`, and `["studies"]` (summary.json's content). Other keyword
-    arguments go to `drtlab.experiments.runner.run_experiment` (out_dir, gt_root, threads, fresh,
+    arguments go to `drtlab.experiments.study.runner.run_experiment` (out_dir, gt_root, threads, fresh,
     progress)."""
-    from drtlab.experiments.config import Experiment
-    from drtlab.experiments.runner import run_experiment as _run_experiment
+    from drtlab.experiments.study.config import Experiment
+    from drtlab.experiments.study.runner import run_experiment as _run_experiment
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment, profile, name=name)
     return _run_experiment(experiment, **kwargs)

@@ -122,11 +122,11 @@ def cmd_render(args) -> int:
 # ---------------------------------------------------------------------------------------------------
 
 def cmd_experiment(args) -> int:
-    from drtlab.experiments.backend import default_backend
-    from drtlab.experiments.config import load_experiment
-    from drtlab.experiments.distributed import open_executor
+    from drtlab.experiments.study.backend import default_backend
+    from drtlab.experiments.study.config import load_experiment
+    from drtlab.experiments.study.cluster import open_executor
     from drtlab.experiments.paths import default_out_dir
-    from drtlab.experiments.runner import run_experiment
+    from drtlab.experiments.study.runner import run_experiment
     exp = load_experiment(args.experiment, args.profile)          # raises InputError, writes nothing
     fields.writable_location(args.out if args.out is not None else default_out_dir(exp.name), "--out",
                              folder=True)
@@ -166,9 +166,9 @@ def _print_summary(exp, result) -> None:
 def _ground_truth_jobs(args) -> list[tuple]:
     """(scene ref, integrator, resolution, spp, batch) of every reference the command asks for."""
     from drtlab.estimators.registry import parse_integrator
-    from drtlab.experiments.backend import default_backend
-    from drtlab.experiments.config import load_experiment, scene_ref
-    from drtlab.experiments.runner import gt_requirements, plan_runs
+    from drtlab.experiments.study.backend import default_backend
+    from drtlab.experiments.study.config import load_experiment, scene_ref
+    from drtlab.experiments.study.runner import gt_requirements, plan_runs
     if (args.scene is None) == (args.experiment is None):
         raise InputError("ground-truth", "give either a SCENE or --experiment NAME (one of the two)")
     if args.integrator is not None:
@@ -195,8 +195,8 @@ def _ground_truth_jobs(args) -> list[tuple]:
 
 
 def cmd_ground_truth(args) -> int:
-    from drtlab.experiments import groundtruth
-    from drtlab.experiments.backend import default_backend
+    from drtlab.experiments.study import ground_truth as groundtruth
+    from drtlab.experiments.study.backend import default_backend
     from drtlab.experiments.paths import default_gt_root
     jobs = _ground_truth_jobs(args)
     backend = default_backend()
@@ -214,13 +214,13 @@ def cmd_ground_truth(args) -> int:
 # ---------------------------------------------------------------------------------------------------
 
 def cmd_info(args) -> int:
-    from drtlab.experiments.imagetools import image_info
+    from drtlab.experiments.tools.images import image_info
     print("\n".join(image_info(args.file).lines()))
     return 0
 
 
 def cmd_compare(args) -> int:
-    from drtlab.experiments import imagetools as tools
+    from drtlab.experiments.tools import images as tools
     a, _ = tools.read_image(args.a, "A")
     b, _ = tools.read_image(args.b, "B")
     ref = tools.read_image(args.ref, "--ref")[0] if args.ref else None
@@ -312,7 +312,7 @@ def _add_experiment(sub) -> None:
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
     _add_progress_flag(p)
     from drtlab.cli_args import flag
-    from drtlab.experiments.distributed import scheduler_address
+    from drtlab.experiments.study.cluster import scheduler_address
     cluster = p.add_mutually_exclusive_group()
     cluster.add_argument("--scheduler", type=flag(scheduler_address), default=None, metavar="ADDRESS",
                          help="render on the Dask cluster of this scheduler, tcp://HOST:PORT or "

@@ -1,5 +1,5 @@
 """`drtlab lobe KIND`: a material's BSDF lobe in the plane of incidence for a few incident angles,
-beside the sampling density the chi-square test compares it with (experiments/lobe_plot.py). Bad
+beside the sampling density the chi-square test compares it with (experiments/tools/lobes.py). Bad
 input is one line naming the flag and exit 2, checked before any work (Warp and matplotlib load
 after)."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 
 from drtlab import fields
 from drtlab.cli_args import Help, flag, int_flag
-from drtlab.experiments import lobe_plot as L
+from drtlab.experiments.tools import lobes as L
 
 
 def cmd_lobe(args) -> int:

@@ -9,8 +9,8 @@ from pathlib import Path
 from drtlab import fields
 from drtlab.cli_args import Help, flag, int_flag
 from drtlab.errors import InputError
-from drtlab.experiments import pointset_analysis as A
-from drtlab.experiments import pointset_validate as V
+from drtlab.experiments.pointsets import analysis as A
+from drtlab.experiments.pointsets import validate as V
 
 
 def _pointset_name(text: str, field: str) -> str:
@@ -91,7 +91,7 @@ def add_pointset_commands(sub) -> None:
     v = sub.add_parser(
         "validate", help="uniformity, stratification, independence and unbiasedness tests of a "
                          "point set: p-values and verdicts", formatter_class=Help,
-        description=f"Run the statistical battery of experiments/pointset_validate.py on a "
+        description=f"Run the statistical battery of experiments/pointsets/validate.py on a "
                     f"registered point set (P pixels x {V.SPP} samples in the dimensions a "
                     f"{V.BOUNCES}-bounce path reads). Prints each test's Sidak-adjusted p-value "
                     "and verdict at the level, Sidak-corrected over the tests. Exit 0 when every "

@@ -1,0 +1,4 @@
+"""Measuring: variance studies, statistics, benchmarks, point-set analysis, the integrand testbed.
+
+Subpackages (one kind of thing each) and the leaf modules here (paths, seeds, files, parallel, plotting)
+that any of them may import; they import kernels/, estimators/ and drtlab's leaf modules, never drtlab.cli."""

@@ -10,7 +10,7 @@ import warp as wp
 
 from drtlab.estimators import dimensions as dims
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.warps import square_to_disk
+from drtlab.estimators.domain_maps import square_to_disk
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import Features
 

@@ -1,7 +1,7 @@
 """The device copy of the scene: the SceneData struct the kernels read, and `upload` that fills it.
 
-Besides the model's values it holds what kernels/accel.py derives once per scene for the ray tests
-(quad records, box groups) and what kernels/mesh_accel.py builds (a wp.Bvh of its triangles' boxes
+Besides the model's values it holds what kernels/intersection/quad_records.py derives once per scene for the ray tests
+(quad records, box groups) and what kernels/intersection/bvh_build.py builds (a wp.Bvh of its triangles' boxes
 per triangle mesh, one over many spheres, the mesh tables). Uploads of equal contents reuse the same
 device arrays (the kernels only read them), so the many renders of one scene in a study pay the
 upload once."""
@@ -17,11 +17,11 @@ from functools import partial
 import numpy as np
 import warp as wp
 
-from drtlab.kernels.accel import quad_geometry, quad_groups
+from drtlab.kernels.intersection.quad_records import quad_geometry, quad_groups
 from drtlab.kernels.colour import luminance
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
-from drtlab.kernels.geometry import QuadGeom
-from drtlab.kernels.mesh_accel import build_bvh, mesh_tables, sphere_boxes
+from drtlab.kernels.intersection.primitives import QuadGeom
+from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.scene import MATERIAL_CODE, Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
@@ -60,7 +60,7 @@ class SceneData:
     qgroup_faces: wp.array(dtype=int)          # 6 per group: quad index by face slot, -1 none
     quad_group: wp.array(dtype=int)
     n_qgroups: int
-    # Triangle meshes (kernels/mesh_accel.py), vertices at shutter open: per mesh a wp.Bvh of its
+    # Triangle meshes (kernels/intersection/bvh_build.py), vertices at shutter open: per mesh a wp.Bvh of its
     # triangles' boxes (item k: the mesh's face k).
     mesh_bvh: wp.array(dtype=wp.uint64)
     mesh_face0: wp.array(dtype=int)            # n_meshes + 1 offsets into the per-face arrays

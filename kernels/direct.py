@@ -16,7 +16,7 @@ import warp as wp
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import MESH, SceneData
 from drtlab.kernels.features import DROP_COSINE, Features
-from drtlab.kernels.geometry import Hit, offset_origin, shading_consistent
+from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 
 
 def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: SimpleNamespace,

@@ -13,13 +13,13 @@ PDF_HIGH_10PCT = "pdf_high_10pct"   # scattered rays are weighted as if their pd
 RR_NO_REWEIGHT = "rr_no_reweight"   # roulette kills paths without dividing survivors by their probability
 LIGHT_JACOBIAN = "light_jacobian"   # area light samples reach solid angle without the cosine at the light
 FAULTS = (DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, LIGHT_JACOBIAN)
-# Faults of mesh code, whose negative controls live in tests/test_meshes.py (the ones above are
-# controlled on built-in scenes by tests/test_unbiased.py).
+# Faults of mesh code, whose negative controls live in tests/kernels/test_meshes.py (the ones above are
+# controlled on built-in scenes by tests/estimators/test_unbiased.py).
 MESH_PDF_HIGH_10PCT = "mesh_pdf_high_10pct"  # mesh lights claim an area density 10% too high
 MESH_FAULTS = (MESH_PDF_HIGH_10PCT,)
 
 # Scenes with at least this many spheres find them through a wp.Bvh of their bounding boxes instead
-# of a loop over all of them. `make bench` measures the crossover (experiments/bench_primitives.py,
+# of a loop over all of them. `make bench` measures the crossover (experiments/bench/primitives.py,
 # results/bench/render.json "primitives"): the BVH is as fast as the loop at 15-17 spheres on the
 # sphere-grid scene (2-core x86 CPU, Warp 1.19; 0.85x the loop's speed at 4, 2.2x at 100, 120x at
 # 10^4), so from 20 on. A module value so that the bench and the tests can force either side

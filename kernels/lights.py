@@ -17,10 +17,10 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from drtlab.estimators.warps import (PI, cone_pdf, frame_to_world, square_to_cone,
+from drtlab.estimators.domain_maps import (PI, cone_pdf, frame_to_world, square_to_cone,
                                      square_to_uniform_sphere)
 from drtlab.kernels.device_scene import MESH, SPHERE, SceneData
-from drtlab.kernels.intersect import make_motion
+from drtlab.kernels.intersection.scene_rays import make_motion
 
 
 @wp.struct

@@ -15,11 +15,11 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-from drtlab.estimators.warps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
+from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
                                      square_to_cosine_hemisphere, square_to_phong_lobe,
                                      square_to_uniform_hemisphere, square_to_uniform_sphere)
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.geometry import Hit
+from drtlab.kernels.intersection.primitives import Hit
 from drtlab.kernels.scene import MATERIAL_CODE
 
 # Material kind codes (SceneData.mat_kind), defined by scene.MATERIAL_KINDS.

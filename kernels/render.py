@@ -115,7 +115,7 @@ def get_kernel(features: Features, spec: SamplerSpec, device: str):
             entry = _kernels.get(key)
         if entry is not None:
             return entry[0], 0.0
-        from drtlab.kernels.tracer import build_kernel
+        from drtlab.kernels.render_kernel import build_kernel
         with _factory_lock:
             kernel = build_kernel(features, spec.pointset, spec.strategy)
         t0 = time.perf_counter()
@@ -218,7 +218,7 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     kernel, compile_s = get_kernel(features, spec, device)
     sd = upload(scene, device)
     W, H = scene.width, scene.height
-    from drtlab.kernels.tracer import PixelSums
+    from drtlab.kernels.render_kernel import PixelSums
     sums = PixelSums()
     sums.total = wp.zeros(W * H, dtype=wp.vec3d, device=device)
     sums.squares = wp.zeros(W * H if variance else 1, dtype=wp.vec3d, device=device)

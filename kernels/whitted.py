@@ -9,10 +9,10 @@ from types import SimpleNamespace
 
 import warp as wp
 
-from drtlab.estimators.warps import PI
+from drtlab.estimators.domain_maps import PI
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
 from drtlab.kernels.features import Features
-from drtlab.kernels.geometry import offset_origin, shading_consistent
+from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
                                       MIRROR, PLASTIC, emitted, interface, refract_dir,
                                       surface_albedo)

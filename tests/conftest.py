@@ -1,6 +1,11 @@
 """Shared test setup: keep Warp's compiled kernels in the checkout's cache (as `make test` does)."""
 import os
+import sys
 from pathlib import Path
+
+# The shared test utilities (scene pieces, statistics procedure, fakes, data) live in tests/support/;
+# test modules in every subfolder import them by name.
+sys.path.insert(0, str(Path(__file__).resolve().parent / "support"))
 
 # Set before anything imports Warp, so a plain `pytest` run reuses (and fills) the same kernel cache.
 os.environ.setdefault("WARP_CACHE_PATH", str(Path(__file__).resolve().parent.parent / ".warp-cache"))

@@ -10,7 +10,7 @@ them; Sobol's values would give Owen-scrambled Sobol' instead), flips
 digit L + 1 and draws the finer digits at random. Randomness comes from a fixed integer hash
 (bit-identical everywhere). Every aligned block of 2^m points of the table is a (0,m,2)-net -
 multi-jittered: elementary intervals of every shape 2^-a x 2^-b, a + b = m, including the 1 x 2^-m
-Latin strata - which tests/test_pointsets_modern.py checks for the whole table.
+Latin strata - which tests/estimators/test_pointsets_modern.py checks for the whole table.
 
 Warp reaches the table because it is a `wp.constant` vector (4096 uint32: 16 bits of x and of y
 each, finer bits hashed per point); get1d / get2d stay pure functions of (seed, pixel, index, dim).

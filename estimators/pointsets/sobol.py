@@ -14,7 +14,7 @@ Why not Burley's own shuffle (a nested uniform scramble of the index, `digital.o
 it)? It keeps every power-of-two prefix of a pixel stratified, but it pairs two dimensions'
 samples hierarchically (index siblings stay siblings in every dimension): within a pixel the
 correlation between two padded dimensions then has (spp - 1) E[r^2] ~ 1.55 at spp = 64 instead of
-the 1 of independent dimensions (tests/test_pointset_uniformity.py's per-pixel test rejects it).
+the 1 of independent dimensions (tests/estimators/test_pointset_uniformity.py's per-pixel test rejects it).
 
 Sample counts: at spp = 2^m the spp points of a pixel in a 2D dimension are a (0,m,2)-net (every
 elementary interval 2^-a x 2^-b with a + b = m holds exactly one point) and in a 1D dimension one

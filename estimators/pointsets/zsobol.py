@@ -12,7 +12,7 @@ times large spp) select the Owen seed, so they cannot alias pixels either.
 
 Pixel key. The blue-noise diffusion needs P = Morton(px, py), so that 4 neighbouring pixels own 4
 consecutive blocks (a (0, k+2, 2)-net together, 16 a (0, k+4, 2)-net, ...): the set's `pixel_key`
-(`zsobol_pixel_key`, `digital.morton2` of 16-bit coordinates) is what kernels/tracer.py passes as
+(`zsobol_pixel_key`, `digital.morton2` of 16-bit coordinates) is what kernels/render_kernel.py passes as
 `pixel`; the image still accumulates at the scanline index. `points(..., pixel=P)` takes the key.
 
 Sample counts: spp must be a power of 2 for the per-pixel nets. At spp = 2^k each pixel's points

@@ -1,0 +1,432 @@
+"""Warp adapters of the chi-square harness: samplers and claimed densities of the project's Warp
+functions (estimators/domain_maps.py, kernels/materials.py `make_bsdf`, kernels/lights.py `make_lights`) in
+CPU kernels built by factories, and `upload_scene` for the light tests (see the package docstring,
+drtlab.experiments.stats.chi2)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import warp as wp
+
+from drtlab.estimators.hashing import hash_key, unit_float
+from drtlab.experiments.stats.chi2.harness import PdfFunc, SampleFunc
+from drtlab.kernels.device_scene import SPHERE, SceneData
+from drtlab.kernels.scene import MATERIAL_CODE, MATERIAL_KINDS
+from drtlab.warp_runtime import warp as _wp
+
+
+@wp.func
+def uniform(seed: wp.uint32, thread: wp.uint32, dim: int) -> float:
+    """The harness's random number `dim` of sample `thread`: unit_float(hash_key(seed, thread, dim,
+    0)). The dimension goes in hash_key's `index` slot, which two mixing rounds follow; in its own
+    `dim` slot, which only one round follows, consecutive dimensions are not jointly uniform (see
+    tests/estimators/test_pointset_uniformity.py), and that would be blamed on the warps under test."""
+    return unit_float(hash_key(seed, thread, wp.uint32(dim), wp.uint32(0)))
+
+
+def _vec3_array(pts: np.ndarray):
+    wp = _wp()
+    a = np.ascontiguousarray(np.asarray(pts, dtype=np.float32).reshape(-1, 3))
+    return wp.array(a, dtype=wp.vec3, device="cpu")
+
+
+def _as_vec3(v):
+    wp = _wp()
+    v = np.asarray(v, dtype=np.float64).reshape(3)
+    return wp.vec3(float(v[0]), float(v[1]), float(v[2]))
+
+
+def _input_points(pts, n: int):
+    """(points, launch size): the given points and their count (evaluation), or a one-point
+    placeholder and n (sampling, pts None)."""
+    wp = _wp()
+    if pts is None:
+        return wp.zeros(1, dtype=wp.vec3, device="cpu"), int(n)
+    inp = _vec3_array(pts)
+    return inp, int(inp.shape[0])
+
+
+def _outputs(n: int, *dtypes) -> list:
+    """Zeroed CPU output arrays of length n, one per dtype."""
+    wp = _wp()
+    return [wp.zeros(n, dtype=d, device="cpu") for d in dtypes]
+
+
+# Which warp `WarpsAdapter` runs (a runtime switch of one kernel).
+UNIFORM_HEMISPHERE, UNIFORM_SPHERE, COSINE_HEMISPHERE, PHONG, CONE, DISK, SQUARE = range(7)
+
+
+class WarpsAdapter:
+    """estimators/domain_maps.py in the local z-up frame: `sampler(which, param)` and `pdf(which, param)`.
+
+    param: the Phong exponent, or 1 - cos(theta_max) of the cone. The disk's points are returned as
+    (x, y) in [-1, 1]^2 and its claimed density is 1/pi inside the unit disk (the concentric map is
+    area-preserving; warps.py has no disk pdf). SQUARE returns the random input (u0, u1) itself, to
+    test the harness's generator. The cone's support is t <= 1 - cos(theta_max), t
+    computed from the perpendicular components (see CapDomain) so tiny cones keep their edge."""
+
+    _kernel = None
+
+    @classmethod
+    def kernel(cls):
+        if cls._kernel is None:
+            cls._kernel = _make_warps_kernel()
+        return cls._kernel
+
+    @classmethod
+    def launch(cls, mode: int, which: int, param: float, n: int, seed: int = 0, pts=None):
+        wp = _wp()
+        k = cls.kernel()
+        inp, n = _input_points(pts, n)
+        out_v = wp.zeros(n if mode == 0 else 1, dtype=wp.vec3, device="cpu")
+        out_p = wp.zeros(n, dtype=float, device="cpu")
+        wp.launch(k, dim=n, device="cpu", inputs=[int(mode), int(which), float(param),
+                                                  wp.uint32(seed), inp, out_v, out_p])
+        return out_v.numpy(), out_p.numpy()
+
+    @classmethod
+    def sampler(cls, which: int, param: float = 0.0) -> SampleFunc:
+        def sample(n, seed):
+            v, _ = cls.launch(0, which, param, n, seed)
+            return v[:, :2] if which in (DISK, SQUARE) else v
+        return sample
+
+    @classmethod
+    def pdf(cls, which: int, param: float = 0.0) -> PdfFunc:
+        def pdf(pts):
+            pts = np.asarray(pts, dtype=np.float64)
+            if which in (DISK, SQUARE):
+                pts = np.concatenate([pts[:, :2], np.zeros((pts.shape[0], 1))], axis=1)
+            return cls.launch(1, which, param, 0, 0, pts)[1].astype(np.float64)
+        return pdf
+
+
+def _make_warps_kernel():
+    wp = _wp()
+    from drtlab.estimators import domain_maps as W
+
+    @wp.func
+    def cap_t(v: wp.vec3) -> float:
+        s2 = (v[0] * v[0] + v[1] * v[1]) / wp.dot(v, v)
+        if v[2] > 0.0:
+            return s2 / (1.0 + wp.sqrt(wp.max(0.0, 1.0 - s2)))
+        return 1.0 - v[2] / wp.length(v)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def warps_kernel(mode: int, which: int, param: float, seed: wp.uint32,
+                     pts: wp.array(dtype=wp.vec3), out_v: wp.array(dtype=wp.vec3),
+                     out_p: wp.array(dtype=float)):
+        tid = wp.tid()
+        if mode == 0:
+            i = wp.uint32(tid)
+            u = wp.vec2(uniform(seed, i, 0), uniform(seed, i, 1))
+            v = wp.vec3(0.0)
+            if which == 0:
+                v = W.square_to_uniform_hemisphere(u)
+            elif which == 1:
+                v = W.square_to_uniform_sphere(u)
+            elif which == 2:
+                v = W.square_to_cosine_hemisphere(u)
+            elif which == 3:
+                v = W.square_to_phong_lobe(u, param)
+            elif which == 4:
+                v = W.square_to_cone(u, param)
+            elif which == 5:
+                d = W.square_to_disk(u)
+                v = wp.vec3(d[0], d[1], 0.0)
+            else:
+                v = wp.vec3(u[0], u[1], 0.0)
+            out_v[tid] = v
+        else:
+            v = pts[tid]
+            p = float(0.0)
+            if which == 0:
+                p = W.uniform_hemisphere_pdf(v[2])
+            elif which == 1:
+                p = W.INV_4PI
+            elif which == 2:
+                p = W.cosine_hemisphere_pdf(v[2])
+            elif which == 3:
+                p = W.phong_lobe_pdf(v[2], param)
+            elif which == 4:
+                if cap_t(v) <= param:
+                    p = W.cone_pdf(param)
+            elif which == 5:
+                if v[0] * v[0] + v[1] * v[1] <= 1.0:
+                    p = W.INV_PI
+            else:
+                if v[0] >= 0.0 and v[0] < 1.0 and v[1] >= 0.0 and v[1] < 1.0:
+                    p = 1.0
+            out_p[tid] = p
+
+    return warps_kernel
+
+
+# The kernels' integer material kind of each kind name (one definition: kernels/scene.py).
+KIND_INDEX = MATERIAL_CODE
+ALL_KINDS = frozenset(MATERIAL_KINDS)
+
+
+@dataclass
+class BSDFSamples:
+    wi: np.ndarray          # (n, 3)
+    pdf: np.ndarray         # the pdf the sample carries
+    weight: np.ndarray      # (n, 3)
+    valid: np.ndarray       # bool
+    delta: np.ndarray       # bool
+    pdf_eval: np.ndarray    # pdf_bsdf(wi) evaluated separately (valid non-delta samples)
+    f_eval: np.ndarray      # eval_bsdf(wi) = f|cos| evaluated separately
+
+
+class BSDFAdapter:
+    """`make_bsdf(ALL_KINDS, lobe)` wrapped in one kernel per `lobe` (mode 0 samples, mode 1
+    evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
+    n, wo); u_lobe, u.x, u.y of thread i are `uniform(seed, i, 0|1|2)`."""
+
+    _kernels: dict = {}
+
+    def __init__(self, lobe: bool):
+        self.lobe = bool(lobe)
+        if self.lobe not in BSDFAdapter._kernels:
+            BSDFAdapter._kernels[self.lobe] = _make_bsdf_kernel(self.lobe)
+        self.kernel = BSDFAdapter._kernels[self.lobe]
+
+    def _launch(self, mode, case, n, seed, pts=None):
+        wp = _wp()
+        kind, albedo, exponent, ior, nrm, wo = case
+        inp, n = _input_points(pts, n)
+        arrays = _outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
+        kind_i = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
+        wp.launch(self.kernel, dim=n, device="cpu",
+                  inputs=[int(mode), kind_i, _as_vec3(albedo), float(exponent), float(ior),
+                          _as_vec3(nrm), _as_vec3(wo), wp.uint32(seed), inp, *arrays])
+        return [a.numpy() for a in arrays]
+
+    def sample(self, case, n: int, seed: int = 0) -> BSDFSamples:
+        wi, pdf, weight, flags, pdf_eval, f_eval = self._launch(0, case, n, seed)
+        return BSDFSamples(wi=wi, pdf=pdf.astype(np.float64), weight=weight,
+                           valid=(flags & 1) == 1, delta=(flags & 2) == 2,
+                           pdf_eval=pdf_eval.astype(np.float64), f_eval=f_eval)
+
+    def evaluate(self, case, wi) -> tuple[np.ndarray, np.ndarray]:
+        """(pdf_bsdf, eval_bsdf) at directions wi."""
+        _, _, _, _, pdf, f = self._launch(1, case, 0, 0, wi)
+        return pdf.astype(np.float64), f
+
+    def sampler(self, case) -> SampleFunc:
+        def sample(n, seed):
+            s = self.sample(case, n, seed)
+            return s.wi, s.valid
+        return sample
+
+    def pdf(self, case, masked: bool = True) -> PdfFunc:
+        """The density of *valid* samples: pdf_bsdf where f|cos| > 0 (sample_bsdf drops a proposal
+        whose f is zero, e.g. a uniform proposal outside a Phong lobe); masked=False: pdf_bsdf."""
+        def pdf(pts):
+            p, f = self.evaluate(case, pts)
+            if masked:
+                p = np.where(np.any(f > 0.0, axis=1), p, 0.0)
+            return p
+        return pdf
+
+
+def _make_bsdf_kernel(lobe: bool):
+    wp = _wp()
+    from drtlab.kernels.materials import make_bsdf
+
+    b = make_bsdf(ALL_KINDS, lobe)
+    sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def bsdf_kernel(mode: int, kind: int, albedo: wp.vec3, exponent: float, ior: float,
+                    n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
+                    out_wi: wp.array(dtype=wp.vec3), out_pdf: wp.array(dtype=float),
+                    out_weight: wp.array(dtype=wp.vec3), out_flags: wp.array(dtype=int),
+                    out_pdf_eval: wp.array(dtype=float), out_f_eval: wp.array(dtype=wp.vec3)):
+        tid = wp.tid()
+        if mode == 0:
+            i = wp.uint32(tid)
+            u_lobe = uniform(seed, i, 0)
+            u = wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2))
+            s = sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u)
+            out_wi[tid] = s.wi
+            out_pdf[tid] = s.pdf
+            out_weight[tid] = s.weight
+            out_flags[tid] = s.valid + 2 * s.delta
+            if s.valid == 1 and s.delta == 0:
+                out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, n, wo, s.wi)
+                out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, n, wo, s.wi)
+        else:
+            wi = pts[tid]
+            out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, n, wo, wi)
+            out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+
+    return bsdf_kernel
+
+
+@dataclass
+class LightSamples:
+    wi: np.ndarray          # (n, 3)
+    dist: np.ndarray
+    pdf: np.ndarray         # the solid-angle pdf the sample carries (light choice included)
+    valid: np.ndarray       # bool
+    light: np.ndarray       # picked light index
+    pdf_eval: np.ndarray    # light_pdf at the sampled point, evaluated separately
+    radiance: np.ndarray    # (n, 3)
+    pmf: np.ndarray         # light_pick_pmf of the picked light
+
+
+class LightAdapter:
+    """`make_lights(False, solid_angle, power_pick)` on an uploaded SceneData, seen from a point x.
+
+    Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)). The claimed density of a
+    direction w is the sum over lights of light_pdf(li, x, y, ny) where y is the nearest point at
+    which the ray x + t w meets light li's shape and ny its normal (spheres: outward; quads: their
+    normal), counted only where that point faces x (a one-sided quad seen from behind, or a sphere
+    point facing away, is never a valid sample). `wrong_jacobian` compiles the renderer's fault
+    (area samples converted to solid angle without the cosine at the light): a negative control for
+    the pdf consistency check, which a chi-square test of the directions cannot see."""
+
+    _kernels: dict = {}
+    # What the kernel writes per sample: LightSamples' fields in order, then `_EXTRA` fields.
+    _OUTPUTS = (wp.vec3, float, float, int, int, float, wp.vec3, float, int)
+    _SAMPLES = LightSamples
+    _EXTRA: tuple = ()          # names of the kept outputs past LightSamples' (the face: unused)
+
+    def __init__(self, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False):
+        key = (bool(solid_angle), bool(power_pick), bool(wrong_jacobian))
+        kernels = type(self)._kernels
+        if key not in kernels:
+            kernels[key] = self._build(*key)
+        self.kernel = kernels[key]
+
+    @staticmethod
+    def _build(*key):
+        return _make_light_kernel(*key)
+
+    def _launch(self, mode, sd, x, n, seed, pts=None):
+        wp = _wp()
+        inp, n = _input_points(pts, n)
+        arrays = _outputs(n, *self._OUTPUTS)
+        wp.launch(self.kernel, dim=n, device="cpu",
+                  inputs=[int(mode), sd, _as_vec3(x), wp.uint32(seed), inp, *arrays])
+        return [a.numpy() for a in arrays]
+
+    def sample(self, sd, x, n: int, seed: int = 0) -> LightSamples:
+        wi, dist, pdf, valid, li, pdf_eval, rad, pmf, *extra = self._launch(0, sd, x, n, seed)
+        extra = extra[:len(self._EXTRA)]
+        return self._SAMPLES(wi=wi, dist=dist, pdf=pdf.astype(np.float64), valid=valid == 1,
+                             light=li, pdf_eval=pdf_eval.astype(np.float64), radiance=rad,
+                             pmf=pmf.astype(np.float64), **dict(zip(self._EXTRA, extra)))
+
+    def sampler(self, sd, x) -> SampleFunc:
+        def sample(n, seed):
+            s = self.sample(sd, x, n, seed)
+            return s.wi, s.valid
+        return sample
+
+    def pdf(self, sd, x) -> PdfFunc:
+        def pdf(pts):
+            return self._launch(1, sd, x, 0, 0, pts)[5].astype(np.float64)
+        return pdf
+
+
+@wp.func
+def face_normal(sd: SceneData, face: int) -> wp.vec3:
+    idx = sd.tri_index[face]
+    a = sd.mesh_points[idx[0]]
+    return wp.normalize(wp.cross(sd.mesh_points[idx[1]] - a, sd.mesh_points[idx[2]] - a))
+
+
+def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
+                       meshes: bool = False, mesh_fault: bool = False):
+    """The light-sampling kernel of LightAdapter (spheres and quads) and, with `meshes`, of
+    chi2.mesh_adapter.MeshLightAdapter (mesh lights too; `mesh_fault` compiles its negative control).
+    The mesh branches are compiled out without `meshes`."""
+    wp = _wp()
+    from drtlab.kernels.device_scene import MESH, QUAD
+    from drtlab.kernels.intersection.primitives import hit_quad, hit_sphere
+    from drtlab.kernels.intersection.scene_rays import make_motion
+    from drtlab.kernels.lights import make_lights
+    from drtlab.kernels.intersection.bvh_traversal import make_mesh_rays, ray_shear
+
+    L = make_lights(False, solid_angle, power_pick, wrong_jacobian, meshes=meshes,
+                    mesh_fault=mesh_fault)
+    nearest_in_mesh = make_mesh_rays(make_motion(False).mesh_shift).nearest_in_mesh
+    pick_light, light_pdf, sample_light, pick_pmf = (L.pick_light, L.light_pdf, L.sample_light,
+                                                     L.light_pick_pmf)
+
+    @wp.func
+    def direction_pdf(sd: SceneData, x: wp.vec3, w: wp.vec3) -> float:
+        """The claimed density of direction w: every light met facing x, at its nearest point."""
+        total = float(0.0)
+        for li in range(sd.n_lights):
+            k = sd.light_shape_kind[li]
+            s = sd.light_shape[li]
+            t = float(1.0e30)
+            ny = wp.vec3(0.0)
+            if k == SPHERE:
+                c = sd.sph_center[s]
+                t = hit_sphere(x, w, c, sd.sph_radius[s], 1.0e30)
+                if t < 1.0e30:
+                    ny = wp.normalize(x + w * t - c)
+            elif k == QUAD:
+                t = hit_quad(x, w, sd.quad_origin[s], sd.quad_u[s], sd.quad_v[s], 1.0e30)
+                ny = sd.quad_normal[s]
+            elif wp.static(meshes):
+                if k == MESH:
+                    mh = nearest_in_mesh(sd, s, x, ray_shear(w), w, 1.0e30, 0.0)
+                    if mh.mesh >= 0:
+                        t = mh.t
+                        ny = mh.n
+            if t < 1.0e30:
+                if wp.dot(ny, w) < 0.0:
+                    total += light_pdf(sd, li, x, x + w * t, ny, 0.0)
+        return total
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def light_kernel(mode: int, sd: SceneData, x: wp.vec3, seed: wp.uint32,
+                     pts: wp.array(dtype=wp.vec3), out_wi: wp.array(dtype=wp.vec3),
+                     out_dist: wp.array(dtype=float), out_pdf: wp.array(dtype=float),
+                     out_valid: wp.array(dtype=int), out_light: wp.array(dtype=int),
+                     out_pdf_eval: wp.array(dtype=float), out_rad: wp.array(dtype=wp.vec3),
+                     out_pmf: wp.array(dtype=float), out_face: wp.array(dtype=int)):
+        tid = wp.tid()
+        if mode == 0:
+            i = wp.uint32(tid)
+            li = pick_light(sd, uniform(seed, i, 0))
+            ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0.0)
+            out_light[tid] = li
+            out_pmf[tid] = pick_pmf(sd, li)
+            out_valid[tid] = ls.valid
+            if ls.valid == 1:
+                out_wi[tid] = ls.wi
+                out_dist[tid] = ls.dist
+                out_pdf[tid] = ls.pdf
+                out_rad[tid] = ls.radiance
+                y = x + ls.wi * ls.dist
+                s = sd.light_shape[li]
+                k = sd.light_shape_kind[li]
+                ny = wp.vec3(0.0)
+                if k == SPHERE:
+                    ny = wp.normalize(y - sd.sph_center[s])
+                elif k == QUAD:
+                    ny = sd.quad_normal[s]
+                elif wp.static(meshes):
+                    ny = face_normal(sd, ls.prim)
+                    out_face[tid] = ls.prim
+                # The pdf of the same point evaluated on its own, as MIS does from a BSDF hit.
+                out_pdf_eval[tid] = light_pdf(sd, li, x, y, ny, 0.0)
+        else:
+            out_pdf_eval[tid] = direction_pdf(sd, x, wp.normalize(pts[tid]))
+
+    return light_kernel
+
+
+def upload_scene(scene_dict: dict):
+    """SceneData on the CPU for a scene dict (kernels/SCENE_FORMAT.md), and the Scene itself."""
+    from drtlab.kernels.device_scene import upload
+    from drtlab.kernels.scene_file import scene_from_dict
+    scene = scene_from_dict(scene_dict, name="chi2")
+    return upload(scene, "cpu"), scene

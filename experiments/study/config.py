@@ -1,0 +1,465 @@
+"""Experiment files (TOML) -> validated dataclasses. Every problem is one `InputError(field, message)`.
+
+An experiment is a list of studies (scenes x samplers on one integrator) swept over an spp ladder
+with independent repetitions. Run-size settings live in `[experiment]` and may be overridden by a
+`[profile.NAME]` section (`quick` is the default, `full` for publication); `include` pulls in the
+studies of other experiment files, each resolved with its own settings for the same profile.
+
+    [experiment]
+    description = "..."                      # required
+    seed        = 0                          # root seed; run seeds are hashes of it (seeds.py)
+    integrator  = "drt"                      # drt | path (whitted is biased: no ground truth)
+    include     = ["stratified", ...]        # other experiment files (names or paths)
+    spp         = [1, 4, 16, 64, 256]        # the ladder, strictly increasing, >= 2 entries
+    repetitions = 4                          # independent seeds per (scene, sampler, spp), >= 2
+    samples_per_cell = 320                   # optional: runs per cell >= this / spp (equal samples)
+    resolution  = [48, 36]                   # [width, height]; omit for each scene's own
+    gt_spp      = 16384                      # ground-truth samples per pixel
+    gt_batch_spp = 512                       # ground truth is accumulated in batches of this size
+    target_rmse = 0.01                       # optional: time-to-reach target (default: automatic)
+    strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
+
+    [[study]]
+    name     = "stratification"               # required, unique
+    scenes   = ["aa-edges", {name = "glossy", overrides = {"scene.max_depth" = 3}, label = "glossy-d3"}]
+    samplers = ["uniform", "stratified"]      # presets or POINTS+STRATEGY
+    baseline = "uniform"                      # default: the first sampler
+    integrator = "drt"                        # default: [experiment].integrator
+    metric   = "mse"                          # mse (RMSE) | relmse (relative MSE, for bright emitters)
+
+    [profile.quick]                           # any of the run-size keys above
+    spp = [1, 4, 16]
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable
+
+from drtlab.experiments.seeds import short_hash
+from drtlab import fields
+from drtlab.errors import InputError
+
+EXPERIMENT_DIR = Path(__file__).resolve().parent.parent / "studies"     # the built-in study specifications
+DEFAULT_PROFILE = "quick"
+
+SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
+                 "target_rmse", "strip_spp")
+EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
+STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
+STUDY_METRICS = ("mse", "relmse")
+SCENE_KEYS = ("name", "overrides", "label")
+DEFAULTS: dict[str, Any] = {
+    "spp": (1, 4, 16, 64, 256),
+    "repetitions": 4,
+    "samples_per_cell": None,
+    "resolution": None,
+    "gt_spp": 16384,
+    "gt_batch_spp": 512,
+    "target_rmse": None,
+    "strip_spp": None,
+}
+MIN_GT_BATCHES = 4
+MAX_RUNS_PER_CELL = 4096
+
+
+@dataclass(frozen=True)
+class SceneRef:
+    name: str                       # built-in name or path, as written
+    label: str                      # short name used in file names, tables and plots
+    overrides: tuple = ()           # sorted ((dotted key, value), ...)
+
+    @property
+    def overrides_dict(self) -> dict:
+        return {k: _thaw(v) for k, v in self.overrides}
+
+    @property
+    def key(self) -> str:
+        """Identity of the scene as rendered (name + overrides), used in seeds and cache names."""
+        if not self.overrides:
+            return self.label
+        return f"{self.label}~{short_hash(self.overrides_dict, 8)}"
+
+
+@dataclass(frozen=True)
+class Settings:
+    spp: tuple[int, ...]
+    repetitions: int
+    resolution: tuple[int, int] | None
+    gt_spp: int
+    gt_batch_spp: int
+    target_rmse: float | None
+    strip_spp: tuple[int, ...]
+    samples_per_cell: int | None = None
+
+    def runs_at(self, spp: int) -> int:
+        """Repetitions of a cell at `spp`: `repetitions`, or with `samples_per_cell` at least
+        ceil(samples_per_cell / spp). Equal samples per cell matter under heavy tails: a rare, huge
+        sample then has the same chance to land in every cell, so the cells' means are biased alike
+        (by the samples none of them saw) and the slope is not; with equal runs the small-spp cells
+        see it least often and the fitted error falls too slowly (tests/experiments/stats/test_slope_fit.py)."""
+        if self.samples_per_cell is None:
+            return self.repetitions
+        return max(self.repetitions, -(-self.samples_per_cell // spp))
+
+    @property
+    def runs_per_spp(self) -> list[int]:
+        return [self.runs_at(n) for n in self.spp]
+
+
+@dataclass(frozen=True)
+class Study:
+    name: str
+    description: str
+    experiment: str                 # the file it came from (differs from the top one for includes)
+    seed: int
+    scenes: tuple[SceneRef, ...]
+    samplers: tuple[str, ...]       # canonical sampler names
+    baseline: str
+    integrator: str
+    settings: Settings
+    metric: str = "mse"             # the error samplers are ranked by: mse | relmse
+
+
+@dataclass(frozen=True)
+class Experiment:
+    name: str
+    description: str
+    path: str
+    profile: str
+    text_hash: str                  # hash of this file and every included file's text
+    studies: tuple[Study, ...]
+    sources: dict = field(default_factory=dict, compare=False)   # file -> text hash
+    profiles: tuple[str, ...] = ()  # the [profile.NAME] sections of the file and its includes
+
+    def scenes(self) -> list[tuple[SceneRef, str, tuple | None]]:
+        """Unique (scene, integrator, resolution) triples, in first-seen order."""
+        seen: dict = {}
+        for st in self.studies:
+            for sc in st.scenes:
+                k = (sc, st.integrator, st.settings.resolution)
+                seen.setdefault(k, None)
+        return list(seen)
+
+
+def _freeze(v):
+    if isinstance(v, list):
+        return tuple(_freeze(x) for x in v)
+    if isinstance(v, dict):
+        return tuple(sorted((k, _freeze(x)) for k, x in v.items()))
+    return v
+
+
+def _thaw(v):
+    return [_thaw(x) for x in v] if isinstance(v, tuple) else v
+
+
+# ---------------------------------------------------------------------------------------------
+def builtin_experiments() -> list[str]:
+    return sorted(p.stem for p in EXPERIMENT_DIR.glob("*.toml"))
+
+
+def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
+    p = Path(name_or_path)
+    candidates = []
+    if p.suffix == ".toml" or p.exists():
+        if base is not None and not p.is_absolute():
+            candidates.append(base / p)
+        candidates.append(p)
+    else:
+        if base is not None:
+            candidates.append(base / f"{name_or_path}.toml")
+        candidates.append(EXPERIMENT_DIR / f"{name_or_path}.toml")
+    for c in candidates:
+        if c.is_file():
+            return c
+    raise InputError("experiment", f"no experiment file '{name_or_path}'; built-in experiments: "
+                     f"{', '.join(builtin_experiments())}, or a path to a .toml file")
+
+
+def _int(v, fld, lo=None):
+    return fields.integer(v, fld) if lo is None else fields.integer_in(v, fld, lo)
+
+
+def _setting(key, v, fld):
+    if key == "spp":
+        if not isinstance(v, list) or len(v) < 2:
+            raise InputError(fld, f"must be a list of at least 2 sample counts (e.g. [1, 4, 16, 64]), got {v!r}")
+        out = tuple(_int(x, f"{fld}[{i}]", 1) for i, x in enumerate(v))
+        for i in range(1, len(out)):
+            if out[i] <= out[i - 1]:
+                raise InputError(f"{fld}[{i}]", f"the ladder must be strictly increasing, got {list(out)}")
+        return out
+    if key == "repetitions":
+        return _int(v, fld, 2)
+    if key == "samples_per_cell":
+        return _int(v, fld, 2)
+    if key == "resolution":
+        return fields.resolution(v, fld, name_elements=True)
+    if key in ("gt_spp", "gt_batch_spp"):
+        return _int(v, fld, 1)
+    if key == "target_rmse":
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+            raise InputError(fld, f"must be a finite number > 0, got {v!r}")
+        return float(v)
+    if key == "strip_spp":
+        if not isinstance(v, list) or not v:
+            raise InputError(fld, f"must be a non-empty list of sample counts, got {v!r}")
+        return tuple(_int(x, f"{fld}[{i}]", 1) for i, x in enumerate(v))
+    raise AssertionError(key)
+
+
+def _settings(exp_table, profile_table, profile) -> Settings:
+    vals, where = dict(DEFAULTS), {k: f"experiment.{k}" for k in DEFAULTS}
+    for k in SETTINGS_KEYS:
+        if k in exp_table:
+            vals[k] = _setting(k, exp_table[k], f"experiment.{k}")
+    for k in SETTINGS_KEYS:
+        if profile_table is not None and k in profile_table:
+            where[k] = f"profile.{profile}.{k}"
+            vals[k] = _setting(k, profile_table[k], where[k])
+    spp = tuple(vals["spp"])
+    if vals["gt_spp"] % vals["gt_batch_spp"] != 0:
+        raise InputError(where["gt_spp"], f"must be a multiple of gt_batch_spp = {vals['gt_batch_spp']}, "
+                         f"got {vals['gt_spp']}")
+    if vals["gt_spp"] // vals["gt_batch_spp"] < MIN_GT_BATCHES:
+        raise InputError(where["gt_spp"], f"must be at least {MIN_GT_BATCHES} batches of gt_batch_spp = "
+                         f"{vals['gt_batch_spp']} (the standard error needs them), got {vals['gt_spp']}")
+    strip = vals["strip_spp"]
+    if strip is None:
+        strip = (spp[0], spp[len(spp) // 2], spp[-1]) if len(spp) > 2 else spp
+        strip = tuple(dict.fromkeys(strip))
+    else:
+        for i, s in enumerate(strip):
+            if s not in spp:
+                raise InputError(f"{where['strip_spp']}[{i}]", f"{s} is not on the spp ladder {list(spp)}")
+    per_cell = vals["samples_per_cell"]
+    if per_cell is not None and -(-per_cell // spp[0]) > MAX_RUNS_PER_CELL:
+        raise InputError(where["samples_per_cell"], f"would need {-(-per_cell // spp[0])} runs at "
+                         f"spp = {spp[0]}; at most {MAX_RUNS_PER_CELL} runs per cell, so at most "
+                         f"{MAX_RUNS_PER_CELL * spp[0]} here, got {per_cell}")
+    return Settings(spp=spp, repetitions=vals["repetitions"], resolution=vals["resolution"],
+                    gt_spp=vals["gt_spp"], gt_batch_spp=vals["gt_batch_spp"],
+                    target_rmse=vals["target_rmse"], strip_spp=tuple(strip),
+                    samples_per_cell=per_cell)
+
+
+def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
+    if isinstance(entry, str):
+        name, overrides, label = fields.nonempty_string(entry, fld), {}, None
+    elif isinstance(entry, dict):
+        fields.check_keys(entry, SCENE_KEYS, fld)
+        if "name" not in entry:
+            raise InputError(f"{fld}.name", "required (a built-in scene name or a path)")
+        name = fields.nonempty_string(entry["name"], f"{fld}.name")
+        overrides = entry.get("overrides", {})
+        if not isinstance(overrides, dict):
+            raise InputError(f"{fld}.overrides", f"must be a table of dotted keys, got {overrides!r}")
+        label = fields.nonempty_string(entry["label"], f"{fld}.label") if "label" in entry else None
+    else:
+        raise InputError(fld, f"must be a scene name or a table {{name, overrides, label}}, got {entry!r}")
+    is_path = "/" in name or name.endswith(".toml")
+    if is_path and base is not None and not Path(name).is_absolute() and (base / name).is_file():
+        name = str((base / name).resolve())        # relative to the experiment file
+    if label is None:
+        label = Path(name).stem if is_path else name
+        if overrides:
+            label = f"{label}~{short_hash(overrides, 6)}"
+    bad = [c for c in label if not (c.isalnum() or c in "-_.~")]
+    if bad:
+        raise InputError(f"{fld}.label", f"may hold letters, digits and - _ . ~ only, got {label!r}")
+    return SceneRef(name=name, label=label,
+                    overrides=tuple(sorted((k, _freeze(v)) for k, v in overrides.items())))
+
+
+def _canonical_sampler(name, fld) -> str:
+    from drtlab.estimators.registry import parse_sampler
+    return parse_sampler(name, fld).name
+
+
+def _integrator(name, fld) -> str:
+    from drtlab.estimators.registry import parse_integrator
+    return parse_integrator(name, fld, unbiased=True).name
+
+
+def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None = None) -> Study:
+    fld = f"study[{i}]"
+    fields.check_keys(t, STUDY_KEYS, fld)
+    for req in ("name", "scenes", "samplers"):
+        if req not in t:
+            raise InputError(f"{fld}.{req}", "required")
+    name = fields.nonempty_string(t["name"], f"{fld}.name")
+    scenes = t["scenes"]
+    if not isinstance(scenes, list) or not scenes:
+        raise InputError(f"{fld}.scenes", f"must be a non-empty list of scenes, got {scenes!r}")
+    refs = tuple(scene_ref(s, f"{fld}.scenes[{j}]", base) for j, s in enumerate(scenes))
+    labels = [r.label for r in refs]
+    for j, lab in enumerate(labels):
+        if labels.index(lab) != j:
+            raise InputError(f"{fld}.scenes[{j}]", f"scene '{lab}' is listed twice (give it a distinct label)")
+    samplers = t["samplers"]
+    if not isinstance(samplers, list) or not samplers:
+        raise InputError(f"{fld}.samplers", f"must be a non-empty list of samplers, got {samplers!r}")
+    canon = tuple(_canonical_sampler(s, f"{fld}.samplers[{j}]") for j, s in enumerate(samplers))
+    for j, c in enumerate(canon):
+        if canon.index(c) != j:
+            raise InputError(f"{fld}.samplers[{j}]", f"'{samplers[j]}' is the same sampler as "
+                             f"'{samplers[canon.index(c)]}'")
+    baseline = canon[0]
+    if "baseline" in t:
+        baseline = _canonical_sampler(t["baseline"], f"{fld}.baseline")
+        if baseline not in canon:
+            raise InputError(f"{fld}.baseline", f"'{t['baseline']}' is not one of the study's samplers "
+                             f"({', '.join(samplers)})")
+    integrator = _integrator(t.get("integrator", default_integrator), f"{fld}.integrator")
+    desc = t.get("description", "")
+    if not isinstance(desc, str):
+        raise InputError(f"{fld}.description", f"must be a string, got {desc!r}")
+    metric = t.get("metric", "mse")
+    if metric not in STUDY_METRICS:
+        raise InputError(f"{fld}.metric", f"must be one of {', '.join(STUDY_METRICS)}, got {metric!r}")
+    return Study(name=name, description=desc, experiment=exp_name, seed=seed, scenes=refs,
+                 samplers=canon, baseline=baseline, integrator=integrator, settings=settings,
+                 metric=metric)
+
+
+def _parse_file(path: Path, profile: str, stack: tuple, sources: dict,
+                profiles_seen: set) -> tuple[str, list[Study]]:
+    text = path.read_text()
+    sources[str(path)] = short_hash(text, 16)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(path.name, f"not valid TOML: {e}") from None
+    return _parse_data(data, path, profile, stack, sources, profiles_seen)
+
+
+def _parse_data(data: dict, path: Path, profile: str, stack: tuple, sources: dict,
+                profiles_seen: set) -> tuple[str, list[Study]]:
+    """An experiment's parsed TOML; `path` names it (its stem) and anchors relative paths."""
+    fields.check_keys(data, ("experiment", "study", "profile"), "", "an experiment")
+    if "experiment" not in data:
+        raise InputError("experiment", "required table [experiment] is missing")
+    exp = data["experiment"]
+    fields.check_keys(exp, EXPERIMENT_KEYS, "experiment")
+    if "description" not in exp:
+        raise InputError("experiment.description", "required (one line saying what the study asks)")
+    desc = fields.nonempty_string(exp["description"], "experiment.description")
+    seed = _int(exp.get("seed", 0), "experiment.seed", 0)
+    integrator = exp.get("integrator", "drt")
+    _integrator(integrator, "experiment.integrator")
+
+    profiles = data.get("profile", {})
+    if not isinstance(profiles, dict):
+        raise InputError("profile", "must be a table of [profile.NAME] sections")
+    profiles_seen.update(profiles)
+    for pname, ptab in profiles.items():
+        fields.check_keys(ptab, SETTINGS_KEYS, f"profile.{pname}")
+        _settings(exp, ptab, pname)            # every profile is checked, not only the one asked for
+    if profile in profiles:
+        ptable = profiles[profile]
+    elif profile == DEFAULT_PROFILE or not profiles:
+        ptable = None
+    else:
+        raise InputError("profile", f"unknown profile '{profile}' in {path.name}; defined: "
+                         f"{', '.join(profiles) or DEFAULT_PROFILE}")
+    settings = _settings(exp, ptable, profile)
+
+    studies: list[Study] = []
+    includes = exp.get("include", [])
+    if not isinstance(includes, list) or not all(isinstance(x, str) for x in includes):
+        raise InputError("experiment.include", f"must be a list of experiment names or paths, got {includes!r}")
+    for k, inc in enumerate(includes):
+        try:
+            ipath = resolve_path(inc, path.parent)
+        except InputError:
+            raise InputError(f"experiment.include[{k}]", f"no experiment file '{inc}'; built-in: "
+                             f"{', '.join(builtin_experiments())}") from None
+        if ipath.resolve() in stack:
+            raise InputError(f"experiment.include[{k}]", f"'{inc}' includes itself (cycle)")
+        try:
+            _, sub = _parse_file(ipath, profile, stack + (ipath.resolve(),), sources, profiles_seen)
+        except InputError as e:
+            if e.field.startswith(f"{ipath.name}:"):
+                raise
+            raise InputError(f"{ipath.name}:{e.field}", e.message) from None
+        studies.extend(sub)
+
+    raw = data.get("study", [])
+    if not isinstance(raw, list):
+        raise InputError("study", "must be an array of tables: write each as [[study]]")
+    for i, t in enumerate(raw):
+        studies.append(_study(t, i, path.stem, seed, integrator, settings, path.parent))
+    if not studies:
+        raise InputError("study", "no [[study]] section and nothing included: the experiment is empty")
+    return desc, studies
+
+
+def load_experiment(name_or_path: str | Path | dict, profile: str = DEFAULT_PROFILE,
+                    scene_loader: Callable | None = None, check_scenes: bool = True,
+                    name: str = "inline") -> Experiment:
+    """Parse and fully validate an experiment (a built-in name, a .toml path, or a dict shaped like
+    the TOML file, which is then called `name`); raises InputError and writes nothing."""
+    if not isinstance(profile, str) or not profile:
+        raise InputError("profile", f"must be a profile name, got {profile!r}")
+    sources: dict = {}
+    profiles_seen: set = set()
+    if isinstance(name_or_path, dict):
+        if not isinstance(name, str) or not name or any(not (c.isalnum() or c in "-_.") for c in name):
+            raise InputError("name", f"an experiment's name holds letters, digits and - _ . only "
+                                     f"(it names the results folder), got {name!r}")
+        # An experiment defined in memory: named by `name`, relative paths from the working folder.
+        path = Path.cwd() / f"{name}.toml"
+        sources["<dict>"] = short_hash(name_or_path, 16)
+        desc, studies = _parse_data(name_or_path, path, profile, (path,), sources, profiles_seen)
+    else:
+        path = resolve_path(name_or_path)
+        desc, studies = _parse_file(path, profile, (path.resolve(),), sources, profiles_seen)
+    if profile != DEFAULT_PROFILE and profile not in profiles_seen:
+        known = [DEFAULT_PROFILE] + sorted(profiles_seen - {DEFAULT_PROFILE})
+        raise InputError("profile", f"unknown profile '{profile}': {path.name} (with its includes) "
+                         f"defines {', '.join(known)} ('{DEFAULT_PROFILE}' is the [experiment] settings "
+                         f"when no [profile.{DEFAULT_PROFILE}] is given)")
+
+    names = [s.name for s in studies]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            # Included experiments may reuse a study name; keep them apart by their file.
+            studies = [replace(s, name=f"{s.experiment}/{s.name}") if names.count(s.name) > 1 else s
+                       for s in studies]
+            break
+    names = [s.name for s in studies]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise InputError(f"study[{i}].name", f"study name '{n}' is used twice")
+    # One label must mean one scene across the whole experiment (cache and file names rely on it).
+    by_label: dict = {}
+    for si, st in enumerate(studies):
+        for j, sc in enumerate(st.scenes):
+            prev = by_label.setdefault(sc.label, sc)
+            if prev != sc:
+                raise InputError(f"study[{si}].scenes[{j}]", f"label '{sc.label}' names two different "
+                                 f"scenes ({prev.name} {prev.overrides_dict} and {sc.name} "
+                                 f"{sc.overrides_dict}); give one a distinct label")
+    if check_scenes:
+        loader = scene_loader
+        if loader is None:
+            from drtlab.experiments.study.backend import default_scene_loader
+            loader = default_scene_loader()
+        checked = set()
+        for si, st in enumerate(studies):
+            for j, sc in enumerate(st.scenes):
+                if sc in checked:
+                    continue
+                checked.add(sc)
+                try:
+                    loader(sc.name, sc.overrides_dict or None)
+                except InputError as e:
+                    where = f"study[{si}].scenes[{j}]" if st.experiment == path.stem else \
+                        f"{st.experiment}.toml:study '{st.name}'.scenes[{j}]"
+                    raise InputError(where, f"scene '{sc.name}': {e.field}: {e.message}") from None
+    return Experiment(name=path.stem, description=desc, path=str(path), profile=profile,
+                      text_hash=short_hash(sorted(sources.items()), 16), studies=tuple(studies),
+                      sources=sources, profiles=tuple(sorted(profiles_seen)))

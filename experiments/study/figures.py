@@ -1,0 +1,263 @@
+"""The report's figures: per-study plots (error vs samples, error vs time, relative efficiency) and
+per-scene image strips.
+
+Plots use the Agg backend and tell samplers apart by marker and line style (and hatch for bars) as
+well as by colour, so they stay readable printed in black and white.
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from drtlab.experiments.study.ground_truth import load_ground_truth
+from drtlab.experiments.study.results import Cell, Interval, SceneResult, StudyResult
+from drtlab.experiments.study.run_store import load_run_image
+from drtlab.kernels.imageio import to_srgb
+
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+LINESTYLES = ("-", "--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)), (0, (3, 1)))
+HATCHES = ("", "///", "...", "xx", "\\\\\\", "++", "oo", "--")
+COLOURS = ("#000000", "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#999999")
+
+
+def slug(s: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.~-]+", "-", s).strip("-") or "study"
+
+
+def _style(i: int) -> dict:
+    return {"marker": MARKERS[i % len(MARKERS)], "linestyle": LINESTYLES[i % len(LINESTYLES)],
+            "color": COLOURS[i % len(COLOURS)]}
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+    plt.rcParams.update({"font.size": 8, "axes.titlesize": 9, "legend.fontsize": 7,
+                         "savefig.dpi": 130, "figure.dpi": 100})
+    return plt
+
+
+def _grid(n: int):
+    cols = min(3, n)
+    rows = math.ceil(n / cols)
+    return rows, cols
+
+
+def _errbar(ax, xs, intervals: list[Interval], style, label):
+    ys = [iv.mean for iv in intervals]
+    lo = [max(iv.mean - iv.lo, 0) if math.isfinite(iv.lo) else 0 for iv in intervals]
+    hi = [max(iv.hi - iv.mean, 0) if math.isfinite(iv.hi) else 0 for iv in intervals]
+    ax.errorbar(xs, ys, yerr=[lo, hi], fmt=style["marker"], color=style["color"], mfc="white",
+                mec=style["color"], ms=5, capsize=2, elinewidth=0.8, label=label, zorder=3)
+
+
+Draw = Callable[..., None]      # draw(ax, scene, sampler, cells, style): one sampler in one panel
+
+
+def _two_and_five_labels():
+    """A log axis's minor-tick formatter that labels only 2 x and 5 x 10^k: matplotlib labels every
+    minor tick of an axis showing fewer than two powers of ten, and in a 3.4-inch panel those labels
+    run into each other."""
+    from matplotlib.ticker import LogFormatterSciNotation
+
+    class TwoAndFive(LogFormatterSciNotation):
+        def __call__(self, x, pos=None):
+            mantissa = x / 10.0 ** math.floor(math.log10(x)) if x > 0 else 0.0
+            if not any(abs(mantissa - m) < 1e-6 for m in (2.0, 5.0)):
+                return ""
+            return super().__call__(x, pos)
+
+    return TwoAndFive(labelOnlyBase=False)
+
+
+def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xlabel: str, ylabel: str,
+            xscale: dict, extra: Callable[..., None] | None = None):
+    """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`;
+    saved to `path` (returned), or without a path the matplotlib Figure itself (for a notebook)."""
+    plt = _plt()
+    scenes = study.scenes
+    rows, cols = _grid(len(scenes))
+    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.8 * rows), squeeze=False)
+    for k, scene in enumerate(scenes):
+        ax = axes[k // cols][k % cols]
+        for i, s in enumerate(study.samplers):
+            cells = [c for c in scene.cells if c.sampler == s]
+            if cells:
+                draw(ax, scene, s, cells, _style(i))
+        if extra is not None:
+            extra(ax, scene)
+        ax.set_xscale("log", **xscale)
+        ax.set_yscale("log")
+        if xscale.get("base", 10) == 10:
+            ax.xaxis.set_minor_formatter(_two_and_five_labels())
+        ax.yaxis.set_minor_formatter(_two_and_five_labels())
+        ax.set_title(scene.scene)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, which="both", lw=0.3, color="0.8")
+        ax.legend(loc="lower left", frameon=False)
+    for k in range(len(scenes), rows * cols):
+        axes[k // cols][k % cols].axis("off")
+    fig.suptitle(title)
+    fig.tight_layout()
+    if path is None:
+        return fig
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
+    """Error against spp, log-log, with the fitted line and its 95% credible band; a slope the runs
+    do not resolve gets no line (its points and their intervals say all the runs know)."""
+    def draw(ax, scene: SceneResult, s: str, cells: list[Cell], style: dict) -> None:
+        fit = scene.fit(s)
+        label = s
+        if fit is not None:
+            label = f"{s}: {fit.slope_text()}"
+        if fit is not None and fit.resolved is not False:
+            ax.plot(fit.line.n, fit.line.median, linestyle=style["linestyle"], color=style["color"], lw=1.2)
+            ax.fill_between(fit.line.n, fit.line.lo, fit.line.hi, color=style["color"], alpha=0.15, lw=0)
+        _errbar(ax, [c.spp for c in cells], [c.error(study.metric) for c in cells], style, label)
+
+    return _panels(study, path, draw, xscale={"base": 2}, xlabel="samples per pixel N",
+                   ylabel=f"{study.metric_label} (GT noise removed)",
+                   title=f"{study.name}: {study.metric_label} vs samples (points: mean ± 95% CI; "
+                         f"lines: likelihood fit ± 95% CrI, where resolved)")
+
+
+def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
+    """Error against render seconds, with the scene's target error."""
+    def draw(ax, scene: SceneResult, s: str, cells: list[Cell], style: dict) -> None:
+        xs = [c.seconds for c in cells]
+        errors = [c.error(study.metric) for c in cells]
+        ax.plot(xs, [e.mean for e in errors], linestyle=style["linestyle"], color=style["color"], lw=1.0)
+        _errbar(ax, xs, errors, style, s)
+
+    def target(ax, scene: SceneResult) -> None:
+        tgt = scene.speed.target_rmse
+        if tgt and math.isfinite(tgt):
+            ax.axhline(tgt, color="0.4", lw=0.8, linestyle=(0, (2, 2)))
+            ax.annotate("target", (1.0, tgt), xycoords=("axes fraction", "data"), ha="right",
+                        va="bottom", fontsize=6, color="0.3")
+
+    return _panels(study, path, draw, extra=target, xscale={},
+                   xlabel="render seconds (calibrated cost, compile excluded)",
+                   ylabel=study.metric_label, title=f"{study.name}: {study.metric_label} vs time")
+
+
+def plot_efficiency(study: StudyResult, path: Path) -> Path:
+    """Efficiency 1/(MSE * seconds) at the top of the ladder, relative to the baseline."""
+    plt = _plt()
+    scenes, samplers = study.scenes, study.samplers
+    fig, ax = plt.subplots(figsize=(max(4.0, 1.1 * len(scenes) * len(samplers) * 0.6 + 2), 3.0))
+    width = 0.8 / max(len(samplers), 1)
+    xs = np.arange(len(scenes))
+    allv = []
+    for i, s in enumerate(samplers):
+        vals = [scene.efficiency[s].relative if s in scene.efficiency else float("nan") for scene in scenes]
+        vals = [v if v and math.isfinite(v) and v > 0 else np.nan for v in vals]
+        allv += [v for v in vals if np.isfinite(v)]
+        pos = xs + (i - (len(samplers) - 1) / 2) * width
+        ax.bar(pos, vals, width, label=s, color="white" if i == 0 else _style(i)["color"],
+               alpha=1.0 if i == 0 else 0.55, edgecolor="black", hatch=HATCHES[i % len(HATCHES)], lw=0.8)
+        for p_, v in zip(pos, vals):
+            if np.isfinite(v):
+                ax.annotate(f"{v:.2g}×", (p_, v), ha="center", va="bottom", fontsize=6,
+                            xytext=(0, 1), textcoords="offset points")
+    ax.axhline(1.0, color="black", lw=0.8)
+    ax.set_yscale("log")
+    if allv:
+        ax.set_ylim(min(min(allv), 1.0) / 2.5, max(max(allv), 1.0) * 2.5)
+    ax.set_xticks(xs)
+    ax.set_xticklabels([scene.scene for scene in scenes], rotation=20, ha="right")
+    ax.set_ylabel(f"efficiency / {study.baseline}'s")
+    ax.set_title(f"{study.name}: efficiency 1/({study.mse_label}·s) at the largest spp\n"
+                 f"relative to {study.baseline} (higher is better)")
+    ax.legend(frameon=False)
+    ax.grid(True, axis="y", which="both", lw=0.3, color="0.8")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def plot_study(study: StudyResult, plots_dir: Path) -> dict:
+    """The three plots of a study: {"rmse_vs_spp", "rmse_vs_seconds", "efficiency"} -> file."""
+    name = slug(study.name)
+    return {"rmse_vs_spp": plot_error_vs_spp(study, plots_dir / f"{name}-rmse-vs-spp.png"),
+            "rmse_vs_seconds": plot_error_vs_seconds(study, plots_dir / f"{name}-rmse-vs-seconds.png"),
+            "efficiency": plot_efficiency(study, plots_dir / f"{name}-efficiency.png")}
+
+
+def choose_crop(gt: np.ndarray) -> tuple[int, int, int]:
+    """(y, x, size) of a square crop where the reference has the most edge energy."""
+    h, w = gt.shape[:2]
+    size = min(h, w) if min(h, w) < 32 else max(16, min(h, w) // 2)
+    lum = gt.mean(axis=2)
+    gy, gx = np.gradient(lum)
+    e = np.abs(gx) + np.abs(gy)
+    ii = np.pad(e.cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+    best, by, bx = -1.0, 0, 0
+    step = max(1, size // 8)
+    for y in range(0, h - size + 1, step):
+        for x in range(0, w - size + 1, step):
+            v = ii[y + size, x + size] - ii[y, x + size] - ii[y + size, x] + ii[y, x]
+            if v > best:
+                best, by, bx = v, y, x
+    return by, bx, size
+
+
+def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, out_dir: Path,
+                path: Path) -> None:
+    """GT and each sampler at a few spp, the same crop; rows = samplers, columns = spp."""
+    from matplotlib.patches import Rectangle
+    plt = _plt()
+    y, x, size = choose_crop(gt_mean)
+    ncol = 2 + len(strip_spp)
+    nrow = len(samplers)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(1.45 * ncol, 1.55 * nrow + 0.3), squeeze=False)
+    crop = lambda im: im[y:y + size, x:x + size]  # noqa: E731
+    for r, s in enumerate(samplers):
+        for c in range(ncol):
+            ax = axes[r][c]
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if c < 2:                              # the reference, whole and cropped: first row only
+                if r > 0:
+                    ax.axis("off")
+                elif c == 0:
+                    ax.imshow(to_srgb(gt_mean), interpolation="nearest")
+                    ax.add_patch(Rectangle((x - 0.5, y - 0.5), size, size, fill=False, ec="white", lw=1.0))
+                    ax.add_patch(Rectangle((x - 0.5, y - 0.5), size, size, fill=False, ec="black", lw=0.5,
+                                           ls="--"))
+                    ax.set_title("reference", fontsize=7)
+                else:
+                    ax.imshow(to_srgb(crop(gt_mean)), interpolation="nearest")
+                    ax.set_title("reference (crop)", fontsize=7)
+                continue
+            n = strip_spp[c - 2]
+            rid = run_ids.get((s, n))
+            if rid is None:
+                ax.axis("off")
+                continue
+            ax.imshow(to_srgb(crop(load_run_image(out_dir, rid))), interpolation="nearest")
+            if r == 0:
+                ax.set_title(f"{n} spp", fontsize=7)
+            if c == 2:
+                ax.set_ylabel(s, fontsize=7)
+    fig.suptitle(scene_label, fontsize=8)
+    fig.tight_layout(pad=0.3)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def strip_job(label, samplers, strip_spp, gt_dir, run_ids, out_dir, path) -> Path:
+    """`image_strip` with the reference read from its folder (a job for `parallel.pmap`)."""
+    image_strip(label, samplers, strip_spp, load_ground_truth(gt_dir).mean, run_ids, out_dir, path)
+    return path

@@ -1,0 +1,110 @@
+"""Error metrics of one image against a noisy ground truth, and statistics over repetitions.
+
+Noise floor: with X the estimate, G the ground truth (independent of X) and mu the true image,
+E[(X - G)^2] = E[(X - mu)^2] + Var(G). The measured MSE is biased up by the mean per-pixel variance of
+the ground truth, `gt_var = mean(stderr^2)`, which we report and subtract (`mse_corrected`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from drtlab.experiments.stats.running_moments import RunningMoments
+
+REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
+CI_LEVEL = 0.95
+
+
+def _lab(linear: np.ndarray) -> np.ndarray:
+    import colour  # slow import: only when a colour difference is asked for
+    rgb = np.clip(np.nan_to_num(linear, nan=0.0, posinf=1.0), 0.0, 1.0)
+    d65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    xyz = colour.RGB_to_XYZ(rgb, colour.RGB_COLOURSPACES["sRGB"], illuminant=d65,
+                            apply_cctf_decoding=False)
+    return colour.XYZ_to_Lab(xyz, d65)
+
+
+def ciede2000(img: np.ndarray, ref: np.ndarray, ref_lab: np.ndarray | None = None) -> float:
+    """Mean CIEDE2000 difference of the displayed (clipped to [0, 1]) sRGB images."""
+    import colour
+    lab_ref = _lab(ref) if ref_lab is None else ref_lab
+    return float(np.mean(colour.delta_E(_lab(img), lab_ref, method="CIE 2000")))
+
+
+def image_metrics(img: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
+                  gt_lab: np.ndarray | None = None, colour_diff: bool = True) -> dict:
+    img = np.asarray(img, dtype=np.float64)
+    gt = np.asarray(gt, dtype=np.float64)
+    if img.shape != gt.shape:
+        raise ValueError(f"image shape {img.shape} != ground truth shape {gt.shape}")
+    d = img - gt
+    d2 = np.square(d)
+    se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
+    mse = float(np.mean(d2))
+    gvar = float(np.mean(se2))
+    w = 1.0 / (np.square(gt) + REL_EPS)
+    relmse = float(np.mean(d2 * w))
+    relmse_gt = float(np.mean(se2 * w))
+    out = {
+        "mse": mse,
+        "rmse": math.sqrt(mse),
+        "gt_var": gvar,
+        "mse_corrected": mse - gvar,
+        "rmse_corrected": math.sqrt(max(mse - gvar, 0.0)),
+        "relmse": relmse,
+        "relmse_corrected": relmse - relmse_gt,
+        "mae": float(np.mean(np.abs(d))),
+        "mean_error": float(np.mean(d)),
+        "finite": bool(np.all(np.isfinite(img))),
+    }
+    out["ciede2000"] = ciede2000(img, gt, gt_lab) if colour_diff else float("nan")
+    return out
+
+
+def t_quantile(n: int, level: float = CI_LEVEL) -> float:
+    """Two-sided Student-t quantile for a mean of n values (scipy.special: far lighter than stats)."""
+    from scipy.special import stdtrit
+    return float(stdtrit(n - 1, 0.5 + level / 2)) if n > 1 else float("inf")
+
+
+def mean_ci(values, level: float = CI_LEVEL) -> dict:
+    """Mean and Student-t confidence interval over repetitions."""
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=np.float64)
+    n = len(v)
+    if n == 0:
+        return {"mean": float("nan"), "lo": float("nan"), "hi": float("nan"), "sd": float("nan"), "n": 0}
+    m = float(v.mean())
+    if n == 1:
+        return {"mean": m, "lo": float("nan"), "hi": float("nan"), "sd": float("nan"), "n": 1}
+    sd = float(v.std(ddof=1))
+    h = t_quantile(n, level) * sd / math.sqrt(n)
+    return {"mean": m, "lo": m - h, "hi": m + h, "sd": sd, "n": n}
+
+
+class CellAccumulator(RunningMoments):
+    """Streams the repetitions of one cell (one image at a time) into per-pixel moments."""
+
+    def bias(self, gt: np.ndarray, gt_stderr: np.ndarray, mean_errors, level: float = CI_LEVEL) -> dict:
+        """Bias of the estimator: mean image - GT, as a signed mean with its CI and a debiased RMS.
+
+        signed: mean over pixels of (mean image - GT). Its CI is the Student-t interval of the
+             repetitions' signed mean errors (`mean_errors`, which carries pixel correlations),
+             widened by the uncertainty of the GT's own pixel mean.
+        rms: sqrt(mean((mean image - GT)^2) - pixel_var / n - gt_var), clipped at 0: the per-pixel
+             bias energy left after removing what the noise alone would give.
+        """
+        n, P = self.n, self.mean.size
+        b = self.mean - gt
+        pix_var = float(np.mean(self.variance()))
+        se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
+        gvar = float(np.mean(se2))
+        ci = mean_ci(mean_errors, level)
+        signed = float(np.mean(b))
+        z = t_quantile(10 ** 6, level)
+        h_gt = z * math.sqrt(float(np.sum(se2))) / P
+        h_rep = (ci["hi"] - ci["mean"]) if ci["n"] > 1 else float("nan")
+        h = math.sqrt(h_rep ** 2 + h_gt ** 2)
+        ms = float(np.mean(np.square(b))) - pix_var / n - gvar
+        return {"signed": signed, "lo": signed - h, "hi": signed + h,
+                "rms": math.sqrt(max(ms, 0.0)), "pixel_variance": pix_var}

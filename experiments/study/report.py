@@ -1,0 +1,401 @@
+"""`report.md` from the analysed summary (a `results.Summary`), with the figures of `figures`."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from drtlab.experiments.study.analysis import ERRATIC_SIGMA, TIMING_RESOLUTION
+from drtlab.experiments.study.figures import plot_study, slug, strip_job
+from drtlab.experiments.files import atomic_write_text
+from drtlab.experiments.parallel import pmap
+from drtlab.experiments.study.results import Interval, SceneResult, StudyResult, Summary
+from drtlab.experiments.stats.slopes import RESOLVED_WIDTH
+
+ERRATIC_TXT = f"{ERRATIC_SIGMA:g} in log error (a factor {math.exp(ERRATIC_SIGMA):.2f})"
+
+INTRO = (
+    "**How to read this report.** Each scene isolates one distribution effect. Every sampler renders it "
+    "at each sample count N of the ladder, several times with independent seeds, and each image is "
+    "compared with a high-sample reference (the *ground truth*). The error is the RMSE over pixels and "
+    "colour channels, after subtracting the reference's own noise. A convergence slope *b* says how "
+    "fast the error falls: RMSE ∝ N^b, so b = −0.5 is plain Monte Carlo and a more negative b is "
+    "faster; it is fitted to the RMSE itself (the root of the mean MSE over repetitions), and the "
+    "*typical-error* slope (of the geometric mean of the runs' errors, what most single runs show) "
+    "stands beside it where heavy tails make the two differ. Brackets are 95% intervals (confidence intervals over repetitions for measured values; "
+    "for fitted slopes the union of the likelihood fit's credible interval and the t-interval of a "
+    "regression of the cells' log mean errors, which assumes no law of a run's error). *Speed-up* compares the render time each sampler needs to "
+    "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
+    "efficiency means the same quality in half the time.\n\n"
+    "**Render time is a calibrated cost, not a stopwatch reading of each cell.** A render of a few "
+    "milliseconds does not time reproducibly, so after the sweep each (scene, sampler) is rendered a "
+    "few more times for about 0.15 s each (compile excluded; the samplers take turns), and a cell's "
+    "seconds are cost(N) = overhead + per-sample cost × pixels × N: the per-sample cost from those "
+    "long renders (95% t interval over them, plus 5% for run-to-run drift), the overhead from the "
+    "scene's short renders. On the CPU backend the clock is the render call's CPU time (all threads), "
+    "of the faster half of the renders (a job sharing the cores slows some renders, never speeds one "
+    "up). Speed-ups carry a 95% bootstrap interval "
+    "(repetitions resampled, the cost drawn from its interval); efficiency ratios a delta-method 95% "
+    "interval from both errors and both costs.\n")
+
+
+def fmt(x, digits=3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    if x == 0:
+        return "0"
+    a = abs(x)
+    if a >= 1e4 or a < 1e-3:
+        return f"{x:.{digits - 1}e}"
+    return f"{x:.{digits}g}"
+
+
+def fmt_ci(m, lo, hi, digits=3) -> str:
+    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+        return fmt(m, digits)
+    return f"{fmt(m, digits)} [{fmt(lo, digits)}, {fmt(hi, digits)}]"
+
+
+def _ratio(x, lo, hi) -> str:
+    """A ratio with its interval, as `2.1× [1.8, 2.4]`."""
+    if x is None or not math.isfinite(x):
+        return "–"
+    txt = f"{fmt(x)}×"
+    return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if lo is not None and math.isfinite(lo)
+                  and hi is not None and math.isfinite(hi) else "")
+
+
+def _ci(iv: Interval) -> str:
+    return fmt_ci(iv.mean, iv.lo, iv.hi)
+
+
+def _bound(scene: SceneResult, s: str, base: str) -> str:
+    """'≥' when the sampler beat the target at its first cell (its time is an upper bound), '≤' when
+    the baseline did, '' when both times are interpolated."""
+    time_to = scene.speed.time_to_target
+    mine = time_to[s].how if s in time_to else None
+    theirs = time_to[base].how if base in time_to else None
+    if s == base:
+        return ""
+    if mine == "at_most" and theirs != "at_most":
+        return "≥"
+    if theirs == "at_most" and mine != "at_most":
+        return "≤"
+    return ""
+
+
+def _rel(p: Path, base: Path) -> str:
+    return str(Path(p).relative_to(base)).replace("\\", "/")
+
+
+# ---------------------------------------------------------------------------------------------------
+# Figures
+# ---------------------------------------------------------------------------------------------------
+
+def _render_figures(exp, summary: Summary, plan, records: dict, out_dir: Path, gts: dict):
+    """Every figure, in parallel (they are independent): one image strip per scene of each study
+    (repetition 0), three plots per study. Returns (strips: (study, scene label) -> file,
+    plots: study name -> {plot kind: file})."""
+    plots_dir, images_dir = out_dir / "plots", out_dir / "images"
+    plots_dir.mkdir(parents=True, exist_ok=True)
+    images_dir.mkdir(parents=True, exist_ok=True)
+    calls: list = []
+    strips: dict = {}
+    for study in exp.studies:
+        for scene in study.scenes:
+            g = next((r.group for r in plan if r.scene == scene and study.name in r.studies), None)
+            if g is None:
+                continue
+            run_ids = {(r.sampler, r.spp): r.run_id for r in plan
+                       if r.group == g and r.rep == 0 and r.run_id in records}
+            name = f"{slug(study.name)}--{scene.label}.png" if len(exp.studies) > 1 else f"{scene.label}.png"
+            calls.append((strip_job, (f"{scene.label} ({study.name})", study.samplers,
+                                      study.settings.strip_spp, gts[g]["dir"], run_ids, out_dir,
+                                      images_dir / name), {}))
+            strips[(study.name, scene.label)] = images_dir / name
+    n_strips = len(calls)
+    calls += [(plot_study, (study, plots_dir), {}) for study in summary.studies]
+    results = pmap(calls)
+    plots = {study.name: files for study, files in zip(summary.studies, results[n_strips:])}
+    return strips, plots
+
+
+# ---------------------------------------------------------------------------------------------------
+# One study
+# ---------------------------------------------------------------------------------------------------
+
+def _study_intro(study: StudyResult) -> list[str]:
+    lines = [f"## Study: {study.name}\n"]
+    if study.description:
+        lines.append(f"{study.description}\n")
+    res = f"{study.resolution[0]}×{study.resolution[1]}" if study.resolution else "each scene's own"
+    per_cell = (f" (equal samples: at least {study.samples_per_cell} per pixel in every cell, so that "
+                f"rare bright samples are as likely in each)" if study.samples_per_cell else "")
+    lines.append(
+        f"Integrator `{study.integrator}`; samplers {', '.join(f'`{s}`' for s in study.samplers)} "
+        f"(baseline `{study.baseline}`); N ∈ {study.spp}; {study.repetitions_text}{per_cell}; "
+        f"resolution {res}; reference {study.gt_spp} spp (`independent+importance`, same integrator); "
+        f"root seed {study.seed}.\n")
+    if study.metric != "mse":
+        lines.append(
+            f"This study ranks samplers by the {study.metric_label}: the relative MSE (x − y)² / (y² + 0.01) "
+            f"weighs every pixel alike, where the plain MSE would be dominated by a few very bright pixels "
+            f"(directly visible small lights, whose antialiasing noise no strategy changes). "
+            f"Slopes, speed-ups and efficiencies below use it; the cell table also lists the RMSE.\n")
+    return lines
+
+
+def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
+    base, top_n = study.baseline, study.spp[-1]
+    fit = scene.fit(s)
+    slope = fmt_ci(fit.slope, fit.slope_lo, fit.slope_hi) if fit else "–"
+    if fit and fit.resolved is False:
+        slope += " §"
+    if fit and fit.erratic:
+        slope += " ‡"
+    typical = fmt_ci(fit.typical_slope, fit.typical_slope_lo, fit.typical_slope_hi) \
+        if fit and fit.typical_slope is not None else "–"
+    top = scene.cell(s, top_n)
+    error = _ci(top.error(study.metric)) if top else "–"
+    vs = scene.comparison(s, top_n)
+    mr = vs.mse_ratio if vs else None
+    mse_ratio = "1 (baseline)" if s == base else (
+        fmt_ci(1 / mr.ratio, 1 / mr.hi if mr.hi else float("nan"),
+               1 / mr.lo if mr.lo else float("nan")) if mr else "–")
+    time_to = scene.speed.time_to_target.get(s)
+    t_txt = fmt(time_to.seconds if time_to else None)
+    if time_to and time_to.how in ("extrapolated", "at_most"):
+        t_txt += " (extrap.)" if time_to.how == "extrapolated" else " (≤)"
+    sp = scene.speed
+    speedup = _ratio(sp.speedup_vs_baseline.get(s), sp.speedup_lo.get(s), sp.speedup_hi.get(s))
+    e = scene.efficiency.get(s)
+    eff = _ratio(e.relative, e.relative_lo, e.relative_hi) if e else "–"
+    return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mse_ratio} | {t_txt} | "
+            f"{_bound(scene, s, base)}{speedup} | {eff} |")
+
+
+def _study_table(study: StudyResult) -> list[str]:
+    E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
+    lines = [f"| Scene | Sampler | Slope b [95% interval] | Typical-error slope | {E} at N={top_n} [95% CI] | "
+             f"{M} ÷ {base}'s at N={top_n} | Time to target (s) | Speed-up vs {base} [95% CI] | "
+             f"Efficiency vs {base} [95% CI] |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
+    lines.append("")
+    if any(scene.slopes[s].resolved is False for scene in study.scenes for s in study.samplers
+           if s in scene.slopes):
+        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, one run "
+                     "carries nearly all of a cell's error, or the likelihood fit and the regression of "
+                     "the cell means disagree, so these runs cannot tell N^-0.5 from N^-0.75 "
+                     "or N^-1 (rare, huge samples that most runs miss); more samples per cell "
+                     "(`samples_per_cell`, `repetitions`) resolve it.\n")
+    if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):
+        lines.append("‡ heavy-tailed errors: the scatter around the fitted line is over "
+                     f"{ERRATIC_TXT}, far above pixel noise; the slope is poorly determined.\n")
+    lines.append(f"Target {E} per scene: " + "; ".join(
+        f"{scene.scene} {fmt(scene.speed.target_rmse)}"
+        + (" (auto: the lowest error every sampler reached)" if scene.speed.target_auto and i == 0 else "")
+        for i, scene in enumerate(study.scenes)) + ".\n")
+    return lines
+
+
+def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
+    """One sampler against the baseline, in words: slopes, error ratio at the top, speed-up."""
+    base, top_n, M = study.baseline, study.spp[-1], study.mse_label
+    fit, bfit = scene.fit(s), scene.fit(base)
+    speedup = scene.speed.speedup_vs_baseline.get(s, float("nan"))
+    vs = scene.comparison(s, top_n)
+    txt = f"`{s}`"
+    if fit and bfit:
+        rate = (f"N^{fit.slope:.2f} (95% interval {fit.slope_lo:.2f} to {fit.slope_hi:.2f})"
+                if fit.resolved is not False else
+                f"a rate these runs do not resolve (95% interval N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
+        base_rate = f"N^{bfit.slope:.2f}" if bfit.resolved is not False else "an unresolved rate"
+        txt += f" converges as {rate} against {base_rate} for `{base}`"
+    if vs and math.isfinite(vs.mse_ratio.ratio):
+        r = vs.mse_ratio
+        txt += (f"; at N={top_n} its {M} is {fmt(r.ratio)}× lower "
+                f"(95% CI {fmt(r.lo)}–{fmt(r.hi)})" if r.ratio >= 1 else
+                f"; at N={top_n} its {M} is {fmt(1 / r.ratio)}× higher "
+                f"(95% CI {fmt(1 / r.hi)}–{fmt(1 / r.lo)})")
+    if math.isfinite(speedup) and speedup > 0:
+        bound = {"≥": "at least ", "≤": "at most "}.get(_bound(scene, s, base), "")
+        lo, hi = scene.speed.speedup_lo.get(s, float("nan")), scene.speed.speedup_hi.get(s, float("nan"))
+        ci = f" (95% CI {fmt(lo)}–{fmt(hi)}×)" if math.isfinite(lo) and math.isfinite(hi) else ""
+        txt += (f", and it reaches the target error {bound}{fmt(speedup)}× faster{ci}" if speedup >= 1 else
+                f", but it needs {fmt(1 / speedup)}× more render time to reach the target error{ci}")
+    return txt
+
+
+def _repetitions_needed(study: StudyResult, scene: SceneResult, samplers: list[str]) -> str:
+    """How many repetitions the heavy-tailed cells would need for a ±10% mean MSE (a lower bound:
+    a small sample usually misses its own rare, huge values)."""
+    counts = [c.repetitions_for_10pct.get(study.metric) for c in scene.cells if c.sampler in samplers]
+    counts = [n for n in counts if n]
+    if not counts:
+        return ""
+    return (f"; a ±10% {study.mse_label} per cell would need at least {min(counts)}–{max(counts)} "
+            f"repetitions (now: {study.repetitions_text})")
+
+
+def _findings(study: StudyResult) -> list[str]:
+    lines = ["**Findings.**\n"]
+    for scene in study.scenes:
+        bits = [_finding(study, scene, s) for s in study.samplers if s != study.baseline]
+        erratic = [s for s in study.samplers if s in scene.slopes and scene.slopes[s].erratic]
+        if erratic:
+            need = _repetitions_needed(study, scene, erratic)
+            bits.append(f"**heavy tails**: the errors of {', '.join(f'`{s}`' for s in erratic)} scatter "
+                        f"far more than pixel noise explains (rare, very bright samples), so a few "
+                        f"repetitions cannot pin this scene's slope or ratios down; trust the intervals, "
+                        f"not the point estimates" + need)
+        biased = [f"{c.sampler}@{c.spp}" for c in scene.cells if c.bias.significant]
+        b_txt = (f" Bias screen: mean error differs from 0 at 95% in {', '.join(biased)} "
+                 f"(expected in ~5% of cells by chance)." if biased else "")
+        lines.append(f"- **{scene.scene}**: " + ("; ".join(bits) if bits else "baseline only") + "." + b_txt)
+    lines.append("")
+    return lines
+
+
+def _figure_links(study: StudyResult, study_cfg, plots: dict, strips: dict, out_dir: Path) -> list[str]:
+    E = study.metric_label
+    lines = [f"![{study.name}: {cap}]({_rel(plots[key], out_dir)})\n"
+             for key, cap in (("rmse_vs_spp", f"{E} vs samples per pixel"),
+                              ("rmse_vs_seconds", f"{E} vs render time"),
+                              ("efficiency", "Relative efficiency"))]
+    lines.append("Image strips (repetition 0; the crop is marked on the reference):\n")
+    for scene in study_cfg.scenes:
+        p = strips.get((study_cfg.name, scene.label))
+        if p is not None:
+            lines.append(f"![{scene.label}]({_rel(p, out_dir)})\n")
+    return lines
+
+
+RESOLUTION_NOTE = (f"† timing below resolution (measured render < {1000 * TIMING_RESOLUTION:.0f} ms): "
+                   f"cost from calibration.")
+
+
+def _seconds(c) -> str:
+    ci = c.seconds_ci
+    return fmt_ci(c.seconds, ci.lo, ci.hi) if ci is not None else fmt(c.seconds)
+
+
+def _resolution_warning(study: StudyResult) -> list[str]:
+    low = [f"{scene.scene}/{c.sampler}@{c.spp}" for scene in study.scenes for c in scene.cells
+           if c.timing_below_resolution]
+    if not low:
+        return []
+    return [f"**Timing below resolution** in {len(low)} of {sum(len(sc.cells) for sc in study.scenes)} "
+            f"cells (measured render < {1000 * TIMING_RESOLUTION:.0f} ms: "
+            f"{', '.join(low[:8])}{', ...' if len(low) > 8 else ''}): cost from calibration.\n"]
+
+
+def _cell_table(study: StudyResult) -> list[str]:
+    lines = ["<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n",
+             f"| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
+             f"Render s (calibrated cost [95% CI]) | Measured s (median) | "
+             f"Efficiency 1/({study.mse_label}·s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for scene in study.scenes:
+        for c in scene.cells:
+            b = c.bias
+            lines.append(
+                f"| {scene.scene} | `{c.sampler}` | {c.spp} | {_ci(c.rmse_of_mean_mse)} | "
+                f"{_ci(c.relmse_corrected)} | {_ci(c.mae)} | {_ci(c.ciede2000)} | "
+                f"{fmt_ci(b.signed, b.lo, b.hi)}{' ⚠' if b.significant else ''} | "
+                f"{fmt(b.pixel_variance)} | {_seconds(c)} | {fmt(c.measured_seconds)}"
+                f"{' †' if c.timing_below_resolution else ''} | {fmt(c.efficiency_of(study.metric))} |")
+    lines.append("\n" + RESOLUTION_NOTE + "\n\n</details>\n")
+    return lines
+
+
+# ---------------------------------------------------------------------------------------------------
+# Experiment-wide sections
+# ---------------------------------------------------------------------------------------------------
+
+def _noise_floor_section(summary: Summary) -> list[str]:
+    lines = ["## Ground truth and noise floor\n",
+             "The reference is itself noisy: its mean per-pixel variance Var_GT adds to every measured MSE. "
+             "It is subtracted from every MSE above; it should stay below 1% of the smallest MSE measured.\n",
+             "| Scene / integrator / resolution | Reference spp | Var_GT | Smallest cell MSE | "
+             "Var_GT ÷ smallest MSE |",
+             "|---|---|---|---|---|"]
+    for name, nf in summary.noise_floor.items():
+        frac = nf.fraction_of_smallest_mse
+        lines.append(f"| {name} | {nf.gt_spp} | {fmt(nf.gt_variance)} | {fmt(nf.smallest_mse)} | "
+                     f"{fmt(100 * frac if frac is not None else float('nan'))}%{' ⚠' if nf.warning else ''} |")
+    if summary.warnings:
+        lines.append("\n**Warnings:**\n")
+        lines += [f"- {m}" for m in summary.warnings]
+    lines.append("")
+    return lines
+
+
+def _diagnostics_section(summary: Summary) -> list[str]:
+    ch = summary.chains
+    lines = ["## Slope-fit diagnostics\n",
+             f"Model (`slopes.fit_rmse_slope`): each run's MSE is Gamma-distributed with mean "
+             f"A·N^(2b) and a coefficient of variation that changes smoothly (log-linearly) with N, so b is "
+             f"the slope of the RMSE itself, the root of the mean MSE, whatever the shape of the per-run "
+             f"law (heavy tails included); runs below the reference's noise floor count as censored. Flat "
+             f"priors, emcee (differential-evolution moves, fixed seed). Lack of fit: an F test of the "
+             f"cell means against one slope. The typical-error slope fits log RMSE = a + b·log N + ε per "
+             f"run. {ch.converged} of {ch.fits} fits pass "
+             f"the chain checks (mean acceptance fraction in [0.15, 0.8], chain longer than 50 "
+             f"autocorrelation times); acceptance fractions {fmt(ch.acceptance_fraction_range[0])}–"
+             f"{fmt(ch.acceptance_fraction_range[1])}, largest autocorrelation time "
+             f"{fmt(ch.max_autocorr_time)} steps.\n",
+             "| Scene | Sampler | Error | b | Lack of fit p | σ | Acceptance | τ | Converged | Points (dropped) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    seen = set()
+    for study in summary.studies:
+        for scene in study.scenes:
+            for s, f in scene.slopes.items():
+                if (scene.scene, s, study.metric) in seen or not f.ok:
+                    continue
+                seen.add((scene.scene, s, study.metric))
+                lines.append(
+                    f"| {scene.scene} | `{s}` | {study.metric_label} | {f.slope:.3f} | "
+                    f"{fmt(f.lack_of_fit_p)} | {fmt(f.sigma)} | "
+                    f"{f.acceptance_fraction:.2f} | {', '.join(f'{t:.1f}' for t in f.autocorr_time)} | "
+                    f"{'yes' if f.converged else 'NO'} | {f.n_points} ({f.dropped}) |")
+    lines.append("")
+    return lines
+
+
+def _where_section(records: dict) -> list[str]:
+    """How many runs each process rendered (`worker` in runs.csv: local, or a Dask worker)."""
+    counts: dict[str, int] = {}
+    for rec in records.values():
+        w = rec.get("worker") or "local"
+        counts[w] = counts.get(w, 0) + 1
+    if not counts:
+        return []
+    return ["## Where the runs rendered\n",
+            "; ".join(f"`{w}`: {n} runs" for w, n in sorted(counts.items())) + ".\n"]
+
+
+def _reproduce_section(exp) -> list[str]:
+    return ["## Reproduce\n",
+            f"`drtlab experiment {exp.name} --profile {exp.profile}` reruns only what is missing; "
+            f"`--fresh` starts over (the ground truth cache in `results/ground-truth/` is kept). Every run's "
+            f"seed is in `runs.csv`; versions, machine and timings are in `manifest.json`; all numbers above "
+            f"are in `summary.json`.\n"]
+
+
+def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts: dict) -> None:
+    """Figures under `plots/` and `images/`, then `report.md`, all in `out_dir`."""
+    out_dir = Path(out_dir)
+    strips, plots = _render_figures(exp, summary, plan, records, out_dir, gts)
+    lines = [f"# Experiment `{exp.name}` (profile `{exp.profile}`)\n", f"{exp.description}\n", INTRO]
+    for study_cfg, study in zip(exp.studies, summary.studies):
+        lines += _study_intro(study)
+        lines += _study_table(study)
+        lines += _findings(study)
+        lines += _resolution_warning(study)
+        lines += _figure_links(study, study_cfg, plots[study.name], strips, out_dir)
+        lines += _cell_table(study)
+    lines += _noise_floor_section(summary)
+    lines += _diagnostics_section(summary)
+    lines += _where_section(records)
+    lines += _reproduce_section(exp)
+    atomic_write_text(out_dir / "report.md", "\n".join(lines) + "\n")

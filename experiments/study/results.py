@@ -1,0 +1,447 @@
+"""What the analysis hands to the report, to summary.json and to the CLI: typed results.
+
+`analysis` builds these; `report` and `figures` read them; `Summary.to_json()` is the content of
+summary.json (the key names and their order are part of the file's format: change them in one place,
+here). Every `to_json()` returns plain Python values (non-finite floats stay floats; the JSON writer
+turns them into null).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, is_dataclass
+from pathlib import Path
+
+NAN = float("nan")
+
+
+def to_json(o):
+    """A result (dataclass, dict, list, tuple or plain value) as plain JSON-ready Python values."""
+    if hasattr(o, "to_json"):
+        return o.to_json()
+    if is_dataclass(o):
+        return {f.name: to_json(getattr(o, f.name)) for f in fields(o)}
+    if isinstance(o, dict):
+        return {k: to_json(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [to_json(v) for v in o]
+    return o
+
+
+def _fields_json(o, skip_none: bool = False, **special) -> dict:
+    """A dataclass's fields in order; `special[name](value)` where given, else `to_json(value)`."""
+    out = {}
+    for f in fields(o):
+        v = getattr(o, f.name)
+        if not (skip_none and v is None):
+            out[f.name] = special[f.name](v) if f.name in special else to_json(v)
+    return out
+
+
+@dataclass(frozen=True)
+class Metric:
+    """The error a study ranks samplers by, and the cell fields that hold it."""
+    error: str            # Cell field: the error (an RMSE-like interval)
+    mse: str              # Cell field: the squared error it is the root of
+    efficiency: str       # Cell field: 1 / (squared error x seconds)
+    label: str
+    mse_label: str
+
+
+# "mse": RMSE over pixels and channels (noise floor removed). "relmse": relative MSE
+# (x - y)^2 / (y^2 + 0.01), for scenes whose RMSE is dominated by a few very bright pixels (directly
+# seen small lights), reported as its square root ("relative RMSE").
+METRICS = {
+    "mse": Metric("rmse_of_mean_mse", "mse_corrected", "efficiency", "RMSE", "MSE"),
+    "relmse": Metric("rrmse_of_mean_relmse", "relmse_corrected", "efficiency_relmse",
+                     "relative RMSE (√relMSE)", "relMSE"),
+}
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A mean with its 95% interval over repetitions (`sd` only where it was measured)."""
+    mean: float
+    lo: float
+    hi: float
+    n: int
+    sd: float | None = None
+
+    @classmethod
+    def of(cls, ci: dict) -> "Interval":
+        """From `metrics.mean_ci`'s dict."""
+        return cls(ci["mean"], ci["lo"], ci["hi"], ci["n"], ci.get("sd"))
+
+    def to_json(self) -> dict:
+        out = {"mean": self.mean, "lo": self.lo, "hi": self.hi}
+        if self.sd is not None:
+            out["sd"] = self.sd
+        out["n"] = self.n
+        return out
+
+
+@dataclass(frozen=True)
+class Bias:
+    """Mean image - GT of a cell: signed mean with its 95% CI, debiased RMS, and the per-pixel
+    variance over the repetitions."""
+    signed: float
+    lo: float
+    hi: float
+    rms: float
+    pixel_variance: float
+    significant: bool
+
+
+# Cell fields that summarise one number per run over the repetitions (named run_X in summary.json).
+PER_RUN = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
+           "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One (scene, sampler, spp) over its repetitions: every metric's mean [95% CI], and more."""
+    sampler: str
+    spp: int
+    n: int
+    rmse: Interval
+    rmse_corrected: Interval
+    mse: Interval
+    mse_corrected: Interval
+    relmse: Interval
+    relmse_corrected: Interval
+    mae: Interval
+    ciede2000: Interval
+    mean_error: Interval
+    render_seconds: Interval
+    compile_seconds: Interval
+    wall_seconds: Interval
+    rmse_of_mean_mse: Interval          # sqrt of the corrected-MSE interval
+    rrmse_of_mean_relmse: Interval      # sqrt of the corrected-relMSE interval
+    bias: Bias
+    repetitions_for_10pct: dict         # per metric: repetitions a ±10% mean (95%) would need
+    seconds: float                      # calibrated cost at this spp (analysis.CostModel)
+    efficiency: float                   # 1 / (corrected MSE x seconds)
+    efficiency_relmse: float            # 1 / (corrected relMSE x seconds)
+    seconds_ci: Interval | None = None  # 95% CI of the calibrated cost (t on the per-sample cost)
+    measured_seconds: float = NAN       # median measured render seconds of the repetitions
+    timing_below_resolution: bool = False   # measured_seconds below analysis.TIMING_RESOLUTION
+
+    def error(self, metric: str) -> Interval:
+        return getattr(self, METRICS[metric].error)
+
+    def error_mse(self, metric: str) -> Interval:
+        return getattr(self, METRICS[metric].mse)
+
+    def efficiency_of(self, metric: str) -> float:
+        return getattr(self, METRICS[metric].efficiency)
+
+    def to_json(self, metric: str | None = None) -> dict:
+        """Per-run statistics are `run_X` (the mean [95% CI] over repetitions of each run's X); the
+        estimator's error is `rmse_of_mean_mse` (the root of the mean MSE); with `metric` (a study's)
+        also the study's view of it: `study_error`, `study_error_mse`, `study_efficiency`."""
+        out = {}
+        for f in fields(self):
+            key = f"run_{f.name}" if f.name in PER_RUN else f.name
+            out[key] = to_json(getattr(self, f.name))
+            if f.name == "bias":
+                out["pixel_variance"] = self.bias.pixel_variance
+        if metric is not None:
+            out.update(study_error=self.error(metric).to_json(),
+                       study_error_mse=self.error_mse(metric).to_json(),
+                       study_efficiency=self.efficiency_of(metric))
+        return out
+
+
+@dataclass(frozen=True)
+class FitLine:
+    """The fitted line and its credible band on a grid of sample counts (for plots)."""
+    n: list
+    median: list
+    lo: list
+    hi: list
+
+
+@dataclass(frozen=True)
+class SlopeFit:
+    """The slope b of a sampler's error (error ∝ N^b) with its credible interval: of the RMSE itself
+    (`slopes.fit_rmse_slope`, `estimand` "rmse"), with the typical-error slope (geometric mean of the
+    runs' errors, `slopes.fit_typical_slope`) beside it. Without `ok`, only the point counts and
+    `reason` are set."""
+    n_points: int
+    dropped: int
+    level: float
+    ok: bool
+    reason: str | None = None
+    estimand: str | None = None
+    model: str | None = None
+    slope: float | None = None
+    slope_lo: float | None = None
+    slope_hi: float | None = None
+    resolved: bool | None = None        # interval narrow enough to tell the rates apart
+    model_slope_lo: float | None = None # the Gamma likelihood's own interval (slope_lo/hi: the union
+    model_slope_hi: float | None = None # of it and the cell means' t-interval)
+    cell_means_slope: float | None = None   # least squares of log cell-mean RMSE on log N
+    cell_means_lo: float | None = None
+    cell_means_hi: float | None = None
+    estimates_agree: bool | None = None # the two intervals overlap
+    intercept: float | None = None
+    intercept_lo: float | None = None
+    intercept_hi: float | None = None
+    sigma: float | None = None
+    ols_slope: float | None = None
+    cv_slope: float | None = None
+    lack_of_fit_f: float | None = None
+    lack_of_fit_p: float | None = None
+    floor: float | None = None
+    censored: int | None = None
+    at_floor: list | None = None
+    saturated_cells: list | None = None # sample counts where one run carries the cell's error
+    cells: list | None = None
+    acceptance_fraction: float | None = None
+    autocorr_time: list | None = None
+    steps: int | None = None
+    burn: int | None = None
+    walkers: int | None = None
+    effective_samples: float | None = None
+    converged: bool | None = None
+    seed: int | None = None
+    line: FitLine | None = None
+    typical_slope: float | None = None
+    typical_slope_lo: float | None = None
+    typical_slope_hi: float | None = None
+    erratic: bool = False               # log-error scatter far above pixel noise: heavy tails
+
+    @classmethod
+    def of(cls, fit: dict, erratic_sigma: float, typical: dict | None = None) -> "SlopeFit":
+        kw = dict(fit)
+        if kw.get("line") is not None:
+            kw["line"] = FitLine(**kw["line"])
+        if typical is not None and typical.get("ok"):
+            kw.update(typical_slope=typical["slope"], typical_slope_lo=typical["slope_lo"],
+                      typical_slope_hi=typical["slope_hi"])
+        kw["erratic"] = bool(fit.get("ok") and fit["sigma"] > erratic_sigma)
+        return cls(**kw)
+
+    def to_json(self) -> dict:
+        return _fields_json(self, skip_none=True)
+
+    def slope_text(self, digits: int = 2) -> str:
+        """'b=-0.50 [-0.51,-0.49]', or the interval alone when the runs do not resolve the slope."""
+        ci = f"[{self.slope_lo:.{digits}f}, {self.slope_hi:.{digits}f}]"
+        return f"b={self.slope:.{digits}f} {ci}" if self.resolved is not False else f"b not resolved {ci}"
+
+    def table_row(self) -> dict:
+        return {"ok": self.ok, "slope": self.slope, "slope_lo": self.slope_lo,
+                "slope_hi": self.slope_hi, "resolved": self.resolved,
+                "typical_slope": self.typical_slope,
+                "typical_slope_lo": self.typical_slope_lo, "typical_slope_hi": self.typical_slope_hi,
+                "heavy_tailed": self.erratic, "converged": self.converged,
+                "lack_of_fit_p": self.lack_of_fit_p}
+
+
+@dataclass(frozen=True)
+class TimeToTarget:
+    """Seconds to reach the target error; `how`: interpolated, extrapolated, at_most, not reached,
+    no data (see `analysis.time_to_target`)."""
+    seconds: float
+    how: str
+
+
+@dataclass(frozen=True)
+class Speed:
+    """Speed against error: each sampler's time to a common target, and the speed-up that gives."""
+    target_rmse: float
+    target_auto: bool                   # the target is the lowest error every sampler reached
+    time_to_target: dict[str, TimeToTarget]
+    speedup_vs_baseline: dict[str, float]
+    speedup_lo: dict[str, float] = field(default_factory=dict)    # 95% bootstrap interval
+    speedup_hi: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class RatioCI:
+    ratio: float
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True)
+class BaselineComparison:
+    """A sampler against the study's baseline at one spp."""
+    spp: int
+    mse_ratio: RatioCI                  # baseline's squared error / this sampler's
+    efficiency_ratio: float
+    efficiency_ratio_lo: float = NAN    # 95% delta-method interval (error and cost)
+    efficiency_ratio_hi: float = NAN
+
+
+@dataclass(frozen=True)
+class TopEfficiency:
+    """Efficiency at the largest spp a sampler has, and relative to the baseline's."""
+    spp: int
+    efficiency: float
+    relative: float
+    relative_lo: float = NAN            # 95% delta-method interval (error and cost)
+    relative_hi: float = NAN
+
+
+@dataclass(frozen=True)
+class NoiseFloor:
+    """The reference's own variance against the smallest MSE measured in its scene."""
+    gt_dir: str
+    gt_spp: int
+    gt_variance: float
+    smallest_mse: float
+    fraction_of_smallest_mse: float
+    warning: bool
+
+
+@dataclass(frozen=True)
+class SceneResult:
+    """One scene of one study: its cells (the study's samplers and ladder), fits and comparisons."""
+    scene: str                          # label
+    scene_name: str
+    overrides: dict
+    cells: list[Cell]
+    slopes: dict[str, SlopeFit]         # per sampler, fitted on the study's metric
+    noise_floor: NoiseFloor
+    speed: Speed
+    vs_baseline: dict[str, list[BaselineComparison]]
+    efficiency: dict[str, TopEfficiency]
+
+    def fit(self, sampler: str) -> SlopeFit | None:
+        """The sampler's slope fit when it succeeded."""
+        f = self.slopes.get(sampler)
+        return f if f is not None and f.ok else None
+
+    def cell(self, sampler: str, spp: int) -> Cell | None:
+        return next((c for c in self.cells if c.sampler == sampler and c.spp == spp), None)
+
+    def comparison(self, sampler: str, spp: int) -> BaselineComparison | None:
+        return next((x for x in self.vs_baseline.get(sampler, []) if x.spp == spp), None)
+
+    def to_json(self, metric: str) -> dict:
+        return _fields_json(self, cells=lambda cells: [c.to_json(metric) for c in cells])
+
+
+@dataclass(frozen=True)
+class StudyResult:
+    name: str
+    description: str
+    experiment: str
+    integrator: str
+    samplers: list[str]
+    baseline: str
+    metric: str                         # key of METRICS
+    metric_label: str
+    mse_label: str
+    spp: list[int]
+    repetitions: int
+    resolution: list[int] | None
+    gt_spp: int
+    seed: int
+    strip_spp: list[int]
+    scenes: list[SceneResult]
+    runs_per_spp: list[int] = field(default_factory=list)   # repetitions of each cell, along `spp`
+    samples_per_cell: int | None = None                      # the setting behind runs_per_spp
+
+    @property
+    def repetitions_text(self) -> str:
+        """'5 repetitions per cell', or with equal samples per cell the runs along the ladder."""
+        runs = self.runs_per_spp or [self.repetitions] * len(self.spp)
+        if len(set(runs)) == 1:
+            return f"{runs[0]} repetitions per cell"
+        return f"{'/'.join(map(str, runs))} repetitions at N = {'/'.join(map(str, self.spp))}"
+
+    def to_json(self) -> dict:
+        return _fields_json(self, scenes=lambda scenes: [scene.to_json(self.metric) for scene in scenes])
+
+
+@dataclass(frozen=True)
+class ChainDiagnostics:
+    """The emcee chains of every slope fit of the experiment."""
+    fits: int
+    converged: int
+    not_converged: list[str]
+    acceptance_fraction_range: list[float]
+    max_autocorr_time: float
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Everything summary.json holds."""
+    experiment: str
+    description: str
+    profile: str
+    studies: list[StudyResult]
+    noise_floor: dict[str, NoiseFloor]  # per (scene, integrator, resolution) group name
+    warnings: list[str]
+    chains: ChainDiagnostics
+    ground_truth: dict[str, dict] = field(default_factory=dict)   # the runner's reference info
+
+    def to_json(self) -> dict:
+        return _fields_json(self)
+
+
+@dataclass
+class ExperimentResult:
+    """What `run_experiment` returns: the run counts, the wall time, the summary (None when the
+    sweep ran without analysis) and the output folder. Indexing it reads summary.json's content
+    (`result["studies"]`); `runs`, `cells` and `slopes` are tidy pandas DataFrames, and
+    `plot_convergence()` redraws the error-vs-samples figures."""
+    stats: dict                         # runs_planned, runs_new, runs_reused, runs_refreshed, rows
+    wall_seconds: float
+    summary: Summary | None = None
+    out_dir: Path | None = None
+
+    def __getitem__(self, key: str):
+        if self.summary is None:
+            raise KeyError(key)
+        return self.summary.to_json()[key]
+
+    def _studies(self) -> list[StudyResult]:
+        if self.summary is None:
+            raise ValueError("the experiment ran without analysis (analyze=False): no cells or slopes")
+        return self.summary.studies
+
+    @property
+    def runs(self):
+        """One row per run (runs.csv): scene, sampler, spp, rep, seed, per-run errors, timings."""
+        import pandas as pd
+        return pd.read_csv(Path(self.out_dir) / "runs.csv")
+
+    @property
+    def cells(self):
+        """One row per (study, scene, sampler, spp): the estimator's RMSE (root of the mean MSE over
+        repetitions) with its interval, the mean per-run RMSE, bias, median seconds, efficiency."""
+        import pandas as pd
+        rows = []
+        for study in self._studies():
+            for scene in study.scenes:
+                for c in scene.cells:
+                    err = c.error(study.metric)
+                    rows.append({"study": study.name, "scene": scene.scene, "sampler": c.sampler,
+                                 "spp": c.spp, "repetitions": c.n, "metric": study.metric,
+                                 "error": err.mean, "error_lo": err.lo, "error_hi": err.hi,
+                                 "rmse_of_mean_mse": c.rmse_of_mean_mse.mean,
+                                 "mean_run_rmse": c.rmse.mean, "bias": c.bias.signed,
+                                 "bias_significant": c.bias.significant, "seconds": c.seconds,
+                                 "efficiency": c.efficiency_of(study.metric)})
+        return pd.DataFrame(rows)
+
+    @property
+    def slopes(self):
+        """One row per (study, scene, sampler): the fitted slope b (error ∝ N^b) and its interval."""
+        import pandas as pd
+        rows = [{"study": study.name, "scene": scene.scene, "sampler": sampler, **fit.table_row()}
+                for study in self._studies() for scene in study.scenes
+                for sampler, fit in scene.slopes.items()]
+        return pd.DataFrame(rows)
+
+    def plot_convergence(self, study: str | None = None):
+        """The error-vs-samples figure of one study (by name; default the first) as a matplotlib
+        Figure, drawn from the results alone (no renders)."""
+        from drtlab.experiments.study.figures import plot_error_vs_spp
+        studies = self._studies()
+        chosen = next((s for s in studies if s.name == study), None) if study else studies[0]
+        if chosen is None:
+            raise ValueError(f"no study {study!r}; studies: {', '.join(s.name for s in studies)}")
+        return plot_error_vs_spp(chosen)

@@ -1,0 +1,174 @@
+"""Image tools in the spirit of pbrt-v4's `imgtool`: what an EXR holds (`info`) and how two images
+differ (`compare`), with the same metrics the experiments report.
+
+A standard-error image travels beside its mean: `X.stderr.exr` next to `X.exr` (what
+`drtlab render --variance` writes), or `stderr.exr` next to a ground truth's `mean.exr`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drtlab.errors import InputError
+
+
+def read_image(path, field_name: str) -> tuple[np.ndarray, dict]:
+    """(H, W, C) float32 pixels and drtlab metadata; a missing or unreadable file is an InputError."""
+    from drtlab.kernels.imageio import read_exr
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(field_name, f"image file '{path}' does not exist")
+    try:
+        return read_exr(p)
+    except OSError as exc:
+        raise InputError(field_name, f"cannot read '{path}' as an image: "
+                                     f"{str(exc).splitlines()[0] if str(exc) else 'unknown format'}") from None
+
+
+def stderr_beside(path) -> Path | None:
+    """The standard-error image stored beside `path`, if there is one."""
+    p = Path(path)
+    for candidate in (p.with_name(p.stem + ".stderr.exr"),
+                      p.with_name("stderr.exr") if p.name == "mean.exr" else None):
+        if candidate is not None and candidate.is_file():
+            return candidate
+    return None
+
+
+# ---------------------------------------------------------------------------------------------------
+# info
+# ---------------------------------------------------------------------------------------------------
+
+@dataclass
+class ChannelStats:
+    name: str
+    min: float
+    max: float
+    mean: float
+    nan: int
+    inf: int
+    negative: int
+
+
+@dataclass
+class ImageInfo:
+    path: str
+    width: int
+    height: int
+    channels: list[ChannelStats]
+    metadata: dict = field(default_factory=dict)
+
+    def lines(self) -> list[str]:
+        out = [f"{self.path}: {self.width}x{self.height}, {len(self.channels)} channels (float32)"]
+        out.append(f"  {'channel':8s} {'min':>12s} {'max':>12s} {'mean':>12s} {'NaN':>6s} {'Inf':>6s} "
+                   f"{'<0':>6s}")
+        for c in self.channels:
+            out.append(f"  {c.name:8s} {c.min:12.6g} {c.max:12.6g} {c.mean:12.6g} {c.nan:6d} "
+                       f"{c.inf:6d} {c.negative:6d}")
+        for key in sorted(self.metadata):
+            out.append(f"  drtlab:{key} = {self.metadata[key]}")
+        return out
+
+
+def image_info(path) -> ImageInfo:
+    pixels, meta = read_image(path, "FILE")
+    h, w = pixels.shape[:2]
+    planes = pixels.reshape(h, w, -1)
+    names = "RGBA" if planes.shape[2] <= 4 else [f"c{i}" for i in range(planes.shape[2])]
+    channels = []
+    for i in range(planes.shape[2]):
+        x = planes[..., i].astype(np.float64)
+        finite = x[np.isfinite(x)]
+        channels.append(ChannelStats(
+            name=names[i], min=float(finite.min()) if finite.size else math.nan,
+            max=float(finite.max()) if finite.size else math.nan,
+            mean=float(finite.mean()) if finite.size else math.nan,
+            nan=int(np.isnan(x).sum()), inf=int(np.isinf(x).sum()), negative=int((x < 0).sum())))
+    return ImageInfo(path=str(path), width=w, height=h, channels=channels, metadata=meta)
+
+
+# ---------------------------------------------------------------------------------------------------
+# compare
+# ---------------------------------------------------------------------------------------------------
+
+@dataclass
+class ZScores:
+    """Per-pixel (A - B) / sqrt(se_A^2 + se_B^2): N(0, 1) where the two agree within their noise."""
+    mean: float
+    sd: float
+    beyond_3: float                 # fraction of |z| > 3 (0.0027 for N(0, 1))
+    ks_pvalue: float                # Kolmogorov-Smirnov test against N(0, 1)
+    pixels: int
+
+
+@dataclass
+class Comparison:
+    image: str
+    reference: str
+    rmse: float
+    relmse: float
+    mae: float
+    ciede2000: float
+    mean_error: float
+    z: ZScores | None = None
+
+    def line(self) -> str:
+        text = (f"{self.image} vs {self.reference}: RMSE {self.rmse:.6g}, relMSE {self.relmse:.6g}, "
+                f"MAE {self.mae:.6g}, CIEDE2000 {self.ciede2000:.4g}, mean error {self.mean_error:+.6g}")
+        if self.z is not None:
+            text += (f"; z: mean {self.z.mean:+.3f}, sd {self.z.sd:.3f}, |z|>3 {100 * self.z.beyond_3:.2f}%"
+                     f", KS p {self.z.ks_pvalue:.3g} ({self.z.pixels} values)")
+        return text
+
+
+def z_scores(a: np.ndarray, b: np.ndarray, se_a: np.ndarray | None, se_b: np.ndarray) -> ZScores:
+    from scipy import stats
+    var = np.square(se_b.astype(np.float64))
+    if se_a is not None:
+        var = var + np.square(se_a.astype(np.float64))
+    ok = var > 0
+    z = (a.astype(np.float64) - b.astype(np.float64))[ok] / np.sqrt(var[ok])
+    if z.size == 0:
+        raise InputError("--per-pixel-z", "the standard error is zero everywhere")
+    return ZScores(mean=float(z.mean()), sd=float(z.std()), beyond_3=float(np.mean(np.abs(z) > 3)),
+                   ks_pvalue=float(stats.kstest(z, "norm").pvalue), pixels=int(z.size))
+
+
+def compare_images(a: np.ndarray, b: np.ndarray, *, names=("A", "B"), se_a=None, se_b=None) -> Comparison:
+    """Metrics of image `a` against reference `b` (RGB, (H, W, 3)); z-scores when `se_b` is given."""
+    from drtlab.experiments.study.metrics import image_metrics
+    a3, b3 = np.asarray(a, dtype=np.float64)[..., :3], np.asarray(b, dtype=np.float64)[..., :3]
+    if a3.shape != b3.shape:
+        raise InputError("B", f"{names[1]} is {b3.shape[1]}x{b3.shape[0]} but {names[0]} is "
+                              f"{a3.shape[1]}x{a3.shape[0]}: images must have the same resolution")
+    m = image_metrics(a3, b3, np.zeros_like(b3))
+    z = None if se_b is None else z_scores(a3, b3, None if se_a is None else se_a[..., :3], se_b[..., :3])
+    return Comparison(image=names[0], reference=names[1], rmse=m["rmse"], relmse=m["relmse"],
+                      mae=m["mae"], ciede2000=m["ciede2000"], mean_error=m["mean_error"], z=z)
+
+
+def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path) -> list[Path]:
+    """`STEM.diff.exr` (signed A - B, linear) and `STEM.error.png` (false-colour |A - B| luminance,
+    with its scale bar)."""
+    from drtlab.kernels.colour import luminance
+    from drtlab.kernels.imageio import write_exr
+    import matplotlib
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+    diff = np.asarray(a, dtype=np.float64)[..., :3] - np.asarray(b, dtype=np.float64)[..., :3]
+    exr, png = Path(f"{out_stem}.diff.exr"), Path(f"{out_stem}.error.png")
+    write_exr(exr, diff, {"what": "signed difference A - B"})
+    err = np.abs(luminance(diff))
+    h, w = err.shape
+    fig, ax = plt.subplots(figsize=(max(3.0, w / 60 + 1.2), max(2.4, h / 60)), dpi=100)
+    im = ax.imshow(err, cmap="inferno", interpolation="nearest", vmin=0.0,
+                   vmax=float(np.percentile(err, 99.5)) or 1.0)
+    ax.set_axis_off()
+    ax.set_title("|A - B| (luminance)", fontsize=8)
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+    fig.savefig(png, bbox_inches="tight")
+    plt.close(fig)
+    return [exr, png]

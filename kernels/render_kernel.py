@@ -1,0 +1,91 @@
+"""Kernel factory: one compiled render kernel per scene feature set.
+
+`build_kernel(features, pointset, strategy)` returns a Warp kernel in which everything the scene does
+not use (material kinds, light kinds, shape kinds, roulette, the other integrators) is removed at
+code generation by `wp.static`. Four features cost only a branch per sample, hit or shape test and
+are runtime switches instead (a thin lens: aperture > 0; motion: SceneData.moving; checker
+textures: per material; a background: drt's last segment), so that scenes differing only in them
+share one compiled variant (`Features.code_key`): half the cold compiles of a study.
+
+The kernel renders `count` samples (indices index0 ... index0 + count - 1) of every pixel of one tile
+and adds their float64 sum to `sums.total` (and, with `Features.moments`, the sum of their squares
+to `sums.squares`; otherwise that is never touched). A sample's random numbers come only from the
+point set keyed by (seed, pixel, sample index, dimension), so tiles, threads and launch order cannot
+change the image.
+Tracers are loops with a throughput weight (Warp kernels cannot recurse); radiance is traced in
+float32 and summed per pixel in float64.
+"""
+from __future__ import annotations
+
+import warp as wp
+
+from drtlab.estimators.pointsets.base import PointSet
+from drtlab.estimators.pointsets.stratified import grid_columns
+from drtlab.estimators.strategies import Strategy
+from drtlab.kernels.camera import grid_ray_dir, make_camera
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.direct import make_direct
+from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, Features
+from drtlab.kernels.intersection.scene_rays import make_intersect
+from drtlab.kernels.lights import make_lights
+from drtlab.kernels.materials import make_bsdf
+from drtlab.kernels.tracers import make_trace
+from drtlab.kernels.whitted import make_whitted
+
+
+@wp.struct
+class PixelSums:
+    """The kernel's outputs, per pixel. In a struct rather than as array arguments: Warp compiles a
+    kernel whose arguments include only 1D arrays twice (once for unit strides), which doubles the
+    compile time of these large kernels for no measurable gain."""
+    total: wp.array(dtype=wp.vec3d)
+    squares: wp.array(dtype=wp.vec3d)
+
+
+def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
+    WHITTED = f.whitted
+    rays = make_intersect(f)
+    bsdf = make_bsdf(f.kinds, strategy.lobe)
+    lights = make_lights(True, strategy.solid_angle, strategy.power_pick,
+                         LIGHT_JACOBIAN in f.faults, meshes=f.meshes,
+                         mesh_fault=MESH_PDF_HIGH_10PCT in f.faults)
+    lighting = make_direct(f, strategy, rays, bsdf, lights)
+    sample_ray = make_camera(f, pointset).sample_ray
+    trace_whitted = make_whitted(f, rays, bsdf, lighting).trace_whitted
+    trace = make_trace(f, pointset, strategy, rays, bsdf, lighting).trace
+    pixel_key = pointset.pixel_key
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def render_tile(sd: SceneData, seed: wp.uint32, index0: int, count: int, spp: int,
+                    x0: int, y0: int, tile_w: int, tile_h: int, sums: PixelSums):
+        tid = wp.tid()
+        px = x0 + tid % tile_w
+        py = y0 + tid / tile_w
+        if px >= sd.width or py >= sd.height:
+            return
+        pixel = py * sd.width + px
+        pix = pixel_key(px, py, sd.width)
+        uspp = wp.uint32(spp)
+        total = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
+        total2 = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
+        nx = int(1)
+        if wp.static(WHITTED):
+            # Whitted samples the same nx x ny sub-pixel grid as the stratified point set.
+            nx = int(grid_columns(uspp))
+        for k in range(count):
+            idx = wp.uint32(index0 + k)
+            if wp.static(WHITTED):
+                d = grid_ray_dir(sd, px, py, (index0 + k) % spp, nx, spp / nx)
+                Ls = trace_whitted(sd, sd.cam_position, d)
+            else:
+                ray = sample_ray(sd, seed, pix, idx, uspp, px, py)
+                Ls = trace(sd, seed, pix, idx, uspp, ray.o, ray.d, ray.dt)
+            x = wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
+            total += x
+            if wp.static(f.moments):
+                total2 += wp.cw_mul(x, x)
+        sums.total[pixel] = sums.total[pixel] + total
+        if wp.static(f.moments):
+            sums.squares[pixel] = sums.squares[pixel] + total2
+
+    return render_tile

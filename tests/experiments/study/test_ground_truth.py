@@ -1,0 +1,94 @@
+"""Ground truth: float64 batches with a per-pixel standard error; reused when the key matches,
+recomputed when the scene or the estimator code changes, resumable by batch."""
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drtlab.experiments.study.config import SceneRef
+from fakes import FakeRenderer
+from drtlab.experiments.study.ground_truth import GT_SAMPLER, ensure_ground_truth, load_ground_truth
+from drtlab.experiments.seeds import GT_BIT
+from drtlab.errors import InputError
+
+SCENE = SceneRef("aa-edges", "aa-edges")
+RES = (16, 12)
+
+
+def make(tmp_path, fake=None, spp=2048, batch=256, **kw):
+    fake = fake or FakeRenderer()
+    gt = ensure_ground_truth(SCENE, "drt", RES, spp, batch, fake.backend(), tmp_path / "gt",
+                             progress=False, log=lambda m: None, **kw)
+    return gt, fake
+
+
+def test_mean_stderr_files_and_manifest(tmp_path):
+    gt, fake = make(tmp_path)
+    assert gt.spp == 2048 and gt.batches == 8 and not gt.reused
+    assert fake.calls == 8 and all(s == GT_SAMPLER for _, s, _, _ in fake.log)
+    assert all(seed >= GT_BIT for *_, seed in fake.log)
+    truth = FakeRenderer.truth("aa-edges", *RES)
+    # The fake's per-sample sd is 0.2, so the standard error of a 2048-spp mean is 0.2/sqrt(2048);
+    # the batch-means estimate (7 degrees of freedom per pixel) averages to it over 576 values.
+    expect = 0.2 / np.sqrt(2048)
+    assert abs(np.sqrt(np.mean(gt.stderr ** 2)) / expect - 1) < 0.1
+    z = (gt.mean - truth) / gt.stderr
+    assert abs(np.mean(z)) < 0.15 and 0.8 < np.std(z) < 1.35
+    d = gt.directory
+    for name in ("gt.npz", "mean.exr", "stderr.exr", "manifest.json"):
+        assert (d / name).is_file()
+    m = json.loads((d / "manifest.json").read_text())
+    assert m["spp"] == 2048 and m["code_version"] == "fake-1" and m["estimator"]["sampler"] == GT_SAMPLER
+    assert len(m["seeds"]) == 8 and m["scene_hash"] and m["wall_seconds"] >= 0
+    again = load_ground_truth(d)
+    assert np.array_equal(again.mean, gt.mean) and gt.mean.dtype == np.float64
+
+
+def test_reused_when_key_matches(tmp_path):
+    gt, _ = make(tmp_path)
+    gt2, fake2 = make(tmp_path)
+    assert gt2.reused and fake2.calls == 0 and np.array_equal(gt2.mean, gt.mean)
+    gt3, fake3 = make(tmp_path, spp=1024)                  # fewer spp asked: the better one is kept
+    assert gt3.reused and fake3.calls == 0 and gt3.spp == 2048
+
+
+def test_more_spp_extends_the_same_reference(tmp_path):
+    make(tmp_path, spp=1024)
+    gt, fake = make(tmp_path, spp=2048)
+    assert fake.calls == 4 and gt.spp == 2048
+    ref, _ = make(tmp_path / "other", spp=2048)
+    assert np.array_equal(gt.mean, ref.mean)
+
+
+def test_recomputed_when_scene_or_code_changes(tmp_path):
+    make(tmp_path)
+    fake = FakeRenderer(versions={"aa-edges": "v2"})          # the scene text changed
+    msgs = []
+    gt = ensure_ground_truth(SCENE, "drt", RES, 2048, 256, fake.backend(), tmp_path / "gt",
+                             progress=False, log=msgs.append)
+    assert fake.calls == 8 and not gt.reused and "scene_hash" in msgs[0]
+    fake2 = FakeRenderer(versions={"aa-edges": "v2"})
+    backend = replace(fake2.backend(), code_version="fake-2")   # the estimator code changed
+    msgs = []
+    ensure_ground_truth(SCENE, "drt", RES, 2048, 256, backend, tmp_path / "gt", progress=False,
+                        log=msgs.append)
+    assert fake2.calls == 8 and "code_version" in msgs[0]
+
+
+def test_resumable_by_batch_and_identical_to_uninterrupted(tmp_path):
+    with pytest.raises(KeyboardInterrupt):
+        make(tmp_path, fake=FakeRenderer(fail_after=3))
+    d = next((tmp_path / "gt").iterdir())
+    assert not (d / "manifest.json").exists()               # not complete, but 3 batches are kept
+    gt, fake = make(tmp_path)
+    assert fake.calls == 5
+    ref, _ = make(tmp_path / "ref")
+    assert np.array_equal(gt.mean, ref.mean) and np.array_equal(gt.stderr, ref.stderr)
+
+
+def test_biased_integrator_refused(tmp_path):
+    with pytest.raises(InputError) as e:
+        ensure_ground_truth(SCENE, "whitted", RES, 2048, 256, FakeRenderer().backend(), tmp_path,
+                            progress=False)
+    assert e.value.field == "integrator"

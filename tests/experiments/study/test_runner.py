@@ -1,0 +1,291 @@
+"""The experiment runner end to end: on the fake renderer (known error laws, deterministic), resume
+after an interruption or a `kill -9`, and once on the real renderer with a tiny scene."""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+import time
+
+import numpy as np
+import pytest
+
+from drtlab.experiments.study.config import load_experiment
+from repo_paths import SUPPORT
+from fakes import fake_backend, tiny_real_experiment
+from drtlab.experiments.study.run_store import CSV_COLUMNS
+from drtlab.experiments.study.runner import plan_runs, run_experiment
+
+TINY = """
+[experiment]
+description = "tiny sweep on the fake renderer"
+seed = 11
+spp = [1, 4, 16, 64]
+repetitions = 3
+resolution = [16, 12]
+gt_spp = 8192
+gt_batch_spp = 1024
+
+[[study]]
+name = "strat"
+scenes = ["aa-edges", "glossy"]
+samplers = ["uniform", "stratified"]
+"""
+
+
+class Clock:
+    """Deterministic stand-in for time.perf_counter: every call advances by 0.5 s (exact in binary)."""
+
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        self.t += 0.5
+        return self.t
+
+
+def tiny_experiment(tmp_path, text=TINY):
+    p = tmp_path / "tiny.toml"
+    p.write_text(text)
+    _, fake = fake_backend()
+    return load_experiment(str(p), scene_loader=fake.load_scene)
+
+
+def run(exp, out, gt, fake_kw=None, analyze=False, **kw):
+    backend, fake = fake_backend(**(fake_kw or {}))
+    s = run_experiment(exp, out_dir=out, gt_root=gt, backend=backend, progress=False,
+                       clock=Clock(), log=lambda m: None, analyze=analyze, **kw)
+    return s, fake
+
+
+def test_the_sweep_compiles_every_variant_it_needs_first(tmp_path):
+    # One precompile call before any render, with each (scene, sampler, integrator) the plan and its
+    # ground truths need exactly once; its facts reach the manifest.
+    from dataclasses import replace
+    from drtlab.experiments.study.ground_truth import GT_SAMPLER
+    exp = tiny_experiment(tmp_path)
+    backend, fake = fake_backend()
+    seen = []
+
+    def precompile(jobs, threads):
+        seen.append(([(scene.name, sampler, integ) for scene, sampler, integ in jobs], fake.calls))
+        return {"variants": len(jobs), "compiled": 0, "wall_seconds": 1.5, "compile_seconds": 0.0,
+                "threads": 2}
+
+    run_experiment(exp, out_dir=tmp_path / "out", gt_root=tmp_path / "gt",
+                   backend=replace(backend, precompile=precompile), progress=False, clock=Clock(),
+                   log=lambda m: None, analyze=True)
+    assert len(seen) == 1 and seen[0][1] == 0           # once, before the first render
+    want = {(scene, sampler, "drt") for scene in ("aa-edges", "glossy")
+            for sampler in ("uniform", "stratified", GT_SAMPLER)}
+    assert sorted(seen[0][0]) == sorted(want)
+    m = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert m["runs"]["kernel_precompile"]["variants"] == 6
+    assert m["wall_seconds"]["kernel_precompile"] == 1.5
+
+
+REL_STUDY = """
+[[study]]
+name = "rel"
+scenes = ["glossy"]
+samplers = ["uniform", "stratified"]
+metric = "relmse"
+"""
+
+
+def test_end_to_end_on_fake_renderer(tmp_path):
+    exp = tiny_experiment(tmp_path, TINY + REL_STUDY)        # the second study shares its runs
+    out, gt = tmp_path / "out", tmp_path / "gt"
+    s, fake = run(exp, out, gt, analyze=True)
+    for name in ("runs.csv", "summary.json", "report.md", "manifest.json"):
+        assert (out / name).is_file(), name
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    assert len(rows) == 2 * 2 * 4 * 3 and tuple(rows[0]) == CSV_COLUMNS
+    assert len({r["run_id"] for r in rows}) == len(rows)
+    summary = json.loads((out / "summary.json").read_text())
+    for sc in summary["studies"][0]["scenes"]:
+        for sampler, truth in (("uniform", -0.5), ("stratified", -0.75)):
+            f = sc["slopes"][sampler]
+            assert f["ok"] and f["converged"]
+            assert f["slope_lo"] - 0.03 <= truth <= f["slope_hi"] + 0.03, (sc["scene"], sampler, f)
+        assert sc["speed"]["speedup_vs_baseline"]["stratified"] > 1.5
+        assert sc["efficiency"]["stratified"]["relative"] > 2
+        assert len(sc["cells"]) == 8
+        c = sc["cells"][0]
+        assert {"run_rmse", "run_relmse", "run_mae", "run_ciede2000", "rmse_of_mean_mse", "bias",
+                "pixel_variance", "efficiency"} <= set(c)
+        assert c["run_rmse"]["lo"] <= c["run_rmse"]["mean"] <= c["run_rmse"]["hi"]
+    rel = summary["studies"][1]
+    assert rel["metric"] == "relmse" and rel["scenes"][0]["cells"][0]["study_error"] == \
+        rel["scenes"][0]["cells"][0]["rrmse_of_mean_relmse"]
+    f = rel["scenes"][0]["slopes"]["stratified"]
+    assert f["slope_lo"] - 0.03 <= -0.75 <= f["slope_hi"] + 0.03
+    assert summary["chains"]["converged"] == summary["chains"]["fits"] == 6
+    # The stratified runs at 64 spp are better than the 8192-spp reference's 1% rule allows.
+    assert summary["warnings"] and "ground-truth variance" in summary["warnings"][0]
+    plots = sorted(p.name for p in (out / "plots").iterdir())
+    assert plots == [f"{s}-{k}.png" for s in ("rel", "strat")
+                     for k in ("efficiency", "rmse-vs-seconds", "rmse-vs-spp")]
+    assert sorted(p.name for p in (out / "images").iterdir()) == [
+        "rel--glossy.png", "strat--aa-edges.png", "strat--glossy.png"]
+    report = (out / "report.md").read_text()
+    assert "![strat: RMSE vs samples per pixel](plots/strat-rmse-vs-spp.png)" in report
+    assert "images/strat--aa-edges.png" in report and "noise floor" in report
+    assert "relative RMSE" in report
+    m = json.loads((out / "manifest.json").read_text())
+    assert {"git", "packages", "machine", "seeds", "wall_seconds"} <= set(m)
+    assert m["packages"]["emcee"] and m["seeds"]["roots"] == {"strat": 11, "rel": 11}
+    # Each run's seed reproduces its image alone.
+    r0 = rows[5]
+    img = fake.render(fake.load_scene(r0["scene"]), spp=int(r0["spp"]), sampler=r0["sampler"],
+                      integrator="drt", seed=int(r0["seed"]), res=(16, 12)).image
+    with np.load(out / "runs" / f"{r0['run_id']}.npz") as z:
+        assert np.array_equal(z["image"], img.astype(np.float32))
+
+    # A rerun renders nothing and rewrites the same runs.csv.
+    before = (out / "runs.csv").read_bytes()
+    s2, fake2 = run(exp, out, gt)
+    assert fake2.calls == 0
+    assert (out / "runs.csv").read_bytes() == before
+
+
+def test_resume_after_interruption_gives_the_same_runs_csv(tmp_path):
+    exp = tiny_experiment(tmp_path)
+    ref_out, gt = tmp_path / "ref", tmp_path / "gt"
+    run(exp, ref_out, gt)
+    reference = (ref_out / "runs.csv").read_bytes()
+
+    out = tmp_path / "out"
+    for stop in (5, 17, 12):                       # interrupted three times, at different points
+        with pytest.raises(KeyboardInterrupt):
+            run(exp, out, gt, fake_kw={"fail_after": stop})
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    assert len(rows) == 5 + 17 + 12 and len({r["run_id"] for r in rows}) == len(rows)
+    _, fake = run(exp, out, gt)
+    assert fake.calls == 48 - 34
+    assert (out / "runs.csv").read_bytes() == reference
+
+
+KILL_SCRIPT = textwrap.dedent("""
+    import sys, time
+    sys.path.insert(0, sys.argv[5])                # tests/, where the fakes live
+    from drtlab.experiments.study.config import load_experiment
+    from fakes import fake_backend
+    from drtlab.experiments.study.runner import run_experiment
+    backend, fake = fake_backend()
+    slow = fake.render
+    def render(*a, **k):
+        time.sleep(float(sys.argv[4]))
+        return slow(*a, **k)
+    backend.render = render
+    class Clock:
+        t = 0.0
+        def __call__(self):
+            self.t += 0.5
+            return self.t
+    exp = load_experiment(sys.argv[1], scene_loader=fake.load_scene)
+    run_experiment(exp, out_dir=sys.argv[2], gt_root=sys.argv[3], backend=backend, progress=False,
+                   clock=Clock(), log=lambda m: None, analyze=False)
+""")
+
+
+def test_kill_9_mid_sweep_then_resume(tmp_path):
+    exp_path = tmp_path / "tiny.toml"
+    exp_path.write_text(TINY)
+    exp = tiny_experiment(tmp_path)
+    ref, gt = tmp_path / "ref", tmp_path / "gt"
+    run(exp, ref, gt)                              # also makes the ground truth
+    script = tmp_path / "sweep.py"
+    script.write_text(KILL_SCRIPT)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, str(script), str(exp_path), str(out), str(gt), "0.02",
+                             str(SUPPORT)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.time() + 60
+    while time.time() < deadline:
+        n = len(list((out / "runs").glob("*.json"))) if (out / "runs").is_dir() else 0
+        if n >= 12:
+            break
+        assert proc.poll() is None, proc.stderr.read()
+        time.sleep(0.01)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    # Whatever is on disk parses: no torn JSON, no torn CSV, no duplicate rows.
+    for f in (out / "runs").glob("*.json"):
+        json.loads(f.read_text())
+    done = len(list((out / "runs").glob("*.json")))
+    assert 12 <= done < 48
+    # runs.csv (rewritten every CSV_EVERY seconds and at each scene's end) lags the run records
+    # but lists only committed runs, once each.
+    if (out / "runs.csv").exists():
+        rows = list(csv.DictReader(open(out / "runs.csv")))
+        ids = {f.stem for f in (out / "runs").glob("*.json")}
+        assert len({r["run_id"] for r in rows}) == len(rows) and {r["run_id"] for r in rows} <= ids
+    _, fake = run(exp, out, gt)
+    assert fake.calls == 48 - done
+    assert (out / "runs.csv").read_bytes() == (ref / "runs.csv").read_bytes()
+    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+
+
+def test_fresh_starts_over_and_keeps_ground_truth(tmp_path):
+    exp = tiny_experiment(tmp_path)
+    out, gt = tmp_path / "out", tmp_path / "gt"
+    run(exp, out, gt)
+    _, fake = run(exp, out, gt, fresh=True)
+    assert fake.calls == 48                        # every run again, no ground-truth batch
+
+
+def test_plan_dedupes_runs_shared_between_studies(tmp_path):
+    text = TINY + '\n[[study]]\nname = "again"\nscenes = ["glossy"]\nsamplers = ["stratified"]\n'
+    exp = tiny_experiment(tmp_path, text)
+    backend, _ = fake_backend()
+    plan = plan_runs(exp, backend)
+    assert len(plan) == 48
+    shared = [r for r in plan if r.scene.label == "glossy" and r.sampler == "stratified"]
+    assert shared and all(r.studies == ("strat", "again") for r in shared)
+
+
+# --------------------------------------------------------------------------------------------
+
+def test_real_renderer_tiny_scene_end_to_end(tmp_path):
+    p = tmp_path / "real.toml"
+    p.write_text(tiny_real_experiment("real renderer, tiny", ["soft-shadows"]))
+    exp = load_experiment(str(p))
+    out, gt = tmp_path / "out", tmp_path / "gt"
+    from drtlab.experiments.study.backend import default_backend
+    s = run_experiment(exp, out_dir=out, gt_root=gt, backend=default_backend(), threads=2,
+                       progress=False, log=lambda m: None)
+    rows = list(csv.DictReader(open(out / "runs.csv")))
+    assert len(rows) == 2 * 2 * 2
+    assert all(float(r["rmse"]) > 0 and np.isfinite(float(r["ciede2000"])) for r in rows)
+    assert all(float(r["render_seconds"]) > 0 for r in rows)
+    for name in ("summary.json", "report.md", "manifest.json", "images/soft-shadows.png"):
+        assert (out / name).is_file(), name
+    assert "## Where the runs rendered\n\n`local`: 8 runs." in (out / "report.md").read_text()
+    gt_dirs = list(gt.iterdir())
+    assert len(gt_dirs) == 1
+    man = json.loads((gt_dirs[0] / "manifest.json").read_text())
+    assert man["spp"] == 256 and man["estimator"]["sampler"] == "independent+importance"
+    assert (gt_dirs[0] / "mean.exr").is_file() and (gt_dirs[0] / "stderr.exr").is_file()
+    from drtlab.kernels import CODE_VERSION
+    assert man["code_version"] == CODE_VERSION
+    assert s["studies"][0]["scenes"][0]["cells"][0]["run_rmse"]["mean"] > 0
+
+
+def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
+    from drtlab.experiments.study.runner import _lock
+    from drtlab.errors import InputError
+    exp = tiny_experiment(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    held = _lock(out)
+    try:
+        with pytest.raises(InputError) as e:
+            run(exp, out, tmp_path / "gt")
+        assert e.value.field == "--out"
+    finally:
+        held.close()
+    run(exp, out, tmp_path / "gt")

@@ -1,0 +1,140 @@
+"""Point-set helpers shared by the estimator and experiment tests: evaluating a PointSet's Warp
+functions from numpy, Python references of the hashing (hashing.py), and the fake point sets
+(negative controls) with the registered sets' known defects."""
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from drtlab.estimators.pointsets.base import PointSet
+from drtlab.estimators.pointsets.independent import independent_1d
+from drtlab.estimators.pointsets.stratified import stratified_1d, stratified_2d
+from drtlab.warp_runtime import warp as _wp
+
+_KERNELS: dict = {}
+
+
+def eval_kernel(pointset: PointSet):
+    """A kernel evaluating the point set's get1d and get2d at arrays of (pixel, index, dim)."""
+    _wp()                                  # Warp initialised once, quietly
+    if pointset.name not in _KERNELS:
+        get1d, get2d = pointset.get1d, pointset.get2d
+
+        @wp.kernel(enable_backward=False, module="unique")
+        def evaluate(seed: wp.uint32, spp: wp.uint32, pixel: wp.array(dtype=wp.uint32),
+                     index: wp.array(dtype=wp.uint32), dim: wp.array(dtype=wp.uint32),
+                     out1: wp.array(dtype=float), out2: wp.array(dtype=wp.vec2)):
+            i = wp.tid()
+            out1[i] = get1d(seed, pixel[i], index[i], dim[i], spp)
+            out2[i] = get2d(seed, pixel[i], index[i], dim[i], spp)
+
+        _KERNELS[pointset.name] = evaluate
+    return _KERNELS[pointset.name]
+
+
+def evaluate(pointset: PointSet, seed: int, spp: int, pixel, index, dim):
+    """(1D values (n,), 2D values (n, 2)) as float32 numpy arrays."""
+    pixel, index, dim = np.broadcast_arrays(np.asarray(pixel, dtype=np.uint32),
+                                            np.asarray(index, dtype=np.uint32),
+                                            np.asarray(dim, dtype=np.uint32))
+    n = pixel.size
+    arrays = [wp.array(np.ascontiguousarray(a.ravel()), dtype=wp.uint32, device="cpu")
+              for a in (pixel, index, dim)]
+    out1 = wp.zeros(n, dtype=float, device="cpu")
+    out2 = wp.zeros(n, dtype=wp.vec2, device="cpu")
+    wp.launch(eval_kernel(pointset), dim=n, device="cpu",
+              inputs=[wp.uint32(seed), wp.uint32(spp), *arrays, out1, out2])
+    return out1.numpy(), out2.numpy()
+
+
+M32 = 0xFFFFFFFF
+_M1, _M2, _M3, _GOLDEN = 0x7FEB352D, 0x2C1B3C6D, 0x297A2D39, 0x1E3779B9
+
+
+def py_mix32(x: int) -> int:
+    h = (x ^ (x >> 16)) & M32
+    h = (h * _M1) & M32
+    h ^= h >> 15
+    h = (h * _M2) & M32
+    h ^= h >> 16
+    return h
+
+
+def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
+    h = py_mix32((seed + _GOLDEN) & M32)
+    h = py_mix32(h ^ ((pixel + _M3) & M32))
+    h = py_mix32(h ^ ((index + _GOLDEN) & M32))
+    h = py_mix32(h ^ ((dim + _M1) & M32))
+    return py_mix32((h + _GOLDEN) & M32)
+
+
+def py_permute(i: int, n: int, key: int) -> int:
+    """Python reference of hashing.permute (uint32 arithmetic): Feistel + cycle-walk + rotation."""
+    if n <= 1:
+        return 0
+    bits = 0
+    while (1 << bits) < n:
+        bits += 1
+    half = (bits + 1) // 2
+    hmask = (1 << half) - 1
+    keys = [py_mix32(key ^ ((_M1 + r) & M32)) for r in range(4)]
+    x = i
+    while True:
+        left, right = x >> half, x & hmask
+        for k in keys:
+            left, right = right, left ^ (py_mix32(right ^ k) & hmask)
+        x = (left << half) | right
+        if x < n:
+            return (x + py_mix32((key + _GOLDEN) & M32) % n) % n
+
+
+@wp.func
+def copied_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+              spp: wp.uint32) -> float:
+    # dimension d + 1 is a copy of dimension d (d even)
+    return independent_1d(seed, pixel, index, dim - dim % wp.uint32(2), spp)
+
+
+@wp.func
+def copied_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+              spp: wp.uint32) -> wp.vec2:
+    return wp.vec2(copied_1d(seed, pixel, index, dim, spp),
+                   copied_1d(seed, pixel, index, dim + wp.uint32(1), spp))
+
+
+@wp.func
+def half_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+            spp: wp.uint32) -> float:
+    return 0.5 * stratified_1d(seed, pixel, index, dim, spp)
+
+
+@wp.func
+def half_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+            spp: wp.uint32) -> wp.vec2:
+    return 0.5 * stratified_2d(seed, pixel, index, dim, spp)
+
+
+FAKE_CORRELATED = PointSet("fake-correlated", "dimension d+1 copies dimension d", copied_1d,
+                           copied_2d)
+FAKE_HALF = PointSet("fake-half", "stratified, but every value in [0, 0.5)", half_1d, half_2d)
+
+# What uniformity each registered set promises; any other set must not be worse than i.i.d.
+EXPECT = {"independent": "iid", "stratified": "better", "cmj": "better", "sobol": "better",
+          "zsobol": "better", "pmj02": "better"}
+
+KNOWN_DEFECTS: dict = {
+    # pbrt-v4's ZSobolSampler, faithfully: each dimension permutes the base-4 digits of the sample
+    # index by a nested (hierarchical) permutation, so samples that are index siblings in one
+    # dimension are siblings in every other: within a pixel two dimensions correlate more than
+    # independent ones, (spp - 1) E[r^2] ~ 1.29 at spp = 64 (unbiased all the same: every sample
+    # is uniform and the pooled and joint tests pass). sobol and pmj02 pair dimensions by a random
+    # permutation instead and pass (estimators/pointsets/zsobol.py, sobol.py).
+    ("per_pixel_correlation", "zsobol"): "pbrt-v4 ZSobol's nested digit permutations pair the "
+                                         "samples of two dimensions hierarchically",
+    # Cook's randomised table: the bounce directions come in blocks of 16 (one 4 x 4 jittered table
+    # per block), each randomised on its own. Their block means are all ~ 1/2 (stratified), so at
+    # spp = 64 the 4 blocks' within-block products dominate and (spp - 1) E[r^2] ~ 63/60 = 1.05
+    # for two direction dimensions (unbiased all the same: pooled and joint tests pass).
+    ("per_pixel_correlation", "presampled_random"): "the randomised 16-point tables of two "
+                                                    "bounces are randomised per block of 16 samples",
+}
