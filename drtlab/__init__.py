@@ -5,6 +5,7 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     import drtlab
     scene = drtlab.load_scene("glossy", {"scene.resolution": [64, 48]})
     image = drtlab.render(scene, spp=64, sampler="stratified+importance")      # (H, W, 3) float64
+    images = drtlab.render_batch(scene, seeds=range(16), spp=4)               # (16, H, W, 3)
     result = drtlab.run_experiment("stratified")          # or a dict shaped like an experiment file
     result.cells, result.slopes, result.plot_convergence()
 
@@ -18,6 +19,13 @@ def render(*args, **kwargs):
     """`drtlab.kernels.render.render`: (H, W, 3) float64 linear radiance of a scene."""
     from drtlab.kernels.render import render as _render
     return _render(*args, **kwargs)
+
+
+def render_batch(*args, **kwargs):
+    """`drtlab.kernels.render.render_batch`: (R, H, W, 3) float64, one render per seed, rendered
+    together; image r is bit-identical to `render(..., seed=seeds[r])`."""
+    from drtlab.kernels.render import render_batch as _render_batch
+    return _render_batch(*args, **kwargs)
 
 
 def load_scene(scene, overrides: dict | None = None):

@@ -151,16 +151,19 @@ _BYTES_PER_PIXEL = 24 + 24 + 24 + 12
 MAX_PIXELS = 2**28      # a Warp launch's thread count and array shape stay far below int32 limits
 
 
-def check_image_size(width: int, height: int, moments: bool = False, field: str = "res") -> None:
-    """Refuse, before compiling or rendering, an image whose buffers cannot fit in this machine."""
-    pixels = width * height
+def check_image_size(width: int, height: int, moments: bool = False, field: str = "res",
+                     repetitions: int = 1) -> None:
+    """Refuse, before compiling or rendering, an image (or a batch of `repetitions` images) whose
+    buffers cannot fit in this machine."""
+    pixels = width * height * repetitions
     need = pixels * (_BYTES_PER_PIXEL + (48 if moments else 0))
     try:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):
         memory = 1 << 40
     if pixels > MAX_PIXELS or need > 0.5 * memory:
-        raise InputError(field, f"{width}x{height} is {pixels:,} pixels and needs about "
+        what = f"{width}x{height}" + (f" x {repetitions} repetitions" if repetitions > 1 else "")
+        raise InputError(field, f"{what} is {pixels:,} pixels and needs about "
                                 f"{need / 2**30:.1f} GiB of image buffers; the limits are "
                                 f"{MAX_PIXELS:,} pixels and half of this machine's "
                                 f"{memory / 2**30:.1f} GiB of memory")
@@ -183,6 +186,34 @@ def _resolve_job(scene, sampler: str, integrator: str | None, res) -> tuple:
     return spec, scene, parse_integrator(integrator if integrator is not None else scene.integrator).name
 
 
+@dataclass
+class BatchStats:
+    """Repetitions of one render, one per seed: `images[r]` is bit-identical to the image of
+    `render(..., seed=seeds[r])`."""
+    images: np.ndarray           # (R, H, W, 3) float64 linear radiance
+    render_seconds: float        # wall time of the launches (all repetitions together)
+    cpu_seconds: float           # CPU time of this process during them (all threads)
+    compile_seconds: float
+    spp: int
+    width: int
+    height: int
+    sampler: str
+    integrator: str
+    seeds: tuple
+    variant: str
+    threads: int
+    device: str
+    variances: np.ndarray | None = None     # (R, H, W, 3) per-sample variance, with variance=True
+
+    @property
+    def samples_per_second(self) -> float:
+        return len(self.seeds) * self.width * self.height * self.spp / max(self.render_seconds, 1e-12)
+
+
+def _check_seed(seed, field: str = "seed") -> int:
+    return fields.integer_in(seed, field, 0, 2**32 - 1)
+
+
 def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
                       threads=None, tile=None, device="cpu", progress=None,
                       faults=(), variance=False) -> RenderStats:
@@ -192,9 +223,29 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     the negative control that a statistical test must reject. Never set it for real renders.
     `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
     """
+    seed = _check_seed(seed)
+    b = render_batch_with_stats(scene, [seed], spp=spp, sampler=sampler, integrator=integrator,
+                                res=res, threads=threads, tile=tile, device=device,
+                                progress=progress, faults=faults, variance=variance)
+    return RenderStats(image=b.images[0], render_seconds=b.render_seconds,
+                       compile_seconds=b.compile_seconds, spp=b.spp, width=b.width, height=b.height,
+                       sampler=b.sampler, integrator=b.integrator, seed=seed, variant=b.variant,
+                       threads=b.threads, device=b.device,
+                       variance=None if b.variances is None else b.variances[0])
+
+
+def render_batch_with_stats(scene, seeds, spp=None, sampler="stratified", integrator=None, res=None,
+                            threads=None, tile=None, device="cpu", progress=None, faults=(),
+                            variance=False) -> BatchStats:
+    """Render one repetition of `scene` per seed of `seeds`, all in the same launches (a launch
+    covers every repetition of a tile: short renders stop paying per-call overhead, and a GPU is
+    filled by one launch). Repetition r is bit-identical to `render(..., seed=seeds[r])` whatever
+    the batch, `threads` and `tile`."""
     spec, scene, integ = _resolve_job(scene, sampler, integrator, res)
     spp = fields.integer_in(scene.spp if spp is None else spp, "spp", 1, 2**31 - 1)
-    seed = fields.integer_in(seed, "seed", 0, 2**32 - 1)
+    if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__len__") or len(seeds) == 0:
+        raise InputError("seeds", f"must be a non-empty list of integers in [0, {2**32 - 1}], got {seeds!r}")
+    seeds = tuple(_check_seed(s, "seeds") for s in seeds)
     threads = fields.integer_in((os.cpu_count() or 1) if threads is None else threads, "threads", 1, 1024)
     tile = fields.integer_in(DEFAULT_TILE if tile is None else tile, "tile", 1, 1 << 16)
     if device not in DEVICES:
@@ -214,25 +265,26 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
         features = replace(features, faults=frozenset(faults))
     if variance:
         features = replace(features, moments=True)
-    check_image_size(scene.width, scene.height, moments=bool(variance))
+    R, W, H = len(seeds), scene.width, scene.height
+    check_image_size(W, H, moments=bool(variance), repetitions=R)
     kernel, compile_s = get_kernel(features, spec, device)
     sd = upload(scene, device)
-    W, H = scene.width, scene.height
     from drtlab.kernels.render_kernel import PixelSums
     sums = PixelSums()
-    sums.total = wp.zeros(W * H, dtype=wp.vec3d, device=device)
-    sums.squares = wp.zeros(W * H if variance else 1, dtype=wp.vec3d, device=device)
+    sums.seeds = wp.array(np.asarray(seeds, dtype=np.uint32), dtype=wp.uint32, device=device)
+    sums.total = wp.zeros(R * W * H, dtype=wp.vec3d, device=device)
+    sums.squares = wp.zeros(R * W * H if variance else 1, dtype=wp.vec3d, device=device)
     tiles = _tiles(W, H, tile, device)
     passes = [(i, min(PASS_SAMPLES, spp - i)) for i in range(0, spp, PASS_SAMPLES)]
-    bar = _progress_bar(W * H * spp > 4_000_000 if progress is None else progress,
+    bar = _progress_bar(R * W * H * spp > 4_000_000 if progress is None else progress,
                         len(passes) * len(tiles), scene.name)
 
     def launch(t, index0, count):
         x0, y0, tw, th = t
-        wp.launch(kernel, dim=tw * th, device=device,
-                  inputs=[sd, wp.uint32(seed), index0, count, spp, x0, y0, tw, th, sums])
+        wp.launch(kernel, dim=R * tw * th, device=device,
+                  inputs=[sd, index0, count, spp, x0, y0, tw, th, sums])
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     pool = _pool(threads) if device == "cpu" and threads > 1 else None
     try:
         for index0, count in passes:
@@ -250,13 +302,13 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
     finally:
         if bar is not None:
             bar.close()
-    elapsed = time.perf_counter() - t0
-    total = sums.total.numpy().reshape(H, W, 3)
-    image = total / float(spp)
-    var = _sample_variance(total, sums.squares.numpy().reshape(H, W, 3), spp) if variance else None
-    return RenderStats(image=image, render_seconds=elapsed, compile_seconds=compile_s, spp=spp,
-                       width=W, height=H, sampler=spec.name, integrator=integ, seed=seed,
-                       variant=features.key(), threads=threads, device=device, variance=var)
+    elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
+    total = sums.total.numpy().reshape(R, H, W, 3)
+    images = total / float(spp)
+    var = _sample_variance(total, sums.squares.numpy().reshape(R, H, W, 3), spp) if variance else None
+    return BatchStats(images=images, render_seconds=elapsed, cpu_seconds=cpu, compile_seconds=compile_s,
+                      spp=spp, width=W, height=H, sampler=spec.name, integrator=integ, seeds=seeds,
+                      variant=features.key(), threads=threads, device=device, variances=var)
 
 
 def _progress_bar(show: bool, launches: int, name: str):
@@ -291,3 +343,12 @@ def render(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=N
     return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
                              res=res, threads=threads, tile=tile, device=device,
                              progress=progress, faults=faults).image
+
+
+def render_batch(scene, seeds, spp=None, sampler="stratified", integrator=None, res=None,
+                 threads=None, tile=None, device="cpu", progress=None) -> np.ndarray:
+    """(R, H, W, 3) float64: one render per seed of `seeds`, rendered together; image r is
+    bit-identical to `render(scene, spp=spp, sampler=sampler, seed=seeds[r], ...)`."""
+    return render_batch_with_stats(scene, seeds, spp=spp, sampler=sampler, integrator=integrator,
+                                   res=res, threads=threads, tile=tile, device=device,
+                                   progress=progress).images

@@ -7,8 +7,8 @@ are runtime switches instead (a thin lens: aperture > 0; motion: SceneData.movin
 textures: per material; a background: drt's last segment), so that scenes differing only in them
 share one compiled variant (`Features.code_key`): half the cold compiles of a study.
 
-The kernel renders `count` samples (indices index0 ... index0 + count - 1) of every pixel of one tile
-and adds their float64 sum to `sums.total` (and, with `Features.moments`, the sum of their squares
+The kernel renders `count` samples (indices index0 ... index0 + count - 1) of every pixel of one tile,
+for each seed of a batch (`sums.seeds`), and adds their float64 sum to `sums.total` (and, with `Features.moments`, the sum of their squares
 to `sums.squares`; otherwise that is never touched). A sample's random numbers come only from the
 point set keyed by (seed, pixel, sample index, dimension), so tiles, threads and launch order cannot
 change the image.
@@ -35,9 +35,11 @@ from drtlab.kernels.whitted import make_whitted
 
 @wp.struct
 class PixelSums:
-    """The kernel's outputs, per pixel. In a struct rather than as array arguments: Warp compiles a
+    """The kernel's per-repetition seeds and its outputs, per repetition and pixel (repetition r's
+    pixel p at r * width * height + p). In a struct rather than as array arguments: Warp compiles a
     kernel whose arguments include only 1D arrays twice (once for unit strides), which doubles the
     compile time of these large kernels for no measurable gain."""
+    seeds: wp.array(dtype=wp.uint32)
     total: wp.array(dtype=wp.vec3d)
     squares: wp.array(dtype=wp.vec3d)
 
@@ -56,14 +58,19 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     pixel_key = pointset.pixel_key
 
     @wp.kernel(enable_backward=False, module="unique")
-    def render_tile(sd: SceneData, seed: wp.uint32, index0: int, count: int, spp: int,
+    def render_tile(sd: SceneData, index0: int, count: int, spp: int,
                     x0: int, y0: int, tile_w: int, tile_h: int, sums: PixelSums):
+        # One thread per (repetition, pixel of the tile): a batch of seeds fills a launch, and each
+        # repetition sums exactly the samples, in the order, that a render of its seed alone sums.
         tid = wp.tid()
-        px = x0 + tid % tile_w
-        py = y0 + tid / tile_w
+        rep = tid / (tile_w * tile_h)
+        local = tid - rep * tile_w * tile_h
+        px = x0 + local % tile_w
+        py = y0 + local / tile_w
         if px >= sd.width or py >= sd.height:
             return
-        pixel = py * sd.width + px
+        seed = sums.seeds[rep]
+        pixel = rep * sd.width * sd.height + py * sd.width + px
         pix = pixel_key(px, py, sd.width)
         uspp = wp.uint32(spp)
         total = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
