@@ -78,7 +78,7 @@ def cmd_render(args) -> int:
     from drtlab.kernels import CODE_VERSION
     from drtlab.kernels.imageio import write_exr, write_png
     from drtlab.kernels.render import check_image_size, render_with_stats
-    from drtlab.kernels.scene_checks import image_warnings
+    from drtlab.kernels.scene_checks import image_warnings, scene_warnings
     from drtlab.kernels.scene_file import load_scene
 
     scene = load_scene(args.scene, _overrides(args.set))
@@ -90,6 +90,7 @@ def cmd_render(args) -> int:
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")
+    _warn(scene_warnings(scene))
     t0 = time.perf_counter()
     stats = render_with_stats(scene, spp=args.spp, sampler=args.sampler, integrator=args.integrator,
                               seed=args.seed, res=args.res, threads=args.threads, tile=args.tile,

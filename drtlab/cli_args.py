@@ -12,6 +12,8 @@ from drtlab import fields
 from drtlab.errors import InputError
 
 EXIT_BAD_INPUT = 2
+# A reader that closed the pipe (`drtlab scenes | head -1`) ends the command as SIGPIPE would.
+EXIT_BROKEN_PIPE = 128 + 13
 
 
 class Parser(argparse.ArgumentParser):
@@ -64,11 +66,31 @@ resolution_flag = flag(_resolution_text)
 
 
 
-def run_main(build_parser, argv: list[str] | None = None) -> int:
-    """Parse and run a command; bad input is one stderr line and exit 2, Ctrl-C exit 130."""
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null: the interpreter flushes it once more at exit, and that flush into
+    the closed pipe would print an 'Exception ignored' traceback."""
+    import os
     try:
-        args = build_parser().parse_args(argv)
-        return args.func(args)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):      # stdout replaced (pytest's capture)
+        pass
+
+
+def run_main(build_parser, argv: list[str] | None = None) -> int:
+    """Parse and run a command; bad input is one stderr line and exit 2, Ctrl-C exit 130, a closed
+    output pipe exit 141 without a word."""
+    try:
+        try:
+            args = build_parser().parse_args(argv)
+            code = args.func(args)
+        finally:
+            sys.stdout.flush()          # inside the try: a closed pipe shows up here at the latest
+        return code
+    except BrokenPipeError:
+        _silence_stdout()
+        return EXIT_BROKEN_PIPE
     except InputError as e:
         print(f"drtlab: {e.field}: {e.message}", file=sys.stderr)
         return EXIT_BAD_INPUT

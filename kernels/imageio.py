@@ -59,6 +59,27 @@ def write_png(path, image: np.ndarray, metadata: dict | None = None) -> None:
 
 def read_exr(path) -> tuple[np.ndarray, dict]:
     """(pixels as float32 (H, W, C), drtlab metadata) of an image written by write_exr."""
+    pixels, meta, _ = _read(path)
+    return pixels, meta
+
+
+def read_linear(path) -> tuple[np.ndarray, dict, str]:
+    """(linear float32 pixels (H, W, C), drtlab metadata, how the file stores them) of any image
+    OpenImageIO reads. Integer pixels (8- or 16-bit PNG, JPEG, TIFF) are display codes of the sRGB
+    transfer unless the file says linear, as write_png's are: they are decoded to linear values
+    (pbrt-v4's imgtool does the same), so that a PNG compares with the EXR it previews; an alpha
+    channel is left as it is."""
+    pixels, meta, (fmt, colorspace) = _read(path)
+    floats = {"float": "float32", "half": "float16", "double": "float64"}
+    if fmt in floats or "linear" in colorspace.lower():
+        return pixels, meta, floats.get(fmt, fmt)
+    out = pixels.copy()
+    colour = out[..., :3]
+    out[..., :3] = np.where(colour <= 0.04045, colour / 12.92, ((colour + 0.055) / 1.055) ** 2.4)
+    return out, meta, f"{fmt}, sRGB-encoded (read as linear)"
+
+
+def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
     import OpenImageIO as oiio
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
@@ -67,5 +88,6 @@ def read_exr(path) -> tuple[np.ndarray, dict]:
     pixels = inp.read_image(oiio.FLOAT)
     meta = {a.name[len("drtlab:"):]: a.value for a in spec.extra_attribs
             if a.name.startswith("drtlab:")}
+    stored = (str(spec.format), str(spec.getattribute("oiio:ColorSpace") or ""))
     inp.close()
-    return np.asarray(pixels), meta
+    return np.asarray(pixels), meta, stored

@@ -118,6 +118,8 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
         raise InputError(field, f"must name a {' or '.join(MESH_FORMATS)} file, got {show(text)}")
     if not path.is_file():
         raise InputError(field, f"mesh file '{path}' does not exist")
+    if path.suffix.lower() == ".obj":
+        _check_obj_indices(path, field)
     import trimesh                                  # only scenes with mesh files pay its import
     try:
         # Not force="mesh": that concatenation drops the normals the file gave.
@@ -130,6 +132,46 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
     if not parts:
         raise InputError(field, f"mesh file '{path}' has no triangles")
     return _concatenated(parts, str(path))
+
+
+def _check_obj_indices(path: Path, field: str) -> None:
+    """Every index of every `f` line of an OBJ file, as written: 1 ... n counts from the first vertex,
+    -1 ... -n back from the last one defined so far, and 0 is no index at all. trimesh turns a 0 or a
+    too-large index into a degenerate triangle or a numpy message without a face number; here it is
+    the file, the line, the face and the index the user wrote."""
+    counts = {"v": 0, "vt": 0, "vn": 0}
+    faces = []                                      # (line number, face number, tokens)
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            for number, line in enumerate(fh, 1):
+                word, _, rest = line.partition("#")[0].strip().partition(" ")
+                if word in counts:
+                    counts[word] += 1
+                elif word == "f":
+                    faces.append((number, len(faces) + 1, rest.split(), dict(counts)))
+    except OSError as exc:
+        raise InputError(field, f"cannot read mesh file '{path}': {exc.strerror}") from None
+    kinds = (("v", "vertex", "vertices"), ("vt", "texture coordinate", "texture coordinates"),
+             ("vn", "normal", "normals"))
+    for number, face, tokens, defined in faces:
+        for token in tokens:
+            for (key, what, plural), text in zip(kinds, token.split("/")):
+                if not text and key != "v":
+                    continue
+                where = f"mesh file '{path}' line {number}: face {face} ('f {' '.join(tokens)}')"
+                try:
+                    index = int(text)
+                except ValueError:
+                    raise InputError(field, f"{where}: {what} index {text!r} is not an integer") from None
+                if index == 0:
+                    raise InputError(field, f"{where}: {what} index 0 is not an OBJ index (they count "
+                                            f"from 1, or from -1 back from the last {what})")
+                total = counts[key] if index > 0 else defined[key]
+                if abs(index) > total:
+                    scope = "in the file" if index > 0 else "defined before this line"
+                    allowed = f" (1 ... {total} or -1 ... -{total})" if total else ""
+                    raise InputError(field, f"{where}: {what} index {index} is out of range: "
+                                            f"{total} {plural} {scope}{allowed}")
 
 
 def _concatenated(parts: list, source: str) -> TriangleMesh:
@@ -164,8 +206,8 @@ def checked_mesh(vertices, faces, normals, field: str, source: str) -> TriangleM
                                 f"{bad.size} NaN/Inf vertices in all")
     if f.min() < 0 or f.max() >= len(v):
         k = int(np.flatnonzero((f < 0).any(axis=1) | (f >= len(v)).any(axis=1))[0])
-        raise InputError(field, f"{what}: triangle {k} refers to vertex {show(f[k].tolist())}, but "
-                                f"there are {len(v)} vertices")
+        raise InputError(field, f"{what}: triangle {k + 1} refers to vertices {_as_written(f[k], source)}, "
+                                f"but there are {len(v)} vertices")
     f = f.astype(np.int32)
     _check_areas(v, f, field, what)
     return TriangleMesh(vertices=v, faces=f, normals=_checked_normals(normals, len(v), field, what),
@@ -183,8 +225,14 @@ def _check_areas(v: np.ndarray, f: np.ndarray, field: str, what: str) -> None:
     small = np.flatnonzero(~(areas > DEGENERATE_AREA * diag * diag))
     if small.size:
         k = int(small[0])
-        raise InputError(field, f"{what}: triangle {k} (vertices {show(f[k].tolist())}) is degenerate "
-                                f"(zero area); {small.size} such triangles in all: remove them")
+        raise InputError(field, f"{what}: triangle {k + 1} (vertices {_as_written(f[k], what)}) is "
+                                f"degenerate (zero area); {small.size} such triangles in all: remove them")
+
+
+def _as_written(face: np.ndarray, source: str) -> str:
+    """A triangle's vertex indices as its file numbers them: from 1 in an OBJ, from 0 elsewhere."""
+    base = 1 if source.lower().endswith(".obj") else 0
+    return f"{show((face + base).tolist())} (counting from {base})"
 
 
 def _checked_normals(normals, count: int, field: str, what: str) -> np.ndarray | None:

@@ -41,6 +41,19 @@ def emitters_facing_nothing(scene: Scene) -> list[str]:
     return found
 
 
+def scene_warnings(scene: Scene) -> list[str]:
+    """Findings about a scene before it renders, one line in all: shapes that move while the shutter
+    is closed (the default [0, 0]), which render the static image a user who set a velocity does
+    not expect."""
+    moving = [s.name for s in scene.shapes if np.any(s.velocity != 0.0)]
+    open_, close = scene.camera.shutter
+    if moving and not close > open_:
+        return [f"shape '{moving[0]}'{f' and {len(moving) - 1} more' if len(moving) > 1 else ''} "
+                f"has a velocity but camera.shutter = [{open_:g}, {close:g}] is closed, so nothing "
+                "moves; set camera.shutter = [0.0, 1.0] for motion blur"]
+    return []
+
+
 def image_warnings(scene: Scene, image: np.ndarray) -> list[str]:
     """Findings about a rendered image, one line in all: an emitter facing nothing (which explains a
     black image), else an image that is zero everywhere."""

@@ -16,13 +16,18 @@ from drtlab.errors import InputError
 
 
 def read_image(path, field_name: str) -> tuple[np.ndarray, dict]:
-    """(H, W, C) float32 pixels and drtlab metadata; a missing or unreadable file is an InputError."""
-    from drtlab.kernels.imageio import read_exr
+    """(H, W, C) linear float32 pixels (8-bit sRGB files decoded) and drtlab metadata; a missing or
+    unreadable file is an InputError."""
+    return _read_stored(path, field_name)[:2]
+
+
+def _read_stored(path, field_name: str) -> tuple[np.ndarray, dict, str]:
+    from drtlab.kernels.imageio import read_linear
     p = Path(path)
     if not p.is_file():
         raise InputError(field_name, f"image file '{path}' does not exist")
     try:
-        return read_exr(p)
+        return read_linear(p)
     except OSError as exc:
         raise InputError(field_name, f"cannot read '{path}' as an image: "
                                      f"{str(exc).splitlines()[0] if str(exc) else 'unknown format'}") from None
@@ -60,9 +65,10 @@ class ImageInfo:
     height: int
     channels: list[ChannelStats]
     metadata: dict = field(default_factory=dict)
+    stored: str = "float32"         # the file's pixel type (kernels.imageio.read_linear)
 
     def lines(self) -> list[str]:
-        out = [f"{self.path}: {self.width}x{self.height}, {len(self.channels)} channels (float32)"]
+        out = [f"{self.path}: {self.width}x{self.height}, {len(self.channels)} channels ({self.stored})"]
         out.append(f"  {'channel':8s} {'min':>12s} {'max':>12s} {'mean':>12s} {'NaN':>6s} {'Inf':>6s} "
                    f"{'<0':>6s}")
         for c in self.channels:
@@ -74,7 +80,7 @@ class ImageInfo:
 
 
 def image_info(path) -> ImageInfo:
-    pixels, meta = read_image(path, "FILE")
+    pixels, meta, stored = _read_stored(path, "FILE")
     h, w = pixels.shape[:2]
     planes = pixels.reshape(h, w, -1)
     names = "RGBA" if planes.shape[2] <= 4 else [f"c{i}" for i in range(planes.shape[2])]
@@ -87,7 +93,7 @@ def image_info(path) -> ImageInfo:
             max=float(finite.max()) if finite.size else math.nan,
             mean=float(finite.mean()) if finite.size else math.nan,
             nan=int(np.isnan(x).sum()), inf=int(np.isinf(x).sum()), negative=int((x < 0).sum())))
-    return ImageInfo(path=str(path), width=w, height=h, channels=channels, metadata=meta)
+    return ImageInfo(path=str(path), width=w, height=h, channels=channels, metadata=meta, stored=stored)
 
 
 # ---------------------------------------------------------------------------------------------------

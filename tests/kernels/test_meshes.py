@@ -336,7 +336,7 @@ def bad_folder(tmp_path_factory):
     ({"file": "empty.obj"}, "shapes[0].file", "has no triangles"),
     ({"file": "nan.obj"}, "shapes[0]", "vertex 1 is not finite"),
     ({"file": "inf.obj"}, "shapes[0]", "vertex 1 is not finite"),
-    ({"file": "degenerate.obj"}, "shapes[0]", "triangle 1"),
+    ({"file": "degenerate.obj"}, "shapes[0]", "triangle 2 (vertices [1, 2, 4] (counting from 1))"),
     ({"file": "good.stl"}, "shapes[0].file", ".obj or .ply"),
     ({"file": "good.obj", "generate": "terrain"}, "shapes[0].generate", "exactly one of"),
     ({}, "shapes[0].file", "exactly one of"),
