@@ -1,11 +1,10 @@
 """Primary rays: the camera's thin lens and shutter per kernel variant, and Whitted's sub-pixel grid.
 
-`make_camera(features, pointset)` returns sample_ray(sd, seed, pix, idx, spp, px, py) -> CameraRay
-(pixel, lens and time from the point set); `grid_ray_dir(sd, px, py, sub, nx, ny)` is the pinhole
-direction through the centre of sub-pixel `sub` of an nx x ny grid.
+`make_camera(features, pointset)` returns the Warp function
+sample_ray(sd, seed, pix, idx, spp, px, py) -> CameraRay (pixel, lens and time from the point set);
+`grid_ray_dir(sd, px, py, sub, nx, ny)` is the pinhole direction through the centre of sub-pixel
+`sub` of an nx x ny grid.
 """
-from types import SimpleNamespace
-
 import warp as wp
 
 from drtlab.estimators import dimensions as dims
@@ -40,7 +39,7 @@ def grid_ray_dir(sd: SceneData, px: int, py: int, sub: int, nx: int, ny: int) ->
     return camera_ray_dir(sd, px, py, u, wp.vec2(0.0, 0.0))
 
 
-def make_camera(f: Features, pointset: PointSet) -> SimpleNamespace:
+def make_camera(f: Features, pointset: PointSet) -> wp.Function:
     get1d = pointset.get1d
     get2d = pointset.get2d
 
@@ -64,4 +63,4 @@ def make_camera(f: Features, pointset: PointSet) -> SimpleNamespace:
                 seed, pix, idx, wp.uint32(wp.static(dims.TIME)), spp)
         return ray
 
-    return SimpleNamespace(sample_ray=sample_ray)
+    return sample_ray

@@ -1,7 +1,7 @@
 """Direct lighting at a surface point, per kernel variant: delta lights, area-light samples, MIS weights.
 
-`make_direct(features, strategy, rays, bsdf, lights)` (rays from make_intersect, bsdf from make_bsdf,
-lights from make_lights) returns Warp functions:
+`make_direct(features, strategy, rays=rays, bsdf=bsdf, lights=lights)` (from make_intersect,
+make_bsdf and make_lights) returns DirectLighting, Warp functions:
     direct_delta_lights(sd, kind, albedo, exponent, ior, p, n, ns, wo, dt) -> point and directional
         light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
         sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
@@ -9,7 +9,7 @@ lights from make_lights) returns Warp functions:
         area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
     hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
 """
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import warp as wp
 
@@ -17,10 +17,19 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import MESH, SceneData
 from drtlab.kernels.features import DROP_COSINE, Features
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
+from drtlab.kernels.intersection.scene_rays import SceneRays
+from drtlab.kernels.lights import AreaLights
+from drtlab.kernels.materials import Bsdf
 
 
-def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: SimpleNamespace,
-                lights: SimpleNamespace) -> SimpleNamespace:
+class DirectLighting(NamedTuple):
+    direct_delta_lights: wp.Function
+    next_event: wp.Function
+    hit_weight: wp.Function
+
+
+def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
+                lights: AreaLights) -> DirectLighting:
     POINTS = f.point_lights
     DIRS = f.dir_lights
     MIS = strategy.mis
@@ -111,5 +120,5 @@ def make_direct(f: Features, strategy: Strategy, rays: SimpleNamespace, bsdf: Si
                 w = 0.0
         return w
 
-    return SimpleNamespace(direct_delta_lights=direct_delta_lights, next_event=next_event,
-                           hit_weight=hit_weight)
+    return DirectLighting(direct_delta_lights=direct_delta_lights, next_event=next_event,
+                          hit_weight=hit_weight)

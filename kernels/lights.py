@@ -1,26 +1,29 @@
 """Area-light sampling, built per kernel variant.
 
-`make_lights(motion, solid_angle, power_pick, wrong_jacobian, meshes, mesh_fault)` returns Warp
-functions callable on their own:
+`make_lights(features, strategy, motion=motion)` (motion from intersection/motion.py) returns
+AreaLights, Warp functions callable on their own:
     pick_light(sd, u) -> light index;  light_pick_pmf(sd, li) -> its probability
     sample_light(sd, li, x, u, dt) -> LightSample (direction, distance, radiance, solid-angle pdf
         including the light choice)
     light_pdf(sd, li, x, y, ny, dt) -> the density sample_light has of proposing point y from x
-`solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it);
-rectangles are always area-sampled. `power_pick` picks lights proportionally to emitted power.
-`wrong_jacobian` compiles in the tests' fault features.LIGHT_JACOBIAN (no cosine at the light).
-`meshes` compiles in emitting triangle meshes, area-sampled like rectangles: a triangle picked with
-probability proportional to its area (SceneData.tri_cdf), a uniform point on it, so the density is
-1 / (the mesh's area) everywhere on it; `mesh_fault` compiles features.MESH_PDF_HIGH_10PCT.
+`strategy.solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it);
+rectangles are always area-sampled. `strategy.power_pick` picks lights proportionally to emitted
+power. The fault features.LIGHT_JACOBIAN in `features.faults` drops the cosine at the light.
+`features.meshes` compiles in emitting triangle meshes, area-sampled like rectangles: a triangle
+picked with probability proportional to its area (SceneData.tri_cdf), a uniform point on it, so the
+density is 1 / (the mesh's area) everywhere on it; the fault features.MESH_PDF_HIGH_10PCT claims a
+density 10% too high.
 """
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import warp as wp
 
 from drtlab.estimators.domain_maps import (PI, cone_pdf, frame_to_world, square_to_cone,
                                      square_to_uniform_sphere)
+from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import MESH, SPHERE, SceneData
-from drtlab.kernels.intersection.scene_rays import make_motion
+from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, Features
+from drtlab.kernels.intersection.motion import Motion
 
 
 @wp.struct
@@ -51,7 +54,14 @@ def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
     return wp.vec2(sin2 / (1.0 + cos_max), dc)
 
 
-def _make_mesh_lights(meshes: bool, mesh_fault: bool, mesh_shift) -> SimpleNamespace:
+class AreaLights(NamedTuple):
+    pick_light: wp.Function         # (sd, u) -> light index
+    light_pick_pmf: wp.Function     # (sd, li) -> the probability pick_light picks li
+    sample_light: wp.Function       # (sd, li, x, u, dt) -> LightSample
+    light_pdf: wp.Function          # (sd, li, x, y, ny, dt) -> sample_light's density of y
+
+
+def _make_mesh_lights(meshes: bool, mesh_fault: bool, mesh_shift) -> tuple:
     MESHES = meshes
     # features.MESH_PDF_HIGH_10PCT: the area a mesh light's density is taken from is 10% short.
     MESH_AREA_SCALE = 1.0 / 1.1 if mesh_fault else 1.0
@@ -95,19 +105,18 @@ def _make_mesh_lights(meshes: bool, mesh_fault: bool, mesh_shift) -> SimpleNames
         tp.face = lo
         return tp
 
-    return SimpleNamespace(flat_area=flat_area, sample_triangle=sample_triangle)
+    return flat_area, sample_triangle
 
 
-def make_lights(motion: bool, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False,
-                meshes: bool = False, mesh_fault: bool = False) -> SimpleNamespace:
-    motion_funcs = make_motion(motion)
-    sphere_center = motion_funcs.sphere_center
-    quad_origin = motion_funcs.quad_origin
-    SOLID_ANGLE = solid_angle
-    POWER_PICK = power_pick
-    MESHES = meshes
-    mesh_lights = _make_mesh_lights(meshes, mesh_fault, motion_funcs.mesh_shift)
-    flat_area, sample_triangle = mesh_lights.flat_area, mesh_lights.sample_triangle
+def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLights:
+    sphere_center = motion.sphere_center
+    quad_origin = motion.quad_origin
+    SOLID_ANGLE = strategy.solid_angle
+    POWER_PICK = strategy.power_pick
+    MESHES = f.meshes
+    wrong_jacobian = LIGHT_JACOBIAN in f.faults
+    flat_area, sample_triangle = _make_mesh_lights(f.meshes, MESH_PDF_HIGH_10PCT in f.faults,
+                                                   motion.mesh_shift)
 
     @wp.func
     def light_pick_pmf(sd: SceneData, li: int) -> float:
@@ -225,6 +234,5 @@ def make_lights(motion: bool, solid_angle: bool, power_pick: bool, wrong_jacobia
         ls.valid = 1
         return ls
 
-    return SimpleNamespace(light_pick_pmf=light_pick_pmf, pick_light=pick_light,
-                           sphere_cone=sphere_cone, light_pdf=light_pdf, sample_light=sample_light,
-                           flat_area=flat_area, sample_triangle=sample_triangle)
+    return AreaLights(pick_light=pick_light, light_pick_pmf=light_pick_pmf,
+                      sample_light=sample_light, light_pdf=light_pdf)

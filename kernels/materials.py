@@ -1,16 +1,16 @@
 """Materials per kernel variant: kind codes, BSDFs, (checkered) albedo and emission.
 
-`make_bsdf(kinds, lobe)` returns Warp functions that can be called on their own (the tracer, MIS and
-the chi-square tests use the same ones):
+`make_bsdf(features, strategy)` returns Bsdf, Warp functions of the features' material kinds that
+can be called on their own (the tracer, MIS and the chi-square tests use the same ones):
     eval_bsdf(kind, albedo, exponent, ior, n, wo, wi) -> f(wo, wi) |cos theta_i|  (non-delta kinds)
     pdf_bsdf(kind, exponent, ior, n, wo, wi)          -> solid-angle density of sample_bsdf
     sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter (weight = f|cos|/pdf)
-`lobe` selects the strategy: True samples cosine / Phong lobes / Fresnel, False samples uniform
-hemisphere (sphere for glossy transmission) and picks reflect/refract with probability 1/2.
+`strategy.lobe` True samples cosine / Phong lobes / Fresnel, False samples uniform hemisphere
+(sphere for glossy transmission) and picks reflect/refract with probability 1/2.
 `plastic` is a diffuse base under a glossy dielectric coat; its model is `eval_plastic`'s docstring.
 `surface_albedo(sd, m, uv)` is the (checkered) albedo, `emitted(sd, h, wo)` a hit's emission.
 """
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -18,7 +18,9 @@ import warp as wp
 from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
                                      square_to_cosine_hemisphere, square_to_phong_lobe,
                                      square_to_uniform_hemisphere, square_to_uniform_sphere)
+from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.primitives import Hit
 from drtlab.kernels.scene import MATERIAL_CODE
 
@@ -182,14 +184,19 @@ def plastic_coat_probability(co: float, ior: float) -> float:
 LOBE_CHOICE_KINDS = frozenset({"dielectric", "glossy_dielectric", "plastic"})
 
 
-def make_bsdf(kinds: frozenset, lobe: bool) -> SimpleNamespace:
-    densities = _make_densities(kinds, lobe)
-    sample_bsdf = _make_sampler(kinds, lobe, densities.eval_bsdf, densities.pdf_bsdf)
-    return SimpleNamespace(eval_bsdf=densities.eval_bsdf, pdf_bsdf=densities.pdf_bsdf,
-                           sample_bsdf=sample_bsdf)
+class Bsdf(NamedTuple):
+    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, n, wo, wi) -> f|cos|
+    pdf_bsdf: wp.Function       # (kind, exponent, ior, n, wo, wi) -> sample_bsdf's density
+    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter
 
 
-def _make_densities(kinds: frozenset, lobe: bool) -> SimpleNamespace:
+def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
+    eval_bsdf, pdf_bsdf = _make_densities(f.kinds, strategy.lobe)
+    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf)
+    return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+
+
+def _make_densities(kinds: frozenset, lobe: bool) -> tuple:
     """eval_bsdf (f|cos|) and pdf_bsdf (the density sample_bsdf proposes with) of `kinds`."""
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
@@ -265,7 +272,7 @@ def _make_densities(kinds: frozenset, lobe: bool) -> SimpleNamespace:
                              + (1.0 - pc) * wp.abs(cos_i) * INV_PI)
         return p
 
-    return SimpleNamespace(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf)
+    return eval_bsdf, pdf_bsdf
 
 
 def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf):

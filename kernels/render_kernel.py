@@ -25,7 +25,8 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.camera import grid_ray_dir, make_camera
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import make_direct
-from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, Features
+from drtlab.kernels.features import Features
+from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect
 from drtlab.kernels.lights import make_lights
 from drtlab.kernels.materials import make_bsdf
@@ -46,15 +47,13 @@ class PixelSums:
 
 def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     WHITTED = f.whitted
-    rays = make_intersect(f)
-    bsdf = make_bsdf(f.kinds, strategy.lobe)
-    lights = make_lights(True, strategy.solid_angle, strategy.power_pick,
-                         LIGHT_JACOBIAN in f.faults, meshes=f.meshes,
-                         mesh_fault=MESH_PDF_HIGH_10PCT in f.faults)
-    lighting = make_direct(f, strategy, rays, bsdf, lights)
-    sample_ray = make_camera(f, pointset).sample_ray
-    trace_whitted = make_whitted(f, rays, bsdf, lighting).trace_whitted
-    trace = make_trace(f, pointset, strategy, rays, bsdf, lighting).trace
+    rays = make_intersect(f, motion=make_motion())
+    bsdf = make_bsdf(f, strategy)
+    lights = make_lights(f, strategy, motion=make_motion())
+    lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights)
+    sample_ray = make_camera(f, pointset)
+    trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
+    trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting)
     pixel_key = pointset.pixel_key
 
     @wp.kernel(enable_backward=False, module="unique")

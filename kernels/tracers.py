@@ -1,21 +1,22 @@
 """The stochastic tracers (path, drt) per kernel variant: one path of a sample, as a loop.
 
-`make_trace(features, pointset, strategy, rays, bsdf, lighting)` (from make_intersect, make_bsdf
-and make_direct) returns trace(sd, seed, pix, idx, spp, o, d, dt) -> radiance.
+`make_trace(features, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting)` (from
+make_intersect, make_bsdf and make_direct) returns the Warp function
+trace(sd, seed, pix, idx, spp, o, d, dt) -> radiance.
 Random numbers come from the point set at the dimensions of estimators.dimensions per bounce.
 """
-from types import SimpleNamespace
-
 import warp as wp
 
 from drtlab.estimators import dimensions as dims
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.direct import DirectLighting
 from drtlab.kernels.features import DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, Features
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
-from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR, emitted,
-                                     surface_albedo)
+from drtlab.kernels.intersection.scene_rays import SceneRays
+from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR, Bsdf,
+                                      emitted, surface_albedo)
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
@@ -28,8 +29,8 @@ def black(c: wp.vec3) -> int:
     return 1
 
 
-def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: SimpleNamespace,
-               bsdf: SimpleNamespace, lighting: SimpleNamespace) -> SimpleNamespace:
+def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
+               lighting: DirectLighting) -> wp.Function:
     get1d = pointset.get1d
     get2d = pointset.get2d
     AREA = f.area_lights
@@ -148,4 +149,4 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, rays: Simple
             depth += 1
         return L
 
-    return SimpleNamespace(trace=trace)
+    return trace

@@ -1,25 +1,26 @@
 """Whitted's deterministic tracer per kernel variant: mirror chains, dielectric splits, shadow rays.
 
-`make_whitted(features, rays, bsdf, lighting)` (from make_intersect, make_bsdf and make_direct)
-returns trace_whitted(sd, o, d) -> radiance and light_centres(sd, kind, albedo, exponent,
-ior, p, n, ns, wo) -> the area lights' light at p, each seen as a point source at its centre (a mesh
-light: at its area-weighted centroid; n geometric, ns shading normal, as in kernels/direct.py).
+`make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
+and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
+light a surface by light_centres(sd, kind, albedo, exponent, ior, p, n, ns, wo): each seen as a point
+source at its centre (a mesh light: at its area-weighted centroid; n geometric, ns shading normal,
+as in kernels/direct.py).
 """
-from types import SimpleNamespace
-
 import warp as wp
 
 from drtlab.estimators.domain_maps import PI
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
+from drtlab.kernels.direct import DirectLighting
 from drtlab.kernels.features import Features
+from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
                                       MIRROR, PLASTIC, emitted, interface, refract_dir,
-                                      surface_albedo)
+                                      Bsdf, surface_albedo)
 
 
-def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
-                 lighting: SimpleNamespace) -> SimpleNamespace:
+def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
+                 lighting: DirectLighting) -> wp.Function:
     AREA_CENTRES = f.light_centres
     DELTA_LIGHTS = f.delta_lights
     SPLITS = f.whitted_splits
@@ -157,4 +158,4 @@ def make_whitted(f: Features, rays: SimpleNamespace, bsdf: SimpleNamespace,
                 total += L
         return total
 
-    return SimpleNamespace(trace_whitted=trace_whitted, light_centres=light_centres)
+    return trace_whitted

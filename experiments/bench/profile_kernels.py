@@ -38,7 +38,8 @@ def _ray_kernels(features):
     import warp as wp
     from drtlab.kernels.device_scene import SceneData
     from drtlab.kernels.intersection.scene_rays import make_intersect
-    rays = make_intersect(features)
+    from drtlab.kernels.intersection.motion import make_motion
+    rays = make_intersect(features, motion=make_motion())
     intersect, visible = rays.intersect, rays.visible
 
     @wp.kernel(enable_backward=False, module="unique")

@@ -7,13 +7,13 @@ wp.Mesh), walked by bvh_query_capsule of radius 0 (Warp's robust slab test, clos
 three 2D edge functions decide. Each edge function is the difference of two products of float32
 values, which float64 holds exactly, so an edge shared by two triangles gets exactly opposite values
 in both whatever the compiler fuses (CUDA contracts to FMA): no ray passes between triangles, at
-edges or vertices. `make_mesh_rays(mesh_shift)` returns
+edges or vertices. `make_mesh_rays(motion=motion)` returns MeshRays:
     nearest_in_mesh(sd, k, o, shear, d, tmax, dt) -> MeshHit   closest face of mesh k in (0, tmax)
     nearest_mesh(sd, o, d, tmax, dt) -> MeshHit                  over all meshes
     meshes_occlude(sd, o, d, t_target, dt, skip) -> 1 when a mesh other than `skip` is hit before
     mesh_target(sd, o, d, dist, limit, dt, face) -> the t at which the shadow ray meets the emitting
         mesh of `face` (limit: missed), or -1 when another part of that mesh comes first
-`make_sphere_bvh(sphere_center)` returns
+`make_sphere_bvh(motion=motion)` returns SphereBvh:
     bvh_nearest_sphere(sd, o, d, tmax, dt) -> SphereHit   the loop's answer, ties to the lower index
     bvh_spheres_occlude(sd, o, d, limit, dt, target_kind, target_index, tie, t_target) -> 1 or 0
 `mesh_shading_normal(sd, mh)` is a hit's interpolated vertex normal.
@@ -22,11 +22,12 @@ A mesh translates rigidly (c + v t like every shape), so a ray at shutter offset
 mesh's frame at shutter open (o - v dt) rather than the mesh refitted per sample. A hit at t <= 0 (a
 ray starting on the surface) is not one, as for the other shapes (ray origins are offset).
 """
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import warp as wp
 
 from drtlab.kernels.device_scene import SPHERE, SceneData
+from drtlab.kernels.intersection.motion import Motion
 from drtlab.kernels.intersection.primitives import hit_sphere
 
 # A shadow ray towards a point on an emitting mesh is blocked by the same mesh when it meets another
@@ -147,8 +148,20 @@ def mesh_shading_normal(sd: SceneData, mh: MeshHit) -> wp.vec3:
     return ns
 
 
-def make_mesh_rays(mesh_shift) -> SimpleNamespace:
+class MeshRays(NamedTuple):
+    nearest_in_mesh: wp.Function
+    nearest_mesh: wp.Function
+    meshes_occlude: wp.Function
+    mesh_target: wp.Function
 
+
+class SphereBvh(NamedTuple):
+    bvh_nearest_sphere: wp.Function
+    bvh_spheres_occlude: wp.Function
+
+
+def make_mesh_rays(*, motion: Motion) -> MeshRays:
+    mesh_shift = motion.mesh_shift
     @wp.func
     def nearest_in_mesh(sd: SceneData, k: int, o: wp.vec3, shear: RayShear, d: wp.vec3,
                         tmax: float, dt: float) -> MeshHit:
@@ -220,12 +233,12 @@ def make_mesh_rays(mesh_shift) -> SimpleNamespace:
             t = mh.t
         return t
 
-    return SimpleNamespace(nearest_in_mesh=nearest_in_mesh, nearest_mesh=nearest_mesh,
-                           meshes_occlude=meshes_occlude, mesh_target=mesh_target)
+    return MeshRays(nearest_in_mesh=nearest_in_mesh, nearest_mesh=nearest_mesh,
+                    meshes_occlude=meshes_occlude, mesh_target=mesh_target)
 
 
-def make_sphere_bvh(sphere_center) -> SimpleNamespace:
-
+def make_sphere_bvh(*, motion: Motion) -> SphereBvh:
+    sphere_center = motion.sphere_center
     @wp.func
     def bvh_nearest_sphere(sd: SceneData, o: wp.vec3, d: wp.vec3, tmax: float,
                            dt: float) -> SphereHit:
@@ -259,5 +272,5 @@ def make_sphere_bvh(sphere_center) -> SimpleNamespace:
                     return 1
         return 0
 
-    return SimpleNamespace(bvh_nearest_sphere=bvh_nearest_sphere,
-                           bvh_spheres_occlude=bvh_spheres_occlude)
+    return SphereBvh(bvh_nearest_sphere=bvh_nearest_sphere,
+                     bvh_spheres_occlude=bvh_spheres_occlude)

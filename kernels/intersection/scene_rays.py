@@ -1,9 +1,9 @@
-"""Scene intersection per kernel variant: shapes at a shutter offset, nearest hit, shadow-ray visibility.
+"""Scene intersection per kernel variant: nearest hit and shadow-ray visibility at a shutter offset.
 
-`make_motion(motion)` returns sphere_center(sd, i, dt), quad_origin(sd, i, dt) and
-mesh_shift(sd, k, dt); `make_intersect(features)` returns intersect(sd, o, d, tmax, dt) -> Hit and
-visible(sd, o, d, dist, dt, target_kind, target_index) -> 1 or 0. Absent shape kinds are compiled
-out; motion is a runtime switch (SceneData.moving).
+`make_intersect(features, motion=motion)` (motion from intersection/motion.py) returns SceneRays:
+intersect(sd, o, d, tmax, dt) -> Hit, visible(sd, o, d, dist, dt, target_kind, target_index) -> 1
+or 0, and visible_mesh. Absent shape kinds are compiled out; motion is a runtime switch
+(SceneData.moving).
 
 Spheres are a loop over all of them, or, in scenes with many (Features.sphere_bvh), the candidates
 a walk of the BVH of their boxes finds, ties broken towards the lower index as the loop does.
@@ -17,7 +17,7 @@ Quads are tested as the groups of kernels/intersection/quad_records.py in index 
 (geometry.slab_hit), skipped when the ray misses a ball around a closed box. `visible` answers what
 intersect() would (is the first hit the light's own shape?) but stops at the first occluder.
 """
-from types import SimpleNamespace
+from typing import NamedTuple
 
 import warp as wp
 
@@ -27,41 +27,10 @@ from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.primitives import (Hit, hit_quad_nw, hit_sphere, may_hit_ball, quad_params_w,
                                     slab_hit)
 from drtlab.kernels.materials import checkered
-from drtlab.kernels.intersection.bvh_traversal import make_mesh_rays, make_sphere_bvh, mesh_shading_normal, ray_shear
-
-
-def make_motion(motion: bool) -> SimpleNamespace:
-    """Shape positions at shutter offset dt. Compiled in (motion=True), shapes move when the scene
-    does (SceneData.moving, a branch per shape: static and moving scenes share a variant);
-    compiled out, the velocity is never read."""
-
-    @wp.func
-    def sphere_center(sd: SceneData, i: int, dt: float) -> wp.vec3:
-        c = sd.sph_center[i]
-        if wp.static(motion):
-            if sd.moving == 1:
-                c = c + sd.sph_velocity[i] * dt
-        return c
-
-    @wp.func
-    def quad_origin(sd: SceneData, i: int, dt: float) -> wp.vec3:
-        q0 = sd.quad_origin[i]
-        if wp.static(motion):
-            if sd.moving == 1:
-                q0 = q0 + sd.quad_velocity[i] * dt
-        return q0
-
-    @wp.func
-    def mesh_shift(sd: SceneData, k: int, dt: float) -> wp.vec3:
-        """How far mesh k has moved since shutter open (its rays move back by as much)."""
-        s = wp.vec3(0.0)
-        if wp.static(motion):
-            if sd.moving == 1:
-                s = sd.mesh_velocity[k] * dt
-        return s
-
-    return SimpleNamespace(sphere_center=sphere_center, quad_origin=quad_origin,
-                           mesh_shift=mesh_shift)
+from drtlab.kernels.intersection.bvh_traversal import (MeshRays, SphereBvh, make_mesh_rays,
+                                                      make_sphere_bvh, mesh_shading_normal,
+                                                      ray_shear)
+from drtlab.kernels.intersection.motion import Motion
 
 
 @wp.struct
@@ -114,18 +83,24 @@ def group_hit(sd: SceneData, g: int, o: wp.vec3, d: wp.vec3, tmax: float,
     return r
 
 
-def make_intersect(f: Features) -> SimpleNamespace:
-    motion_funcs = make_motion(True)
-    mesh_rays = make_mesh_rays(motion_funcs.mesh_shift)
-    sphere_bvh = make_sphere_bvh(motion_funcs.sphere_center)
-    intersect = _make_nearest(f, motion_funcs, mesh_rays, sphere_bvh)
-    occluded = _make_occluded(f, motion_funcs, mesh_rays, sphere_bvh)
-    return SimpleNamespace(intersect=intersect, **_make_visible(f, motion_funcs, mesh_rays, occluded))
+class SceneRays(NamedTuple):
+    intersect: wp.Function      # (sd, o, d, tmax, dt) -> Hit, the nearest in (0, tmax)
+    visible: wp.Function        # (sd, o, d, dist, dt, target_kind, target_index) -> 1 or 0
+    visible_mesh: wp.Function   # (sd, o, d, dist, dt, k) -> 1 or 0, towards a point in mesh k
 
 
-def _make_nearest(f: Features, motion_funcs, mesh_rays, sphere_bvh):
+def make_intersect(f: Features, *, motion: Motion) -> SceneRays:
+    mesh_rays = make_mesh_rays(motion=motion)
+    sphere_bvh = make_sphere_bvh(motion=motion)
+    intersect = _make_nearest(f, motion, mesh_rays, sphere_bvh)
+    occluded = _make_occluded(f, motion, mesh_rays, sphere_bvh)
+    visible, visible_mesh = _make_visible(f, motion, mesh_rays, occluded)
+    return SceneRays(intersect=intersect, visible=visible, visible_mesh=visible_mesh)
+
+
+def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: SphereBvh):
     HAS_SPH, HAS_QUAD, HAS_MESH, SPH_BVH = f.spheres, f.quads, f.meshes, f.sphere_bvh
-    sphere_center, quad_origin = motion_funcs.sphere_center, motion_funcs.quad_origin
+    sphere_center, quad_origin = motion.sphere_center, motion.quad_origin
     nearest_mesh, bvh_nearest_sphere = mesh_rays.nearest_mesh, sphere_bvh.bvh_nearest_sphere
 
     @wp.func
@@ -204,12 +179,12 @@ def _make_nearest(f: Features, motion_funcs, mesh_rays, sphere_bvh):
     return intersect
 
 
-def _make_occluded(f: Features, motion_funcs, mesh_rays, sphere_bvh):
+def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: SphereBvh):
     HAS_SPH = f.spheres
     HAS_QUAD = f.quads
     HAS_MESH = f.meshes
     SPH_BVH = f.sphere_bvh
-    sphere_center = motion_funcs.sphere_center
+    sphere_center = motion.sphere_center
     meshes_occlude = mesh_rays.meshes_occlude
     bvh_spheres_occlude = sphere_bvh.bvh_spheres_occlude
 
@@ -261,11 +236,11 @@ def _make_occluded(f: Features, motion_funcs, mesh_rays, sphere_bvh):
     return occluded
 
 
-def _make_visible(f: Features, motion_funcs, mesh_rays, occluded) -> dict:
+def _make_visible(f: Features, motion: Motion, mesh_rays: MeshRays, occluded) -> tuple:
     HAS_SPH = f.spheres
     HAS_QUAD = f.quads
     HAS_MESH = f.meshes
-    sphere_center = motion_funcs.sphere_center
+    sphere_center = motion.sphere_center
     mesh_target = mesh_rays.mesh_target
     nearest_in_mesh = mesh_rays.nearest_in_mesh
 
@@ -314,4 +289,4 @@ def _make_visible(f: Features, motion_funcs, mesh_rays, occluded) -> dict:
                 t_target = mh.t
         return 1 - occluded(sd, o, d, limit, dt, MESH, sd.mesh_face0[k], -1, t_target)
 
-    return dict(visible=visible, visible_mesh=visible_mesh)
+    return visible, visible_mesh

@@ -13,6 +13,7 @@ import warp as wp
 from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.device_scene import SceneData, upload
 from drtlab.kernels.features import features_of
+from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect
 
 from scene_pieces import camera_dict, scene_dict
@@ -44,7 +45,7 @@ def intersect_kernel(scene):
     f = features_of(scene, "path")
     key = (f.spheres, f.quads, f.meshes, f.sphere_bvh)
     if key not in _kernels:
-        rays = make_intersect(f)
+        rays = make_intersect(f, motion=make_motion())
 
         @wp.kernel(enable_backward=False, module="unique")
         def k(sd: SceneData, o: wp.array(dtype=wp.vec3), d: wp.array(dtype=wp.vec3), dt: float,

@@ -10,8 +10,10 @@ import numpy as np
 import warp as wp
 
 from drtlab.estimators.hashing import hash_key, unit_float
+from drtlab.estimators.strategies import LightSampling, Strategy
 from drtlab.experiments.stats.chi2.harness import PdfFunc, SampleFunc
 from drtlab.kernels.device_scene import SPHERE, SceneData
+from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, Features
 from drtlab.kernels.scene import MATERIAL_CODE, MATERIAL_KINDS
 from drtlab.warp_runtime import warp as _wp
 
@@ -168,6 +170,20 @@ KIND_INDEX = MATERIAL_CODE
 ALL_KINDS = frozenset(MATERIAL_KINDS)
 
 
+def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick: bool = False,
+                    meshes: bool = False, faults: frozenset = frozenset()) -> tuple:
+    """(features, strategy) to build one sampling routine from, as the kernel factories take them:
+    every material kind, spheres and quads (and meshes), the given strategy and faults."""
+    features = Features(integrator="path", lens=False, motion=False, spheres=True, quads=True,
+                        kinds=ALL_KINDS, checker=False, area_lights=True, point_lights=False,
+                        dir_lights=False, roulette=False, background=False,
+                        faults=frozenset(faults), meshes=meshes)
+    light = LightSampling("solid_angle" if solid_angle else "area",
+                          "power" if power_pick else "uniform")
+    return features, Strategy("chi2", "a chi-square adapter's routine",
+                              "lobe" if lobe else "uniform", light)
+
+
 @dataclass
 class BSDFSamples:
     wi: np.ndarray          # (n, 3)
@@ -180,7 +196,7 @@ class BSDFSamples:
 
 
 class BSDFAdapter:
-    """`make_bsdf(ALL_KINDS, lobe)` wrapped in one kernel per `lobe` (mode 0 samples, mode 1
+    """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
     n, wo); u_lobe, u.x, u.y of thread i are `uniform(seed, i, 0|1|2)`."""
 
@@ -235,7 +251,7 @@ def _make_bsdf_kernel(lobe: bool):
     wp = _wp()
     from drtlab.kernels.materials import make_bsdf
 
-    b = make_bsdf(ALL_KINDS, lobe)
+    b = make_bsdf(*_routine_variant(lobe=lobe))
     sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -278,7 +294,7 @@ class LightSamples:
 
 
 class LightAdapter:
-    """`make_lights(False, solid_angle, power_pick)` on an uploaded SceneData, seen from a point x.
+    """`make_lights` with motion compiled out on an uploaded SceneData, seen from a point x.
 
     Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)). The claimed density of a
     direction w is the sum over lights of light_pdf(li, x, y, ny) where y is the nearest point at
@@ -347,13 +363,17 @@ def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool
     wp = _wp()
     from drtlab.kernels.device_scene import MESH, QUAD
     from drtlab.kernels.intersection.primitives import hit_quad, hit_sphere
-    from drtlab.kernels.intersection.scene_rays import make_motion
-    from drtlab.kernels.lights import make_lights
     from drtlab.kernels.intersection.bvh_traversal import make_mesh_rays, ray_shear
+    from drtlab.kernels.intersection.motion import make_motion
+    from drtlab.kernels.lights import make_lights
 
-    L = make_lights(False, solid_angle, power_pick, wrong_jacobian, meshes=meshes,
-                    mesh_fault=mesh_fault)
-    nearest_in_mesh = make_mesh_rays(make_motion(False).mesh_shift).nearest_in_mesh
+    faults = {LIGHT_JACOBIAN} if wrong_jacobian else set()
+    if mesh_fault:
+        faults.add(MESH_PDF_HIGH_10PCT)
+    motion = make_motion(moving=False)
+    L = make_lights(*_routine_variant(solid_angle=solid_angle, power_pick=power_pick, meshes=meshes,
+                                     faults=frozenset(faults)), motion=motion)
+    nearest_in_mesh = make_mesh_rays(motion=motion).nearest_in_mesh
     pick_light, light_pdf, sample_light, pick_pmf = (L.pick_light, L.light_pdf, L.sample_light,
                                                      L.light_pick_pmf)
 

@@ -1,6 +1,6 @@
 """The chi-square harness's adapter of triangle-mesh light sampling: `MeshLightAdapter` wraps
-`make_lights(False, solid_angle, power_pick, meshes=True, mesh_fault)` (kernels/lights.py) in one CPU
-kernel, like `LightAdapter` does for spheres and quads, on a SceneData that may hold all three.
+`make_lights` (kernels/lights.py) with mesh lights compiled in and motion out in one CPU kernel, like
+`LightAdapter` does for spheres and quads, on a SceneData that may hold all three.
 
 Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)); a mesh light picks a triangle by
 area and a uniform point on it. The claimed density of a direction w is the sum over lights of
