@@ -5,6 +5,9 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     import drtlab
     scene = drtlab.load_scene("glossy", {"scene.resolution": [64, 48]})
     image = drtlab.render(scene, spp=64, sampler="stratified+importance")      # (H, W, 3) float64
+    r = drtlab.render(scene, spp=64, stats=True, variance=True)    # RenderResult: image, stderr,
+    r.seconds, r.samples_per_second, r.metadata                    # timings, the EXR's metadata
+    drtlab.write_exr("x.exr", r.image, r.metadata); pixels, meta = drtlab.read_exr("x.exr")
     images = drtlab.render_batch(scene, seeds=range(16), spp=4)               # (16, H, W, 3)
     result = drtlab.run_experiment("stratified")          # or a dict shaped like an experiment file
     result.cells, result.slopes, result.plot_convergence()
@@ -15,10 +18,43 @@ The top-level folders are mapped under this package: `drtlab.estimators`, `drtla
 __version__ = "0.1.0"
 
 
-def render(*args, **kwargs):
-    """`drtlab.kernels.render.render`: (H, W, 3) float64 linear radiance of a scene."""
+def render(scene, *args, stats: bool = False, variance: bool = False, **kwargs):
+    """`drtlab.kernels.render.render`: (H, W, 3) float64 linear radiance of a scene. With
+    `stats=True`, a `RenderResult` instead (the same image, its standard error when `variance`,
+    seconds, samples per second, metadata); `scene` may then also be a dict shaped like a scene
+    file. The default sampler is `drtlab.DEFAULT_SAMPLER`, the command line's."""
+    if stats:
+        from drtlab.render_result import render_result
+        return render_result(scene, *args, variance=variance, **kwargs)
+    if variance:
+        from drtlab.errors import InputError
+        raise InputError("variance", "the standard error comes with the RenderResult: pass "
+                                     "stats=True as well")
     from drtlab.kernels.render import render as _render
-    return _render(*args, **kwargs)
+    return _render(scene, *args, **kwargs)
+
+
+def write_exr(path, image, metadata: dict | None = None) -> None:
+    """A float32 EXR of `image` (H, W, C), with `metadata` as drtlab:* attributes, written atomically."""
+    from drtlab.kernels.imageio import write_exr as _write_exr
+    _write_exr(path, image, metadata)
+
+
+def read_exr(path):
+    """(pixels as float32 (H, W, C), drtlab metadata) of an EXR (e.g. one `drtlab render` wrote)."""
+    from drtlab.kernels.imageio import read_exr as _read_exr
+    return _read_exr(path)
+
+
+def __getattr__(name: str):
+    # Lazy, so that `import drtlab` imports neither numpy-heavy modules nor Warp.
+    if name == "RenderResult":
+        from drtlab.render_result import RenderResult
+        return RenderResult
+    if name == "DEFAULT_SAMPLER":
+        from drtlab.estimators.defaults import DEFAULT_SAMPLER
+        return DEFAULT_SAMPLER
+    raise AttributeError(f"module 'drtlab' has no attribute {name!r}")
 
 
 def render_batch(*args, **kwargs):

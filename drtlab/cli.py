@@ -9,9 +9,8 @@ from pathlib import Path
 from drtlab import fields
 from drtlab.cli_args import Help, Parser, int_flag, resolution_flag, run_main
 from drtlab.errors import InputError
+from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 DEFAULT_GT_SPP = 16384
-# The render command shows a scene: the lowest-variance estimator (MIS, jittered strata) by default.
-PREVIEW_SAMPLER = "stratified+importance"
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -20,29 +19,37 @@ PREVIEW_SAMPLER = "stratified+importance"
 
 def cmd_scenes(args) -> int:
     from drtlab.kernels.scene_file import builtin_names, load_scene
-    for name in builtin_names():
-        scene = load_scene(name)
-        print(f"{name:14s} {scene.width}x{scene.height} {scene.spp:3d} spp {scene.integrator:7s} "
-              f"{scene.description}")
+    scenes = [(name, load_scene(name)) for name in builtin_names()]
+    rows = [(name, f"{s.width}x{s.height}", f"{s.spp} spp", s.integrator, s.description)
+            for name, s in scenes]
+    _print_columns(rows)
     return 0
+
+
+def _print_columns(rows: list[tuple], indent: str = "") -> None:
+    """Rows of text cells, every column but the last as wide as its longest cell."""
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]) - 1)]
+    for r in rows:
+        print(indent + " ".join(c.ljust(w) for c, w in zip(r, widths)) + " " + r[-1])
 
 
 def cmd_samplers(args) -> int:
     from drtlab.estimators.integrators import INTEGRATORS
     from drtlab.estimators.registry import POINTSETS, PRESETS
     from drtlab.estimators.strategies import STRATEGIES
-    print("point sets:")
-    for p in POINTSETS.values():
-        print(f"  {p.name:12s} {p.description}")
-    print("strategies:")
-    for s in STRATEGIES.values():
-        print(f"  {s.name:12s} {s.description}")
-    print("presets (any POINTS+STRATEGY is accepted too):")
-    for name, (p, s) in PRESETS.items():
-        print(f"  {name:12s} {p}+{s}")
-    print("integrators:")
-    for i in INTEGRATORS.values():
-        print(f"  {i.name:12s} {'biased  ' if i.biased else 'unbiased'} {i.description}")
+    sections = [
+        (f"point sets: a name alone means POINTS+{POINTSET_STRATEGY}",
+         [(p.name, p.description) for p in POINTSETS.values()]),
+        ("strategies:", [(s.name, s.description) for s in STRATEGIES.values()]),
+        (f"presets: any POINTS+STRATEGY is accepted too; the default is {DEFAULT_SAMPLER}",
+         [(name, f"{p}+{s}") for name, (p, s) in PRESETS.items()]),
+        ("integrators:", [(i.name, "biased" if i.biased else "unbiased", i.description)
+                          for i in INTEGRATORS.values()])]
+    # One name column for all sections, so that the lists read as one table.
+    width = max(len(row[0]) for _, rows in sections for row in rows)
+    for title, rows in sections:
+        print(title)
+        _print_columns([(row[0].ljust(width), *row[1:]) for row in rows], indent="  ")
     return 0
 
 
@@ -73,47 +80,70 @@ def _warn(lines: list[str]) -> None:
         print(f"drtlab: warning: {line}", file=sys.stderr)
 
 
+def _default_out(scene, args) -> Path:
+    """results/renders/NAME.exr, NAME made of everything that changes the image: scene (and a hash of
+    its --set overrides or its file), integrator, sampler, resolution, spp, seed; renders that
+    differ never overwrite each other. Whitted reads neither sampler nor seed."""
+    from drtlab.estimators.registry import parse_integrator, parse_sampler
+    from drtlab.experiments.paths import results_root
+    from drtlab.kernels.scene_file import builtin_names
+    integ = parse_integrator(args.integrator or scene.integrator).name
+    width, height = (scene.width, scene.height) if args.res is None else \
+        fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+    parts = [scene.name]
+    if args.set or args.scene not in builtin_names():
+        parts.append(scene.content_hash()[:8])
+    parts.append(integ)
+    if integ != "whitted":
+        parts.append(parse_sampler(args.sampler).name.replace("+", "_"))
+    parts += [f"{width}x{height}", f"{args.spp or scene.spp}spp"]
+    if integ != "whitted":
+        parts.append(f"s{args.seed}")
+    return results_root() / "renders" / ("-".join(parts) + ".exr")
+
+
+def _sampler_notes(sampler: str, spp: int) -> list[str]:
+    """What a user should know of a sampler at this spp before the render."""
+    from drtlab.estimators.registry import parse_sampler
+    if parse_sampler(sampler).pointset.name == "zsobol" and spp & (spp - 1):
+        net = 1 << (spp - 1).bit_length()
+        return [f"zsobol at {spp} spp takes {spp} of each pixel's {net}-point net: unbiased, but "
+                f"not stratified into {spp} strata; a power of 2 spp stratifies"]
+    return []
+
+
 def cmd_render(args) -> int:
-    from drtlab import __version__
-    from drtlab.kernels import CODE_VERSION
-    from drtlab.kernels.imageio import write_exr, write_png
+    from drtlab.kernels.imageio import write_png
     from drtlab.kernels.render import check_image_size, render_with_stats
     from drtlab.kernels.scene_checks import image_warnings, scene_warnings
     from drtlab.kernels.scene_file import load_scene
+    from drtlab.render_result import result_of
 
     scene = load_scene(args.scene, _overrides(args.set))
-    out = Path(args.out) if args.out else Path("results/renders") / (
-        f"{scene.name}-{args.sampler.replace('+', '_')}-{args.spp or scene.spp}spp-s{args.seed}.exr")
+    out = Path(args.out) if args.out else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
     fields.writable_location(out, "--out")
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")
-    _warn(scene_warnings(scene))
+    _warn(scene_warnings(scene) + _sampler_notes(args.sampler, args.spp or scene.spp))
     t0 = time.perf_counter()
     stats = render_with_stats(scene, spp=args.spp, sampler=args.sampler, integrator=args.integrator,
                               seed=args.seed, res=args.res, threads=args.threads, tile=args.tile,
                               device=args.device, progress=_show_progress(args),
                               variance=args.variance)
-    wall = time.perf_counter() - t0
-    meta = {"scene": scene.name, "scene_hash": scene.content_hash(), "spp": stats.spp,
-            "sampler": stats.sampler, "integrator": stats.integrator, "seed": stats.seed,
-            "resolution": f"{stats.width}x{stats.height}", "version": __version__,
-            "code_version": CODE_VERSION, "variant": stats.variant, "device": stats.device,
-            "wall_seconds": round(wall, 4), "render_seconds": round(stats.render_seconds, 4),
-            "compile_seconds": round(stats.compile_seconds, 4)}
-    write_exr(out, stats.image, meta)
-    write_png(out.with_suffix(".png"), stats.image, meta)
-    written = [out.with_suffix(".png").name]
-    if stats.variance is not None:
-        se_path = out.with_name(out.stem + ".stderr.exr")
-        write_exr(se_path, stats.stderr, dict(meta, what="standard error of each pixel's mean, "
-                                              "sqrt(sample variance / spp)"))
-        written.append(se_path.name)
-    print(f"wrote {out} and {', '.join(written)}: {stats.width}x{stats.height}, "
-          f"{stats.spp} spp, {stats.sampler}, {stats.integrator}, render {stats.render_seconds:.3f} s, "
-          f"compile {stats.compile_seconds:.2f} s, {stats.samples_per_second / 1e6:.2f} M samples/s")
+    result = result_of(scene, stats, time.perf_counter() - t0)
+    exr, *stderr = result.write_exr(out)
+    png = out.with_suffix(".png")
+    write_png(png, result.image, result.metadata)
+    files = [str(p) for p in (exr, png, *stderr)]
+    meta = result.metadata
+    estimator = (meta["integrator"] if meta["sampler"] == "none"
+                 else f"{meta['sampler']}, {meta['integrator']}")
+    print(f"wrote {', '.join(files[:-1])} and {files[-1]}: {meta['resolution']}, {stats.spp} spp, "
+          f"{estimator}, render {stats.render_seconds:.3f} s, compile {stats.compile_seconds:.2f} s, "
+          f"{result.samples_per_second / 1e6:.2f} M samples/s")
     _warn(image_warnings(scene, stats.image))
     return 0
 
@@ -138,7 +168,8 @@ def cmd_experiment(args) -> int:
     with open_executor(args.scheduler, args.workers, backend) as executor:
         summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
                                  threads=args.threads, fresh=args.fresh, progress=_show_progress(args),
-                                 argv=sys.argv, executor=executor)
+                                 argv=sys.argv, executor=executor,
+                                 keep_images=True if args.keep_images else None)
     out = args.out if args.out is not None else default_out_dir(exp.name)
     _print_summary(exp, summary)
     print(f"report: {out / 'report.md'}")
@@ -270,17 +301,17 @@ def _add_render(sub) -> None:
     r.add_argument("scene", help="built-in scene name or path to a .toml scene")
     r.add_argument("--spp", type=int_flag(1, 2**31 - 1), default=None,
                    help="samples per pixel (default: the scene's)")
-    r.add_argument("--sampler", default=PREVIEW_SAMPLER,
-                   help="preset (uniform, stratified, importance) or POINTS+STRATEGY; "
-                        "`drtlab samplers` lists them")
+    r.add_argument("--sampler", default=DEFAULT_SAMPLER,
+                   help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
+                        f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them")
     r.add_argument("--integrator", default=None,
                    help="whitted, drt or path (default: the scene's)")
     r.add_argument("--seed", type=int_flag(0, 2**32 - 1), default=0, help="root seed")
     r.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,
-                   help="override a scene value, e.g. --set camera.fov=30 --set "
-                        "materials.gloss.exponent=50 (repeatable; values are TOML)")
+                   help="override a scene value, e.g. --set camera.fov=30 (any scene), --set "
+                        "materials.gloss100.exponent=50 (glossy) (repeatable; values are TOML)")
     r.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")
     r.add_argument("--tile", type=int_flag(1, 1 << 16), default=None,
@@ -288,7 +319,8 @@ def _add_render(sub) -> None:
     r.add_argument("--device", default="cpu", help="cpu or cuda")
     r.add_argument("--out", default=None,
                    help="output .exr; a .png preview is written beside it (default: "
-                        "results/renders/SCENE-SAMPLER-SPPspp-sSEED.exr)")
+                        "results/renders/SCENE[-HASH]-INTEGRATOR-SAMPLER-WxH-SPPspp-sSEED.exr, HASH "
+                        "of the --set overrides or a scene file, no sampler and seed for whitted)")
     r.add_argument("--variance", action="store_true",
                    help="also write OUT.stderr.exr: each pixel's standard error, sqrt(sample "
                         "variance / spp) of the same samples (exact for independent point sets, an "
@@ -311,6 +343,9 @@ def _add_experiment(sub) -> None:
                    help="output folder (default: results/NAME)")
     _add_cache_and_threads(p)
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
+    p.add_argument("--keep-images", action="store_true",
+                   help="keep every repetition's image in its cell file (default: the file's "
+                        "keep_images; otherwise per cell only the first image and per-pixel moments)")
     _add_progress_flag(p)
     from drtlab.cli_args import flag
     from drtlab.experiments.study.cluster import scheduler_address

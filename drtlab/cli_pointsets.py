@@ -43,7 +43,8 @@ def cmd_pointset(args) -> int:
         f"{args.realisations} realisations (seeds {s['seeds'][0]}-{s['seeds'][1]})"
     print(f"{args.name}, N = {args.n}, dims {args.dims[0]},{args.dims[1]} "
           f"({', '.join(s['dim_labels'])}), {seeds}; mean +- standard error:")
-    rows = [(f"discrepancy {m}", s["discrepancy"][m]) for m in A.DISCREPANCY_METHODS]
+    rows = [(f"discrepancy {m}{'^2' if m in A.SQUARED_DISCREPANCIES else ''}", s["discrepancy"][m])
+            for m in A.DISCREPANCY_METHODS]
     rows += [("min toroidal distance", s["min_distance"]),
              ("  / hexagonal maximum", s["min_distance_relative"]),
              ("mean nearest-neighbour", s["mean_nn_distance"]),

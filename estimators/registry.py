@@ -1,9 +1,11 @@
-"""Registry of point sets, strategies and presets; `parse_sampler` accepts a preset or POINTS+STRATEGY.
+"""Registry of point sets, strategies and presets; `parse_sampler` accepts a preset, POINTS+STRATEGY
+or a point set's name alone.
 
 Adding a point set: one file in `pointsets/` defining POINTSET, and one entry in `_POINTSET_MODULES`.
 """
 from dataclasses import dataclass
 
+from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY  # noqa: F401 (re-exported)
 from drtlab.estimators.integrators import INTEGRATORS, Integrator
 from drtlab.estimators.pointsets import (cmj, halton, independent, lhs, pmj02, presampled,
                                          presampled_random, sobol, stratified, zsobol)
@@ -53,15 +55,19 @@ class SamplerSpec:
 
 
 def _allowed() -> str:
-    return (f"a preset ({', '.join(PRESETS)}) or POINTS+STRATEGY with POINTS in "
-            f"{{{', '.join(POINTSETS)}}} and STRATEGY in {{{', '.join(STRATEGIES)}}}")
+    return (f"a preset ({', '.join(PRESETS)}), POINTS+STRATEGY with POINTS in "
+            f"{{{', '.join(POINTSETS)}}} and STRATEGY in {{{', '.join(STRATEGIES)}}}, or POINTS "
+            f"alone (= POINTS+{POINTSET_STRATEGY})")
 
 
 def parse_sampler(name: str, field: str = "sampler") -> SamplerSpec:
+    """A preset, POINTS+STRATEGY, or a point set's name alone (POINTS+POINTSET_STRATEGY)."""
     if not isinstance(name, str):
         raise InputError(field, f"must be a string: {_allowed()}, got {name!r}")
     if name in PRESETS:
         points, strategy = PRESETS[name]
+    elif name in POINTSETS:
+        points, strategy = name, POINTSET_STRATEGY
     elif name.count("+") == 1:
         points, strategy = name.split("+")
     else:

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from drtlab.estimators.registry import SamplerSpec, parse_integrator, parse_sampler
+from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integrator, parse_sampler
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
@@ -214,7 +214,7 @@ def _check_seed(seed, field: str = "seed") -> int:
     return fields.integer_in(seed, field, 0, 2**32 - 1)
 
 
-def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
+def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, seed=0, res=None,
                       threads=None, tile=None, device="cpu", progress=None,
                       faults=(), variance=False) -> RenderStats:
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
@@ -234,7 +234,7 @@ def render_with_stats(scene, spp=None, sampler="stratified", integrator=None, se
                        variance=None if b.variances is None else b.variances[0])
 
 
-def render_batch_with_stats(scene, seeds, spp=None, sampler="stratified", integrator=None, res=None,
+def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, res=None,
                             threads=None, tile=None, device="cpu", progress=None, faults=(),
                             variance=False) -> BatchStats:
     """Render one repetition of `scene` per seed of `seeds`, all in the same launches (a launch
@@ -334,7 +334,7 @@ def _sample_variance(total: np.ndarray, squares: np.ndarray, spp: int) -> np.nda
     return np.maximum(squares - total * (total / float(spp)), 0.0) / (spp - 1)
 
 
-def render(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=None,
+def render(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, seed=0, res=None,
            threads=None, tile=None, device="cpu", progress=None, faults=()) -> np.ndarray:
     """Render and return (H, W, 3) float64 linear radiance, the per-pixel mean of `spp` samples.
 
@@ -345,7 +345,7 @@ def render(scene, spp=None, sampler="stratified", integrator=None, seed=0, res=N
                              progress=progress, faults=faults).image
 
 
-def render_batch(scene, seeds, spp=None, sampler="stratified", integrator=None, res=None,
+def render_batch(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, res=None,
                  threads=None, tile=None, device="cpu", progress=None) -> np.ndarray:
     """(R, H, W, 3) float64: one render per seed of `seeds`, rendered together; image r is
     bit-identical to `render(scene, spp=spp, sampler=sampler, seed=seeds[r], ...)`."""

@@ -28,6 +28,8 @@ import time
 
 import numpy as np
 
+from drtlab.estimators.defaults import DEFAULT_SAMPLER
+
 
 def _setup():
     from drtlab.warp_runtime import warp as _wp
@@ -337,7 +339,7 @@ def _parser():
     ap.add_argument("--rays", type=int_flag(1, 1 << 28), default=200_000)
     ap.add_argument("--res", type=int_flag(1, 1 << 14), default=64)
     ap.add_argument("--spp", type=int_flag(1, 1 << 20), default=64)
-    ap.add_argument("--sampler", default="importance")
+    ap.add_argument("--sampler", default=DEFAULT_SAMPLER)
     ap.add_argument("--integrator", default=None)
     ap.add_argument("--threads", type=int_flag(1, 1024), default=1)
     ap.add_argument("--tile", type=int_flag(1, 1 << 16), default=None)

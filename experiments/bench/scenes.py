@@ -23,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from drtlab.estimators.defaults import DEFAULT_SAMPLER
 from drtlab.experiments.bench.primitives import plot_primitives, primitives
 from drtlab.experiments.study.manifest import peak_rss_mib as _peak_rss_mib
 
@@ -133,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="drtlab-bench")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--sampler", default="stratified")
+    ap.add_argument("--sampler", default=DEFAULT_SAMPLER)
     ap.add_argument("--scaling-scene", default="cornell-box")
     ap.add_argument("--scaling-repeats", type=int, default=2)
     ap.add_argument("--no-scaling", action="store_true", help="only the per-scene table")

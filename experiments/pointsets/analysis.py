@@ -40,6 +40,8 @@ MAX_REALISATIONS = 1024
 DEFAULT_REALISATIONS = 16
 MAX_SEED = 2**32 - 1
 DISCREPANCY_METHODS = ("L2-star", "CD", "WD", "MD")
+# The ones scipy returns squared (a table printing them beside L2-star says so).
+SQUARED_DISCREPANCIES = ("CD", "WD", "MD")
 FILES = ("scatter.png", "periodogram.png", "radial_spectrum.png", "analysis.json",
          "periodogram.npz", "manifest.json")
 

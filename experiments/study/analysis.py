@@ -368,13 +368,20 @@ def _floor_remedy(exp) -> str:
     return "a larger gt_spp in the experiment file lowers the floor"
 
 
+def span_text(values, spec: str = ".1f", sep: str = "-") -> str:
+    """'lo-hi' of `values` as `spec` prints them, or the one value when both print alike (one scene
+    is '7.2', not '7.2-7.2')."""
+    lo, hi = format(min(values), spec), format(max(values), spec)
+    return lo if lo == hi else f"{lo}{sep}{hi}"
+
+
 def _noise_floor_warnings(group_results: dict, log: Callable[[str], None], remedy: str) -> list[str]:
     flagged = [(g, v.noise_floor) for g, v in group_results.items() if v.noise_floor.warning]
     if flagged:
         fr = [100 * nf.fraction_of_smallest_mse for _, nf in flagged]
         log(f"warning: in {len(flagged)} of {len(group_results)} scenes "
             f"({', '.join(g[0].label for g, _ in flagged)}) "
-            f"the reference's own variance is {min(fr):.1f}-{max(fr):.1f}% of the smallest MSE measured "
+            f"the reference's own variance is {span_text(fr)}% of the smallest MSE measured "
             f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted from every MSE, but {remedy}")
     return [f"{group_name(g)}: ground-truth variance is {100 * nf.fraction_of_smallest_mse:.1f}% "
             f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)" for g, nf in flagged]

@@ -103,7 +103,8 @@ def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xl
         ax.legend(loc="lower left", frameon=False)
     for k in range(len(scenes), rows * cols):
         axes[k // cols][k % cols].axis("off")
-    fig.suptitle(title)
+    # Wrapped to the figure's width: one panel is narrower than a study's title.
+    fig.suptitle(title, wrap=True)
     fig.tight_layout()
     if path is None:
         return fig

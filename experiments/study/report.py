@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from drtlab.experiments.study.analysis import ERRATIC_SIGMA, TIMING_RESOLUTION
+from drtlab.experiments.study.analysis import ERRATIC_SIGMA, TIMING_RESOLUTION, span_text
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
@@ -233,7 +233,7 @@ def _repetitions_needed(study: StudyResult, scene: SceneResult, samplers: list[s
     counts = [n for n in counts if n]
     if not counts:
         return ""
-    return (f"; a ±10% {study.mse_label} per cell would need at least {min(counts)}–{max(counts)} "
+    return (f"; a ±10% {study.mse_label} per cell would need at least {span_text(counts, 'd', '–')} "
             f"repetitions (now: {study.repetitions_text})")
 
 

@@ -50,7 +50,7 @@ def folders(tmp_path):
 CLI_CASES = {
     "unknown-scene": (["no-such-scene"], "scene"),
     "missing-scene-file": (["{scenes}/nope.toml"], "scene"),
-    "unknown-sampler": (["{good}", "--sampler", "sobol"], "sampler"),
+    "unknown-sampler": (["{good}", "--sampler", "sobel"], "sampler"),
     "bad-sampler-combination": (["{good}", "--sampler", "independent+magic"], "sampler"),
     "unknown-integrator": (["{good}", "--integrator", "bdpt"], "integrator"),
     "spp-zero": (["{good}", "--spp", "0"], "--spp"),

@@ -120,3 +120,142 @@ def test_info_says_the_files_real_pixel_type(tmp_path, capsys):
     assert abs(mean - 0.5) < 0.003, "info shows the linear values a PNG encodes"
     assert main(["info", str(tmp_path / "a.exr")]) == 0
     assert "(float32)" in capsys.readouterr().out.splitlines()[0]
+
+
+# ---------------------------------------------------------------------------------------------------
+# Sampler names, one default sampler, output names
+# ---------------------------------------------------------------------------------------------------
+
+def test_every_point_set_name_alone_is_a_sampler_with_the_stated_strategy():
+    from drtlab.estimators.registry import POINTSET_STRATEGY, POINTSETS, PRESETS, parse_sampler
+    for name in POINTSETS:
+        spec = parse_sampler(name)
+        expected = PRESETS[name] if name in PRESETS else (name, POINTSET_STRATEGY)
+        assert (spec.pointset.name, spec.strategy.name) == expected, name
+    # The preset that is also a point set's name agrees with the rule.
+    assert PRESETS["stratified"] == ("stratified", POINTSET_STRATEGY)
+
+
+def test_bad_sampler_message_lists_the_bare_form(capsys):
+    from drtlab.errors import InputError
+    from drtlab.estimators.registry import parse_sampler
+    with pytest.raises(InputError) as e:
+        parse_sampler("sobol+nonsense")
+    assert "POINTS alone" in e.value.message
+
+
+def test_one_default_sampler_for_api_cli_and_bench():
+    import inspect
+    from drtlab.cli import build_parser
+    from drtlab.estimators.defaults import DEFAULT_SAMPLER
+    from drtlab.experiments.bench import scenes as bench
+    import drtlab.kernels.render as R
+    for f in (R.render, R.render_with_stats, R.render_batch, R.render_batch_with_stats):
+        assert inspect.signature(f).parameters["sampler"].default == DEFAULT_SAMPLER, f.__name__
+    render_cmd = build_parser()._subparsers._group_actions[0].choices["render"]
+    assert render_cmd.get_default("sampler") == DEFAULT_SAMPLER
+    assert bench.build_parser().get_default("sampler") == DEFAULT_SAMPLER
+
+
+def test_zsobol_at_a_non_power_of_two_says_so(good, tmp_path, capsys):
+    assert main(["render", str(good), "--spp", "3", "--sampler", "zsobol+importance",
+                 "--out", str(tmp_path / "x.exr")]) == 0
+    lines = _warnings(capsys.readouterr().err)
+    assert len(lines) == 1 and "3 of each pixel's 4-point net" in lines[0], lines
+    assert main(["render", str(good), "--spp", "4", "--sampler", "zsobol",
+                 "--out", str(tmp_path / "y.exr")]) == 0
+    assert _warnings(capsys.readouterr().err) == []
+
+
+def test_whitted_records_no_sampler(good, tmp_path, capsys):
+    from drtlab.kernels.imageio import read_exr
+    out = tmp_path / "w.exr"
+    assert main(["render", str(good), "--integrator", "whitted", "--spp", "4", "--out", str(out)]) == 0
+    line = capsys.readouterr().out
+    assert "stratified" not in line and "whitted" in line, line
+    assert read_exr(out)[1]["sampler"] == "none"
+
+
+def test_default_output_names_differ_in_whatever_changes_the_image(good, tmp_path, capsys,
+                                                                   monkeypatch):
+    monkeypatch.setenv("DRTLAB_RESULTS", str(tmp_path / "results"))
+    runs = [["--res", "8"], ["--res", "16"], ["--integrator", "path"], ["--seed", "1"],
+            ["--sampler", "uniform"], ["--set", "camera.fov=30"], ["--spp", "2"]]
+    for extra in runs:
+        assert main(["render", "aa-edges", "--spp", "1", "--res", "8", *extra]) == 0
+    capsys.readouterr()
+    exrs = sorted(p.name for p in (tmp_path / "results" / "renders").glob("*.exr"))
+    assert len(exrs) == len(runs), exrs          # seven different renders, seven files
+    assert "aa-edges-drt-stratified_importance-8x6-1spp-s0.exr" in exrs
+
+
+def test_wrote_line_gives_every_files_folder(good, tmp_path, capsys):
+    out = tmp_path / "sub" / "x.exr"
+    assert main(["render", str(good), "--spp", "2", "--variance", "--out", str(out)]) == 0
+    line = capsys.readouterr().out
+    for p in (out, out.with_suffix(".png"), tmp_path / "sub" / "x.stderr.exr"):
+        assert str(p) in line and p.is_file(), (p, line)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Small output faults
+# ---------------------------------------------------------------------------------------------------
+
+def _column_of(lines: list[str], texts: list[str]) -> set[int]:
+    return {line.index(text) for line, text in zip(lines, texts)}
+
+
+def test_scenes_and_samplers_align_long_names(capsys):
+    from drtlab.estimators.integrators import INTEGRATORS
+    from drtlab.estimators.registry import POINTSETS
+    from drtlab.estimators.strategies import STRATEGIES
+    from drtlab.kernels.scene_file import builtin_names, load_scene
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    names = builtin_names()
+    assert max(map(len, names)) > 14                # displaced-sphere: longer than the old column
+    assert len(_column_of(lines, [load_scene(n).description for n in names])) == 1
+    assert main(["samplers"]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("  ")]
+    descriptions = [p.description for p in POINTSETS.values()] + \
+        [s.description for s in STRATEGIES.values()]
+    assert len(_column_of(rows, descriptions)) == 1
+    assert max(map(len, POINTSETS)) > 12             # presampled_random
+    integrators = rows[-len(INTEGRATORS):]
+    assert len(_column_of(integrators, [i.description for i in INTEGRATORS.values()])) == 1
+
+
+def test_validate_of_a_constant_table_prints_no_scipy_warning():
+    import warnings
+    from drtlab.experiments.pointsets import validate as V
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        V.validate("presampled", pixels=V.MIN_PIXELS)
+    assert [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)] == []
+
+
+def test_one_panel_figure_keeps_its_title_inside():
+    from types import SimpleNamespace as NS
+    from drtlab.experiments.study import figures as F
+    study = NS(scenes=[NS(scene="aa-edges", cells=[])], samplers=[])
+    with pytest.warns(UserWarning):                 # an empty panel's legend
+        fig = F._panels(study, None, lambda *a: None, title="stratification: RMSE vs samples "
+                        "(points: mean ± 95% CI; lines: likelihood fit ± 95% CrI, where resolved)",
+                        xlabel="x", ylabel="y", xscale={"base": 2})
+    fig.canvas.draw()
+    box = fig._suptitle.get_window_extent(fig.canvas.get_renderer())
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.width and box.y1 <= fig.bbox.height, box
+
+
+def test_a_range_of_one_value_is_that_value():
+    from drtlab.experiments.study.analysis import span_text
+    assert span_text([7.21]) == "7.2" and span_text([7.21, 7.24]) == "7.2"
+    assert span_text([3.0, 7.21]) == "3.0-7.2" and span_text([5, 9], "d", "–") == "5–9"
+
+
+def test_pointset_table_marks_the_squared_discrepancies(tmp_path, capsys):
+    assert main(["pointset", "independent", "--n", "16", "--dims", "0,1", "--realisations", "2",
+                 "--out", str(tmp_path / "ps")]) == 0
+    labels = [line.split()[1] for line in capsys.readouterr().out.splitlines()
+              if line.startswith("  discrepancy")]
+    assert labels == ["L2-star", "CD^2", "WD^2", "MD^2"]
