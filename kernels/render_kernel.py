@@ -47,9 +47,10 @@ class PixelSums:
 
 def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     WHITTED = f.whitted
-    rays = make_intersect(f, motion=make_motion())
+    motion = make_motion()
+    rays = make_intersect(f, motion=motion)
     bsdf = make_bsdf(f, strategy)
-    lights = make_lights(f, strategy, motion=make_motion())
+    lights = make_lights(f, strategy, motion=motion)
     lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights)
     sample_ray = make_camera(f, pointset)
     trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
