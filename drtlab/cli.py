@@ -299,14 +299,14 @@ def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
                        formatter_class=Help)
     r.add_argument("scene", help="built-in scene name or path to a .toml scene")
-    r.add_argument("--spp", type=int_flag(1, 2**31 - 1), default=None,
+    r.add_argument("--spp", type=int_flag(1, fields.MAX_COUNT), default=None,
                    help="samples per pixel (default: the scene's)")
     r.add_argument("--sampler", default=DEFAULT_SAMPLER,
                    help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
                         f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them")
     r.add_argument("--integrator", default=None,
                    help="whitted, drt or path (default: the scene's)")
-    r.add_argument("--seed", type=int_flag(0, 2**32 - 1), default=0, help="root seed")
+    r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, help="root seed")
     r.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,
@@ -385,6 +385,7 @@ def _add_ground_truth(sub) -> None:
 
 
 def _add_image_tools(sub) -> None:
+    from drtlab.experiments.paths import results_root
     i = sub.add_parser("info", help="resolution, channel statistics, NaN/Inf/negative counts and "
                                     "drtlab metadata of an EXR", formatter_class=Help)
     i.add_argument("file", metavar="FILE", help="an EXR (or any image OpenImageIO reads)")
@@ -402,7 +403,7 @@ def _add_image_tools(sub) -> None:
                         "error (and A's, when A.stderr.exr exists)")
     c.add_argument("--stderr", default=None, metavar="FILE",
                    help="standard-error image of the reference (default: found beside it)")
-    c.add_argument("--out-dir", type=Path, default=Path("results/compare"),
+    c.add_argument("--out-dir", type=Path, default=results_root() / "compare",
                    help="where the error images go")
     c.set_defaults(func=cmd_compare)
 

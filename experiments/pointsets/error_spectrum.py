@@ -30,11 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.cli_args import Help, Parser, run_main
+from drtlab.cli_args import Help, Parser, int_flag, run_main
 from drtlab.errors import InputError
 from drtlab.experiments.files import atomic_write_bytes, atomic_write_json
-from drtlab.experiments.study.metrics import CI_LEVEL, mean_ci
-from drtlab.experiments.pointsets.analysis import mean_se, radial_average
+from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL, welch_dof
+from drtlab.experiments.study.metrics import mean_ci
+from drtlab.experiments.pointsets.analysis import radial_average
 
 DEFAULT_CUTOFF = 0.25                  # of Nyquist
 DEFAULT_SAMPLERS = ("zsobol+importance", "sobol+importance")
@@ -146,7 +147,7 @@ def welch_difference(a, b, level: float = CI_LEVEL) -> dict:
     s = math.sqrt(va + vb)
     if s == 0:
         return {"diff": d, "lo": d, "hi": d}
-    dof = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
+    dof = welch_dof(va, len(a), vb, len(b))
     h = float(stdtrit(dof, 0.5 + level / 2)) * s
     return {"diff": d, "lo": d - h, "hi": d + h, "dof": dof}
 
@@ -186,14 +187,14 @@ def error_spectra(results_dir, scene: str, spp: int, samplers=DEFAULT_SAMPLERS,
                   cutoff: float = DEFAULT_CUTOFF, gt_root=None) -> dict:
     """The error spectrum of each sampler's runs of (scene, spp) in a finished experiment folder."""
     from drtlab.experiments.study.ground_truth import load_ground_truth
-    from drtlab.experiments.study.run_store import load_records, load_run_image
+    from drtlab.experiments.study.run_store import cell_images, load_records
     from drtlab.kernels.colour import luminance
 
     results_dir = Path(results_dir)
-    records = load_records(results_dir / "runs") if results_dir.is_dir() else {}
+    records = load_records(results_dir) if results_dir.is_dir() else {}
     if not records:
         raise InputError("RESULTS_DIR", f"no finished experiment runs in '{results_dir}' "
-                                        f"(expected the folder `drtlab experiment` wrote, with runs/)")
+                                        f"(expected the folder `drtlab experiment` wrote, with runs.parquet)")
     recs = list(records.values())
     scenes = sorted({r["scene"] for r in recs})
     if scene not in scenes:
@@ -226,7 +227,13 @@ def error_spectra(results_dir, scene: str, spp: int, samplers=DEFAULT_SAMPLERS,
     for name in names:
         rs = sorted((r for r in recs if r["sampler"] == name and r["spp"] == spp), key=lambda r: r["rep"])
         stale |= any(r.get("gt_key") != gt.manifest.get("key") for r in rs)
-        errs = [luminance(load_run_image(results_dir, r["run_id"])) - ref_y for r in rs]
+        kept = cell_images(results_dir, rs[0]["cell"])
+        if kept is None:
+            raise InputError("RESULTS_DIR", f"'{results_dir}' keeps no per-run images of {scene} / "
+                                            f"{name}; rerun the experiment with --keep-images (or "
+                                            f"keep_images = true in its file)")
+        by_rep = dict(zip(kept[0].tolist(), kept[1]))
+        errs = [luminance(by_rep[r["rep"]]) - ref_y for r in rs]
         st = spectrum_stats(errs, cutoff)
         st["run_ids"] = [r["run_id"] for r in rs]
         st["rmse_luminance"] = mean_ci([float(np.sqrt(np.mean(e ** 2))) for e in errs])
@@ -245,8 +252,8 @@ def error_spectra(results_dir, scene: str, spp: int, samplers=DEFAULT_SAMPLERS,
 
 
 def spectrum_png(result: dict) -> bytes:
-    from drtlab.experiments.pointsets.plots import _plt, _png
-    plt = _plt()
+    from drtlab.experiments.plotting import compact_pyplot, png_bytes
+    plt = compact_pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
     for i, (name, st) in enumerate(result["samplers"].items()):
         r, m = np.asarray(st["radii"]), np.asarray(st["radial_mean"])
@@ -267,7 +274,7 @@ def spectrum_png(result: dict) -> bytes:
                  f"{st0['repetitions']} reps (band: ±1 se; dotted: white level)", fontsize=9)
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def write_spectrum(result: dict, out_dir: Path) -> list[Path]:
@@ -289,7 +296,7 @@ def build_parser() -> Parser:
                            "(run - reference luminance), per sampler, with its low-frequency fraction.")
     p.add_argument("results_dir", type=Path, metavar="RESULTS_DIR", help="an experiment's output folder")
     p.add_argument("--scene", required=True, help="scene label in the experiment")
-    p.add_argument("--spp", required=True, type=int, help="a sample count on the experiment's ladder")
+    p.add_argument("--spp", required=True, type=int_flag(1), help="a sample count on the experiment's ladder")
     p.add_argument("--samplers", default=",".join(DEFAULT_SAMPLERS),
                    help="comma-separated samplers; the first is compared with each other one")
     p.add_argument("--cutoff", type=float, default=DEFAULT_CUTOFF,

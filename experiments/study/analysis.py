@@ -5,11 +5,11 @@ MSE (MSE - Var_GT); the RMSE of a cell is sqrt(mean corrected MSE), whose 95% CI
 of a log-scale t interval of the corrected MSEs (`intervals.rmse_ci`: positive quantities get
 intervals that stay positive). The slope of a sampler is that of the RMSE itself
 (`slopes.fit_rmse_slope`, a gamma likelihood of per-run MSEs), reported beside the slope of the
-typical (geometric-mean) error. The time of a cell is its calibrated cost (`run_store.CostModel`):
-overhead + per-sample cost x pixels x spp, the per-sample cost from the runner's long calibration
-renders (95% t interval over them), the overhead from the median residual of the group's runs;
-speed-ups carry a bootstrap interval (repetitions resampled, per-sample cost drawn from its t law,
-overhead residuals resampled), efficiency ratios a delta-method one.
+typical (geometric-mean) error. The time of a cell is its measured cost per repetition
+(`run_store.CellTiming`): the mean over its batches of each batch's CPU seconds over its repetitions
+(the faster half; 95% t interval over them plus a systematic term), or over timing-only batches for
+cells too short to time; speed-ups carry a bootstrap interval (repetitions resampled, each cell's
+cost drawn from its t law), efficiency ratios a delta-method one.
 
 `analyze` returns a `results.Summary`; the report, summary.json and the CLI read that.
 """
@@ -23,16 +23,17 @@ from typing import Callable
 import numpy as np
 
 from drtlab.experiments.study.ground_truth import GroundTruth, load_ground_truth
-from drtlab.experiments.study.metrics import CellAccumulator, mean_ci
+from drtlab.experiments.study.metrics import cell_bias, mean_ci
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.results import (
     METRICS, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, NoiseFloor, RatioCI,
     SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
 )
-from drtlab.experiments.study.run_store import SYSTEMATIC, CostModel, fit_cost_models, load_run_image
+from drtlab.experiments.study.run_store import CellTiming, cell_timing, load_cell
 from drtlab.experiments.seeds import short_hash
+from drtlab.experiments.stats.hypothesis_tests import Z_CI
 from drtlab.experiments.stats.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
-from drtlab.experiments.stats.slopes import fit_rmse_slope, fit_typical_slope
+from drtlab.experiments.stats.slopes import STUDY_CHAIN, fit_rmse_slope, fit_typical_slope
 
 NOISE_FLOOR_FRACTION = 0.01
 ERRATIC_SIGMA = 0.25        # log-error scatter above which a sampler's errors are called heavy-tailed
@@ -41,7 +42,6 @@ CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "rel
 SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
 PRECISION = 0.1                       # cells say how many repetitions a ±10% mean MSE would need
 NAN = float("nan")
-TIMING_RESOLUTION = 0.02    # measured render seconds below which a cell's timing is not resolved
 BOOTSTRAP = 400             # bootstrap replicates of each speed-up (repetitions x cost)
 
 
@@ -100,8 +100,8 @@ def _ratio_ci(a: Interval, b: Interval) -> RatioCI:
     r = a.mean / b.mean
     va, vb = _rel_var(a), _rel_var(b)
     s = math.sqrt(va + vb) if math.isfinite(va + vb) else NAN
-    return RatioCI(r, r * math.exp(-1.96 * s) if math.isfinite(s) else NAN,
-                   r * math.exp(1.96 * s) if math.isfinite(s) else NAN)
+    return RatioCI(r, r * math.exp(-Z_CI * s) if math.isfinite(s) else NAN,
+                   r * math.exp(Z_CI * s) if math.isfinite(s) else NAN)
 
 
 def _log_sd(x: Interval | None) -> float:
@@ -119,7 +119,7 @@ def _efficiency_ratio(c, b, metric: str) -> tuple:
     r = e / be
     s = math.sqrt(sum(_log_sd(x) ** 2 for x in (c.error_mse(metric), b.error_mse(metric),
                                                   c.seconds_ci, b.seconds_ci)))
-    return (r, r * math.exp(-1.96 * s), r * math.exp(1.96 * s)) if math.isfinite(s) else (r, NAN, NAN)
+    return (r, r * math.exp(-Z_CI * s), r * math.exp(Z_CI * s)) if math.isfinite(s) else (r, NAN, NAN)
 
 
 def _efficiency(mse: float, seconds: float) -> float:
@@ -136,7 +136,7 @@ class GroupResult:
     cells: dict                     # (sampler, spp) -> Cell
     slopes: dict                    # metric -> sampler -> SlopeFit
     noise_floor: NoiseFloor
-    costs: dict = None              # sampler -> run_store.CostModel
+    timings: dict = None            # (sampler, spp) -> run_store.CellTiming
     mse_runs: dict = None           # (sampler, spp) -> metric -> per-run squared errors (bootstrap)
 
 
@@ -152,36 +152,39 @@ def _run_error(rec: dict, metric: str) -> float:
     return rec["rmse_corrected"]
 
 
-def _cost_cell(cost: CostModel, spp: int, recs: list) -> dict:
-    """A cell's calibrated cost, its interval and the measured median it replaces."""
+def _cell_time(timing: CellTiming, recs: list) -> dict:
+    """A cell's cost per repetition (its batches' mean), its interval and the median it replaces."""
     measured = float(np.median([rec["render_seconds"] for rec in recs]))
-    seconds, h, n = cost.seconds(spp), cost.t_halfwidth(), cost.per_sample.size
-    work = cost.pixels * spp
-    sd = h / 1.96 * math.sqrt(n) * work if n > 1 else None     # so that sd/sqrt(n) is h's
-    ci = Interval(seconds, cost.seconds(spp, cost.mean - h) if math.isfinite(h) else NAN,
-                  cost.seconds(spp, cost.mean + h) if math.isfinite(h) else NAN, int(n), sd)
+    seconds, h, n = timing.mean, timing.t_halfwidth(), timing.samples.size
+    sd = h / Z_CI * math.sqrt(n) if n > 1 else None     # so that sd/sqrt(n) is h's
+    ci = Interval(seconds, seconds - h if math.isfinite(h) else NAN,
+                  seconds + h if math.isfinite(h) else NAN, int(n), sd)
     return {"seconds": seconds, "seconds_ci": ci, "measured_seconds": measured,
-            "timing_below_resolution": bool(measured < TIMING_RESOLUTION)}
+            "timing_below_resolution": bool(timing.calibrated)}
 
 
 def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: GroundTruth,
-          cost: CostModel) -> Cell:
+          timing: CellTiming, target: dict | None) -> Cell:
     recs = [records[r.run_id] for r in cell_runs]
-    acc = CellAccumulator()
-    for r in cell_runs:                       # one image in memory at a time
-        acc.add(load_run_image(out_dir, r.run_id))
+    moments = load_cell(out_dir, cell_runs[0].cell).moments
     stats = {m: _interval(m, [rec[m] for rec in recs]) for m in CELL_METRICS}
-    b = acc.bias(gt.mean, gt.stderr, [rec["mean_error"] for rec in recs])
+    b = cell_bias(moments.n, moments.mean, moments.pixel_variance(), gt.mean, gt.stderr,
+                  [rec["mean_error"] for rec in recs])
     bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))
-    # Time per cell: the calibrated cost at this spp (a 2-14 ms timing does not reproduce).
-    timing = _cost_cell(cost, spp, recs)
-    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, timing["seconds"]) for m in METRICS.values()}
+    time_ = _cell_time(timing, recs)
+    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, time_["seconds"]) for m in METRICS.values()}
+    need = {m: repetitions_for_precision([rec[METRICS[m].mse] for rec in recs], PRECISION)
+            for m in METRICS}
     return Cell(sampler=sampler, spp=spp, n=len(recs), **stats,
                 rmse_of_mean_mse=Interval.of(rmse_ci([rec["mse_corrected"] for rec in recs])),
                 rrmse_of_mean_relmse=Interval.of(rmse_ci([rec["relmse_corrected"] for rec in recs])),
-                repetitions_for_10pct={m: repetitions_for_precision(
-                    [rec[METRICS[m].mse] for rec in recs], PRECISION)["repetitions"] for m in METRICS},
-                bias=bias, **efficiency, **timing)
+                repetitions_for_10pct={m: need[m]["repetitions"] for m in METRICS},
+                mse_rel_ci=need["mse"]["current_rel_halfwidth"],
+                target_rel_ci=target["target_rel_ci"] if target else None,
+                target_met=target["target_met"] if target else None,
+                samples_needed=(target["runs_needed"] * spp if target and target["runs_needed"]
+                                else None),
+                bias=bias, **efficiency, **time_)
 
 
 def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
@@ -194,7 +197,7 @@ def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
 
 def fit_slopes(spp: list, mse: list, errors: list, seed: int, floor: float | None) -> tuple:
     """(RMSE-slope fit of the per-run MSEs, typical-error fit of the per-run errors)."""
-    return (fit_rmse_slope(spp, mse, seed=seed, floor=floor, nsteps=2000, burn=400),
+    return (fit_rmse_slope(spp, mse, seed=seed, floor=floor, **STUDY_CHAIN),
             fit_typical_slope(spp, errors, seed=seed))
 
 
@@ -210,28 +213,33 @@ def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict, floor
 
 
 def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",),
-                  calibration: dict | None = None) -> tuple:
+                  calibration: dict | None = None, targets: dict | None = None,
+                  cpu: bool = True) -> tuple:
     """(GroupResult, fits to run) of one (scene, integrator, resolution). Its slope fits (one per
     sampler and metric) come back as (metric, sampler, call) for `analyze` to run together, in
     parallel; the GroupResult's `slopes` are empty until then."""
     gt = load_ground_truth(gt_dir)
     cells: dict = {}
     mse_runs: dict = {}
+    timings: dict = {}
     fit_calls: list = []
     samplers = list(dict.fromkeys(r.sampler for r in runs))
     done = {s: [r for r in runs if r.sampler == s and r.run_id in records] for s in samplers}
-    costs = fit_cost_models({s: [records[r.run_id] for r in rs] for s, rs in done.items() if rs},
-                            calibration or {}, group_name(g))
     for s in samplers:
         sampler_runs = done[s]
         for spp in sorted({r.spp for r in sampler_runs}):
             cell_runs = [r for r in sampler_runs if r.spp == spp]
-            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt, costs[s])
+            recs = [records[r.run_id] for r in cell_runs]
+            cell = cell_runs[0].cell
+            timings[(s, spp)] = cell_timing(recs, (calibration or {}).get(cell), cpu)
+            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt, timings[(s, spp)],
+                                    (targets or {}).get(cell))
             mse_runs[(s, spp)] = {m: np.array([records[r.run_id][METRICS[m].mse] for r in cell_runs])
                                   for m in METRICS}
-        fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records, gt.variance))
-                      for metric in metrics]
-    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), costs,
+        if sampler_runs:
+            fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records, gt.variance))
+                          for metric in metrics]
+    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), timings,
                        mse_runs), fit_calls
 
 
@@ -241,22 +249,17 @@ def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",
 
 def _speedup_draws(study, by_sampler: dict, group: GroupResult, target: float, seed: int) -> dict:
     """Bootstrap replicates of each sampler's speed-up over the baseline at the fixed target: each
-    cell's repetitions resampled, each per-sample cost drawn from its t law, the pooled overhead
-    residuals resampled (one overhead per replicate, shared by the samplers)."""
+    cell's repetitions resampled and its cost drawn from its t law."""
     rng = np.random.default_rng(seed)
     key = study.metric
-    resid = next(iter(group.costs.values())).overhead_samples
     draws: dict = {s: [] for s in by_sampler}
     for _ in range(BOOTSTRAP):
-        o = max(float(np.percentile(rng.choice(resid, resid.size), 25)), 0.0) if resid.size else None
         times = {}
         for s, cells in by_sampler.items():
-            cost = group.costs[s]
-            ps = cost.draw_per_sample(rng)
             errs = [math.sqrt(max(float(np.mean(rng.choice(v, v.size))), 0.0))
                     for v in (group.mse_runs[(s, c.spp)][key] for c in cells)]
-            o_s = None if o is None else o * (1 + SYSTEMATIC / 1.96 * float(rng.standard_normal()))
-            times[s] = time_to_target([cost.seconds(c.spp, ps, o_s) for c in cells], errs, target)["seconds"]
+            secs = [group.timings[(s, c.spp)].draw(rng) for c in cells]
+            times[s] = time_to_target(secs, errs, target)["seconds"]
         tb = times.get(study.baseline, NAN)
         for s, t in times.items():
             draws[s].append(tb / t if t and math.isfinite(t) and math.isfinite(tb) else NAN)
@@ -283,7 +286,7 @@ def _speed(study, by_sampler: dict, group: GroupResult | None = None) -> Speed:
     speedup = {s: (tb / t.seconds) if t.seconds and math.isfinite(t.seconds) and math.isfinite(tb) else NAN
                for s, t in time_to.items()}
     lo, hi = {s: NAN for s in speedup}, {s: NAN for s in speedup}
-    if group is not None and group.costs and math.isfinite(target) and study.baseline in by_sampler:
+    if group is not None and group.timings and math.isfinite(target) and study.baseline in by_sampler:
         seed = int(short_hash([study.name, [c.spp for cs in by_sampler.values() for c in cs]], 8), 16)
         for s, d in _speedup_draws(study, by_sampler, group, target, seed).items():
             d = np.array([x for x in d if math.isfinite(x)])
@@ -399,10 +402,12 @@ def _chains(group_results: dict) -> ChainDiagnostics:
 
 
 def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[str], None],
-            calibration: dict | None = None) -> Summary:
+            calibration: dict | None = None, targets: dict | None = None,
+            cpu: bool = True) -> Summary:
     """The summary of a sweep: `gts` is the runner's ground-truth info per group (its `dir` read);
-    `calibration` the runner's cost calibration entries (calibration.json; without them the cost
-    comes from the sweep's own timings)."""
+    `calibration` the runner's timing-only batches per cell (calibration.json; cells without them
+    are timed by their own batches), `targets` the precision-target outcome per cell, `cpu` whether
+    costs are CPU seconds (the CPU backend) or wall seconds."""
     groups: dict = {}
     for r in plan:
         groups.setdefault(r.group, []).append(r)
@@ -415,7 +420,7 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     fit_calls: list = []
     for g, runs in groups.items():
         group_results[g], calls = analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"],
-                                                tuple(metrics_of[g]), calibration)
+                                                tuple(metrics_of[g]), calibration, targets, cpu)
         fit_calls += [(g, metric, s, call) for metric, s, call in calls]
     for (g, metric, s, _), (fit, typical) in zip(fit_calls, pmap([call for *_, call in fit_calls])):
         # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):

@@ -1,7 +1,7 @@
 """Sweeps on a Dask `distributed` cluster: the runner's cluster backend (`drtlab experiment
 --scheduler ADDRESS` or `--workers N`).
 
-Each render is one task: every study run, and every ground-truth batch. A task ships what the
+Each render is one task: every batch of study repetitions, and every ground-truth batch. A task ships what the
 render needs and nothing more: the parsed scene description (a few KB, so a scene given by path on
 the client needs no copy on the workers), the sampler, integrator, resolution, spp, seed and thread
 count, and the backend object (the renderer entry point, pickled by reference to the installed
@@ -58,6 +58,21 @@ def render_task(backend, scene, spp: int, sampler: str, integrator: str, seed: i
     out = RenderResult(image=np.asarray(r.image), render_seconds=float(r.render_seconds),
                        compile_seconds=float(getattr(r, "compile_seconds", 0.0)),
                        samples_per_second=float(getattr(r, "samples_per_second", 0.0)))
+    return out, wall, _worker_address()
+
+
+def render_batch_task(backend, scene, spp: int, sampler: str, integrator: str, seeds: list, res,
+                      threads: int):
+    """One batch of repetitions on a worker -> (BatchResult with a plain array, wall seconds, worker
+    address)."""
+    import numpy as np
+    from drtlab.experiments.study.backend import BatchResult
+    t0 = time.perf_counter()
+    r = backend.batch(scene, spp=spp, sampler=sampler, integrator=integrator, seeds=seeds, res=res,
+                      threads=threads)
+    wall = time.perf_counter() - t0
+    out = BatchResult(images=np.asarray(r.images), render_seconds=float(r.render_seconds),
+                      cpu_seconds=float(r.cpu_seconds), compile_seconds=float(r.compile_seconds))
     return out, wall, _worker_address()
 
 
@@ -164,15 +179,19 @@ class DaskExecutor:
                                   tuple(res), threads or 1,
                                   key=f"drtlab-{name}-{self._token}-{self.submitted}")
 
-    def render_runs(self, backend, scene, runs: list, threads: int | None) -> Iterator[tuple]:
-        """Submit every run (RunSpec) at once; yield (run, result, wall, worker) as each finishes,
-        so the caller commits it at once (a killed client loses only the runs still in flight)."""
+    def render_batches(self, backend, scene, batches: list, threads: int | None) -> Iterator[tuple]:
+        """Submit every batch (runner._Batch) at once; yield (batch, result, wall, worker) as each
+        finishes, so the caller commits it at once (a killed client loses only the batches still in
+        flight)."""
         from distributed import as_completed
         futures = {}
-        for r in runs:
-            f = self._submit(f"run-{r.run_id}", backend, scene, r.spp, r.sampler, r.integrator,
-                             r.seed, r.resolution, threads)
-            futures[f.key] = (f, r)
+        for b in batches:
+            r = b.runs[0]
+            self.submitted += 1
+            f = self.client.submit(render_batch_task, backend, scene, r.spp, r.sampler, r.integrator,
+                                   [x.seed for x in b.runs], tuple(r.resolution), threads or 1,
+                                   key=f"drtlab-batch-{b.cell}-{b.batch_id}-{self._token}-{self.submitted}")
+            futures[f.key] = (f, b)
         try:
             for f in as_completed([f for f, _ in futures.values()], loop=self.client.loop):
                 result, wall, worker = f.result()

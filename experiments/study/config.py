@@ -17,6 +17,10 @@ studies of other experiment files, each resolved with its own settings for the s
     gt_spp      = 16384                      # ground-truth samples per pixel
     gt_batch_spp = 512                       # ground truth is accumulated in batches of this size
     target_rmse = 0.01                       # optional: time-to-reach target (default: automatic)
+    target_rel_ci = 0.1                      # optional: add repetitions to a cell until the 95% CI
+                                             # of its mean MSE is within +-10% ...
+    max_samples_per_cell = 4096              # ... or it has this many samples per pixel (runs x spp)
+    keep_images = false                      # keep every repetition's image (error spectra)
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
 
     [[study]]
@@ -46,7 +50,7 @@ EXPERIMENT_DIR = Path(__file__).resolve().parent.parent / "studies"     # the bu
 DEFAULT_PROFILE = "quick"
 
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
-                 "target_rmse", "strip_spp")
+                 "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "keep_images")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 STUDY_METRICS = ("mse", "relmse")
@@ -60,6 +64,9 @@ DEFAULTS: dict[str, Any] = {
     "gt_batch_spp": 512,
     "target_rmse": None,
     "strip_spp": None,
+    "target_rel_ci": None,
+    "max_samples_per_cell": None,
+    "keep_images": False,
 }
 MIN_GT_BATCHES = 4
 MAX_RUNS_PER_CELL = 4096
@@ -93,6 +100,15 @@ class Settings:
     target_rmse: float | None
     strip_spp: tuple[int, ...]
     samples_per_cell: int | None = None
+    target_rel_ci: float | None = None     # precision target of a cell's mean MSE (relative 95% CI)
+    max_samples_per_cell: int | None = None     # the target's budget, samples per pixel of a cell
+    keep_images: bool = False
+
+    def max_runs_at(self, spp: int) -> int:
+        """The most repetitions a precision-targeted cell at `spp` may grow to."""
+        budget = MAX_RUNS_PER_CELL if self.max_samples_per_cell is None else \
+            max(self.max_samples_per_cell // spp, 1)
+        return max(self.runs_at(spp), min(budget, MAX_RUNS_PER_CELL))
 
     def runs_at(self, spp: int) -> int:
         """Repetitions of a cell at `spp`: `repetitions`, or with `samples_per_cell` at least
@@ -204,6 +220,17 @@ def _setting(key, v, fld):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
             raise InputError(fld, f"must be a finite number > 0, got {v!r}")
         return float(v)
+    if key == "target_rel_ci":
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v < 1:
+            raise InputError(fld, f"must be a number in (0, 1) (e.g. 0.1: the 95% interval of a cell's "
+                                  f"mean MSE within +-10%), got {v!r}")
+        return float(v)
+    if key == "max_samples_per_cell":
+        return _int(v, fld, 2)
+    if key == "keep_images":
+        if not isinstance(v, bool):
+            raise InputError(fld, f"must be true or false, got {v!r}")
+        return v
     if key == "strip_spp":
         if not isinstance(v, list) or not v:
             raise InputError(fld, f"must be a non-empty list of sample counts, got {v!r}")
@@ -243,7 +270,8 @@ def _settings(exp_table, profile_table, profile) -> Settings:
     return Settings(spp=spp, repetitions=vals["repetitions"], resolution=vals["resolution"],
                     gt_spp=vals["gt_spp"], gt_batch_spp=vals["gt_batch_spp"],
                     target_rmse=vals["target_rmse"], strip_spp=tuple(strip),
-                    samples_per_cell=per_cell)
+                    samples_per_cell=per_cell, target_rel_ci=vals["target_rel_ci"],
+                    max_samples_per_cell=vals["max_samples_per_cell"], keep_images=vals["keep_images"])
 
 
 def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:

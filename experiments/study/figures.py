@@ -1,8 +1,6 @@
 """The report's figures: per-study plots (error vs samples, error vs time, relative efficiency) and
-per-scene image strips.
-
-Plots use the Agg backend and tell samplers apart by marker and line style (and hatch for bars) as
-well as by colour, so they stay readable printed in black and white.
+per-scene image strips, drawn with experiments/plotting.py (Agg, compact style, series styles that
+stay readable in black and white).
 """
 from __future__ import annotations
 
@@ -15,37 +13,13 @@ import numpy as np
 
 from drtlab.experiments.study.ground_truth import load_ground_truth
 from drtlab.experiments.study.results import Cell, Interval, SceneResult, StudyResult
-from drtlab.experiments.study.run_store import load_run_image
-from drtlab.kernels.imageio import to_srgb
-
-MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
-LINESTYLES = ("-", "--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)), (0, (3, 1)))
-HATCHES = ("", "///", "...", "xx", "\\\\\\", "++", "oo", "--")
-COLOURS = ("#000000", "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#999999")
+from drtlab.experiments.study.run_store import first_image
+from drtlab.experiments.plotting import HATCHES, compact_pyplot, panel_grid, series_style
+from drtlab.kernels.colour import to_srgb
 
 
 def slug(s: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.~-]+", "-", s).strip("-") or "study"
-
-
-def _style(i: int) -> dict:
-    return {"marker": MARKERS[i % len(MARKERS)], "linestyle": LINESTYLES[i % len(LINESTYLES)],
-            "color": COLOURS[i % len(COLOURS)]}
-
-
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-    plt.rcParams.update({"font.size": 8, "axes.titlesize": 9, "legend.fontsize": 7,
-                         "savefig.dpi": 130, "figure.dpi": 100})
-    return plt
-
-
-def _grid(n: int):
-    cols = min(3, n)
-    rows = math.ceil(n / cols)
-    return rows, cols
 
 
 def _errbar(ax, xs, intervals: list[Interval], style, label):
@@ -79,16 +53,16 @@ def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xl
             xscale: dict, extra: Callable[..., None] | None = None):
     """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`;
     saved to `path` (returned), or without a path the matplotlib Figure itself (for a notebook)."""
-    plt = _plt()
+    plt = compact_pyplot()
     scenes = study.scenes
-    rows, cols = _grid(len(scenes))
+    rows, cols = panel_grid(len(scenes))
     fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.8 * rows), squeeze=False)
     for k, scene in enumerate(scenes):
         ax = axes[k // cols][k % cols]
         for i, s in enumerate(study.samplers):
             cells = [c for c in scene.cells if c.sampler == s]
             if cells:
-                draw(ax, scene, s, cells, _style(i))
+                draw(ax, scene, s, cells, series_style(i))
         if extra is not None:
             extra(ax, scene)
         ax.set_xscale("log", **xscale)
@@ -154,7 +128,7 @@ def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
 
 def plot_efficiency(study: StudyResult, path: Path) -> Path:
     """Efficiency 1/(MSE * seconds) at the top of the ladder, relative to the baseline."""
-    plt = _plt()
+    plt = compact_pyplot()
     scenes, samplers = study.scenes, study.samplers
     fig, ax = plt.subplots(figsize=(max(4.0, 1.1 * len(scenes) * len(samplers) * 0.6 + 2), 3.0))
     width = 0.8 / max(len(samplers), 1)
@@ -165,7 +139,7 @@ def plot_efficiency(study: StudyResult, path: Path) -> Path:
         vals = [v if v and math.isfinite(v) and v > 0 else np.nan for v in vals]
         allv += [v for v in vals if np.isfinite(v)]
         pos = xs + (i - (len(samplers) - 1) / 2) * width
-        ax.bar(pos, vals, width, label=s, color="white" if i == 0 else _style(i)["color"],
+        ax.bar(pos, vals, width, label=s, color="white" if i == 0 else series_style(i)["color"],
                alpha=1.0 if i == 0 else 0.55, edgecolor="black", hatch=HATCHES[i % len(HATCHES)], lw=0.8)
         for p_, v in zip(pos, vals):
             if np.isfinite(v):
@@ -214,11 +188,11 @@ def choose_crop(gt: np.ndarray) -> tuple[int, int, int]:
     return by, bx, size
 
 
-def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, out_dir: Path,
+def image_strip(scene_label: str, samplers, strip_spp, gt_mean, cells: dict, out_dir: Path,
                 path: Path) -> None:
     """GT and each sampler at a few spp, the same crop; rows = samplers, columns = spp."""
     from matplotlib.patches import Rectangle
-    plt = _plt()
+    plt = compact_pyplot()
     y, x, size = choose_crop(gt_mean)
     ncol = 2 + len(strip_spp)
     nrow = len(samplers)
@@ -243,11 +217,11 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, o
                     ax.set_title("reference (crop)", fontsize=7)
                 continue
             n = strip_spp[c - 2]
-            rid = run_ids.get((s, n))
-            if rid is None:
+            cell = cells.get((s, n))
+            if cell is None:
                 ax.axis("off")
                 continue
-            ax.imshow(to_srgb(crop(load_run_image(out_dir, rid))), interpolation="nearest")
+            ax.imshow(to_srgb(crop(first_image(out_dir, cell))), interpolation="nearest")
             if r == 0:
                 ax.set_title(f"{n} spp", fontsize=7)
             if c == 2:
@@ -258,7 +232,7 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, run_ids: dict, o
     plt.close(fig)
 
 
-def strip_job(label, samplers, strip_spp, gt_dir, run_ids, out_dir, path) -> Path:
+def strip_job(label, samplers, strip_spp, gt_dir, cells, out_dir, path) -> Path:
     """`image_strip` with the reference read from its folder (a job for `parallel.pmap`)."""
-    image_strip(label, samplers, strip_spp, load_ground_truth(gt_dir).mean, run_ids, out_dir, path)
+    image_strip(label, samplers, strip_spp, load_ground_truth(gt_dir).mean, cells, out_dir, path)
     return path

@@ -10,26 +10,19 @@ import math
 
 import numpy as np
 
+from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
 from drtlab.experiments.stats.running_moments import RunningMoments
+from drtlab.kernels.colour import to_lab
 
 REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
-CI_LEVEL = 0.95
-
-
-def _lab(linear: np.ndarray) -> np.ndarray:
-    import colour  # slow import: only when a colour difference is asked for
-    rgb = np.clip(np.nan_to_num(linear, nan=0.0, posinf=1.0), 0.0, 1.0)
-    d65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-    xyz = colour.RGB_to_XYZ(rgb, colour.RGB_COLOURSPACES["sRGB"], illuminant=d65,
-                            apply_cctf_decoding=False)
-    return colour.XYZ_to_Lab(xyz, d65)
 
 
 def ciede2000(img: np.ndarray, ref: np.ndarray, ref_lab: np.ndarray | None = None) -> float:
-    """Mean CIEDE2000 difference of the displayed (clipped to [0, 1]) sRGB images."""
-    import colour
-    lab_ref = _lab(ref) if ref_lab is None else ref_lab
-    return float(np.mean(colour.delta_E(_lab(img), lab_ref, method="CIE 2000")))
+    """Mean CIEDE2000 difference of the displayed (clipped to [0, 1]) sRGB images; `ref_lab` is
+    `to_lab(ref)` when the caller compares many images with one reference."""
+    import colour  # slow import: only when a colour difference is asked for
+    lab_ref = to_lab(ref) if ref_lab is None else ref_lab
+    return float(np.mean(colour.delta_E(to_lab(img), lab_ref, method="CIE 2000")))
 
 
 def image_metrics(img: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
@@ -82,29 +75,70 @@ def mean_ci(values, level: float = CI_LEVEL) -> dict:
     return {"mean": m, "lo": m - h, "hi": m + h, "sd": sd, "n": n}
 
 
+def cell_bias(n: int, mean: np.ndarray, pixel_variance: float, gt: np.ndarray,
+              gt_stderr: np.ndarray, mean_errors, level: float = CI_LEVEL) -> dict:
+    """Bias of the estimator from a cell's n repetitions (their per-pixel `mean` image and the mean
+    over pixels of their per-pixel sample variance): mean image - GT, as a signed mean with its CI
+    and a debiased RMS.
+
+    signed: mean over pixels of (mean image - GT). Its CI is the Student-t interval of the
+         repetitions' signed mean errors (`mean_errors`, which carries pixel correlations),
+         widened by the uncertainty of the GT's own pixel mean.
+    rms: sqrt(mean((mean image - GT)^2) - pixel_var / n - gt_var), clipped at 0: the per-pixel
+         bias energy left after removing what the noise alone would give.
+    """
+    P = mean.size
+    b = mean - gt
+    se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
+    gvar = float(np.mean(se2))
+    ci = mean_ci(mean_errors, level)
+    signed = float(np.mean(b))
+    z = t_quantile(10 ** 6, level)
+    h_gt = z * math.sqrt(float(np.sum(se2))) / P
+    h_rep = (ci["hi"] - ci["mean"]) if ci["n"] > 1 else float("nan")
+    h = math.sqrt(h_rep ** 2 + h_gt ** 2)
+    ms = float(np.mean(np.square(b))) - pixel_variance / n - gvar
+    return {"signed": signed, "lo": signed - h, "hi": signed + h,
+            "rms": math.sqrt(max(ms, 0.0)), "pixel_variance": pixel_variance}
+
+
 class CellAccumulator(RunningMoments):
     """Streams the repetitions of one cell (one image at a time) into per-pixel moments."""
 
     def bias(self, gt: np.ndarray, gt_stderr: np.ndarray, mean_errors, level: float = CI_LEVEL) -> dict:
-        """Bias of the estimator: mean image - GT, as a signed mean with its CI and a debiased RMS.
+        """`cell_bias` of the repetitions added so far."""
+        return cell_bias(self.n, self.mean, float(np.mean(self.variance())), gt, gt_stderr,
+                         mean_errors, level)
 
-        signed: mean over pixels of (mean image - GT). Its CI is the Student-t interval of the
-             repetitions' signed mean errors (`mean_errors`, which carries pixel correlations),
-             widened by the uncertainty of the GT's own pixel mean.
-        rms: sqrt(mean((mean image - GT)^2) - pixel_var / n - gt_var), clipped at 0: the per-pixel
-             bias energy left after removing what the noise alone would give.
-        """
-        n, P = self.n, self.mean.size
-        b = self.mean - gt
-        pix_var = float(np.mean(self.variance()))
-        se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
-        gvar = float(np.mean(se2))
-        ci = mean_ci(mean_errors, level)
-        signed = float(np.mean(b))
-        z = t_quantile(10 ** 6, level)
-        h_gt = z * math.sqrt(float(np.sum(se2))) / P
-        h_rep = (ci["hi"] - ci["mean"]) if ci["n"] > 1 else float("nan")
-        h = math.sqrt(h_rep ** 2 + h_gt ** 2)
-        ms = float(np.mean(np.square(b))) - pix_var / n - gvar
-        return {"signed": signed, "lo": signed - h, "hi": signed + h,
-                "rms": math.sqrt(max(ms, 0.0)), "pixel_variance": pix_var}
+
+def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
+                  gt_lab: np.ndarray | None = None) -> list[dict]:
+    """`image_metrics` of each image of an (R, H, W, 3) batch, vectorised over the repetitions (one
+    numpy pass and one CIEDE2000 call for the batch); each row's reductions run over the same
+    contiguous values as `image_metrics` of that image alone, so the values agree exactly."""
+    import colour
+    x = np.asarray(images, dtype=np.float64)
+    gt = np.asarray(gt, dtype=np.float64)
+    if x.shape[1:] != gt.shape:
+        raise ValueError(f"image shape {x.shape[1:]} != ground truth shape {gt.shape}")
+    R = x.shape[0]
+    d = (x - gt).reshape(R, -1)
+    d2 = np.square(d)
+    se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
+    gvar = float(np.mean(se2))
+    w = (1.0 / (np.square(gt) + REL_EPS)).reshape(-1)
+    relmse_gt = float(np.mean(se2.reshape(-1) * w))
+    mse = np.mean(d2, axis=1)
+    relmse = np.mean(d2 * w, axis=1)
+    mae = np.mean(np.abs(d), axis=1)
+    mean_error = np.mean(d, axis=1)
+    finite = np.all(np.isfinite(x.reshape(R, -1)), axis=1)
+    lab_ref = to_lab(gt) if gt_lab is None else gt_lab
+    de = colour.delta_E(to_lab(x), lab_ref, method="CIE 2000").reshape(R, -1)
+    ciede = np.mean(de, axis=1)
+    return [{"mse": float(mse[r]), "rmse": math.sqrt(float(mse[r])), "gt_var": gvar,
+             "mse_corrected": float(mse[r]) - gvar,
+             "rmse_corrected": math.sqrt(max(float(mse[r]) - gvar, 0.0)),
+             "relmse": float(relmse[r]), "relmse_corrected": float(relmse[r]) - relmse_gt,
+             "mae": float(mae[r]), "mean_error": float(mean_error[r]), "finite": bool(finite[r]),
+             "ciede2000": float(ciede[r])} for r in range(R)]

@@ -4,10 +4,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from drtlab.experiments.study.analysis import ERRATIC_SIGMA, TIMING_RESOLUTION, span_text
+from drtlab.experiments.study.analysis import ERRATIC_SIGMA, NOISE_FLOOR_FRACTION, span_text
+from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
+from drtlab.experiments.study.metrics import REL_EPS
 from drtlab.experiments.study.results import Interval, SceneResult, StudyResult, Summary
 from drtlab.experiments.stats.slopes import RESOLVED_WIDTH
 
@@ -26,14 +28,14 @@ INTRO = (
     "regression of the cells' log mean errors, which assumes no law of a run's error). *Speed-up* compares the render time each sampler needs to "
     "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
     "efficiency means the same quality in half the time.\n\n"
-    "**Render time is a calibrated cost, not a stopwatch reading of each cell.** A render of a few "
-    "milliseconds does not time reproducibly, so after the sweep each (scene, sampler) is rendered a "
-    "few more times for about 0.15 s each (compile excluded; the samplers take turns), and a cell's "
-    "seconds are cost(N) = overhead + per-sample cost × pixels × N: the per-sample cost from those "
-    "long renders (95% t interval over them, plus 5% for run-to-run drift), the overhead from the "
-    "scene's short renders. On the CPU backend the clock is the render call's CPU time (all threads), "
-    "of the faster half of the renders (a job sharing the cores slows some renders, never speeds one "
-    "up). Speed-ups carry a 95% bootstrap interval "
+    "**Render time is measured per cell, in batches.** The repetitions of a cell render together, a "
+    "batch of about a million samples per call, so no render pays per-call overhead and every call is "
+    "long enough to time. A cell's seconds are the cost of one repetition: each batch's time over its "
+    "repetitions, averaged over the cell's batches (95% t interval over them, plus 5% for run-to-run "
+    "drift). On the CPU backend the clock is the render call's CPU time (all threads), of the faster "
+    "half of the batches (a job sharing the cores slows some batches, never speeds one up). A cell "
+    f"whose batches took under {MIN_TIMED_SECONDS:g} s in all is timed by {CAL_BATCHES} timing-only "
+    "batches after the sweep instead. Speed-ups carry a 95% bootstrap interval "
     "(repetitions resampled, the cost drawn from its interval); efficiency ratios a delta-method 95% "
     "interval from both errors and both costs.\n")
 
@@ -105,7 +107,7 @@ def _render_figures(exp, summary: Summary, plan, records: dict, out_dir: Path, g
             g = next((r.group for r in plan if r.scene == scene and study.name in r.studies), None)
             if g is None:
                 continue
-            run_ids = {(r.sampler, r.spp): r.run_id for r in plan
+            run_ids = {(r.sampler, r.spp): r.cell for r in plan
                        if r.group == g and r.rep == 0 and r.run_id in records}
             name = f"{slug(study.name)}--{scene.label}.png" if len(exp.studies) > 1 else f"{scene.label}.png"
             calls.append((strip_job, (f"{scene.label} ({study.name})", study.samplers,
@@ -137,7 +139,7 @@ def _study_intro(study: StudyResult) -> list[str]:
         f"root seed {study.seed}.\n")
     if study.metric != "mse":
         lines.append(
-            f"This study ranks samplers by the {study.metric_label}: the relative MSE (x − y)² / (y² + 0.01) "
+            f"This study ranks samplers by the {study.metric_label}: the relative MSE (x − y)² / (y² + {REL_EPS:g}) "
             f"weighs every pixel alike, where the plain MSE would be dominated by a few very bright pixels "
             f"(directly visible small lights, whose antialiasing noise no strategy changes). "
             f"Slopes, speed-ups and efficiencies below use it; the cell table also lists the RMSE.\n")
@@ -270,8 +272,8 @@ def _figure_links(study: StudyResult, study_cfg, plots: dict, strips: dict, out_
     return lines
 
 
-RESOLUTION_NOTE = (f"† timing below resolution (measured render < {1000 * TIMING_RESOLUTION:.0f} ms): "
-                   f"cost from calibration.")
+RESOLUTION_NOTE = (f"† the cell's batches took under {MIN_TIMED_SECONDS:g} s in all: cost from "
+                   f"{CAL_BATCHES} timing-only batches.")
 
 
 def _seconds(c) -> str:
@@ -284,15 +286,15 @@ def _resolution_warning(study: StudyResult) -> list[str]:
            if c.timing_below_resolution]
     if not low:
         return []
-    return [f"**Timing below resolution** in {len(low)} of {sum(len(sc.cells) for sc in study.scenes)} "
-            f"cells (measured render < {1000 * TIMING_RESOLUTION:.0f} ms: "
-            f"{', '.join(low[:8])}{', ...' if len(low) > 8 else ''}): cost from calibration.\n"]
+    return [f"**Too short to time** in {len(low)} of {sum(len(sc.cells) for sc in study.scenes)} "
+            f"cells (batches under {MIN_TIMED_SECONDS:g} s in all: "
+            f"{', '.join(low[:8])}{', ...' if len(low) > 8 else ''}): cost from timing-only batches.\n"]
 
 
 def _cell_table(study: StudyResult) -> list[str]:
     lines = ["<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n",
              f"| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
-             f"Render s (calibrated cost [95% CI]) | Measured s (median) | "
+             f"Render s per repetition [95% CI] | Measured s (median) | "
              f"Efficiency 1/({study.mse_label}·s) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene in study.scenes:
@@ -315,7 +317,8 @@ def _cell_table(study: StudyResult) -> list[str]:
 def _noise_floor_section(summary: Summary) -> list[str]:
     lines = ["## Ground truth and noise floor\n",
              "The reference is itself noisy: its mean per-pixel variance Var_GT adds to every measured MSE. "
-             "It is subtracted from every MSE above; it should stay below 1% of the smallest MSE measured.\n",
+             "It is subtracted from every MSE above; it should stay below "
+             f"{100 * NOISE_FLOOR_FRACTION:.0f}% of the smallest MSE measured.\n",
              "| Scene / integrator / resolution | Reference spp | Var_GT | Smallest cell MSE | "
              "Var_GT ÷ smallest MSE |",
              "|---|---|---|---|---|"]

@@ -47,7 +47,7 @@ class Metric:
 
 
 # "mse": RMSE over pixels and channels (noise floor removed). "relmse": relative MSE
-# (x - y)^2 / (y^2 + 0.01), for scenes whose RMSE is dominated by a few very bright pixels (directly
+# (x - y)^2 / (y^2 + metrics.REL_EPS), for scenes whose RMSE is dominated by a few very bright pixels (directly
 # seen small lights), reported as its square root ("relative RMSE").
 METRICS = {
     "mse": Metric("rmse_of_mean_mse", "mse_corrected", "efficiency", "RMSE", "MSE"),
@@ -117,12 +117,16 @@ class Cell:
     rrmse_of_mean_relmse: Interval      # sqrt of the corrected-relMSE interval
     bias: Bias
     repetitions_for_10pct: dict         # per metric: repetitions a ±10% mean (95%) would need
-    seconds: float                      # calibrated cost at this spp (analysis.CostModel)
+    seconds: float                      # cost of one repetition (run_store.CellTiming)
     efficiency: float                   # 1 / (corrected MSE x seconds)
     efficiency_relmse: float            # 1 / (corrected relMSE x seconds)
-    seconds_ci: Interval | None = None  # 95% CI of the calibrated cost (t on the per-sample cost)
-    measured_seconds: float = NAN       # median measured render seconds of the repetitions
-    timing_below_resolution: bool = False   # measured_seconds below analysis.TIMING_RESOLUTION
+    seconds_ci: Interval | None = None  # 95% CI of that cost (t over the timed batches)
+    measured_seconds: float = NAN       # median render seconds of the repetitions (wall, shared)
+    timing_below_resolution: bool = False   # its batches were too short: timing-only batches
+    mse_rel_ci: float = NAN             # relative half-width of the 95% CI of the mean MSE
+    target_rel_ci: float | None = None  # the experiment's precision target, if it sets one
+    target_met: bool | None = None      # whether mse_rel_ci reached it within the budget
+    samples_needed: int | None = None   # samples per pixel (runs x spp) the target would need
 
     def error(self, metric: str) -> Interval:
         return getattr(self, METRICS[metric].error)
@@ -387,7 +391,7 @@ class ExperimentResult:
     sweep ran without analysis) and the output folder. Indexing it reads summary.json's content
     (`result["studies"]`); `runs`, `cells` and `slopes` are tidy pandas DataFrames, and
     `plot_convergence()` redraws the error-vs-samples figures."""
-    stats: dict                         # runs_planned, runs_new, runs_reused, runs_refreshed, rows
+    stats: dict                         # runs_planned, runs_new, runs_reused, batches, rows, ...
     wall_seconds: float
     summary: Summary | None = None
     out_dir: Path | None = None
@@ -404,9 +408,9 @@ class ExperimentResult:
 
     @property
     def runs(self):
-        """One row per run (runs.csv): scene, sampler, spp, rep, seed, per-run errors, timings."""
+        """One row per run (runs.parquet): scene, sampler, spp, rep, seed, per-run errors, timings."""
         import pandas as pd
-        return pd.read_csv(Path(self.out_dir) / "runs.csv")
+        return pd.read_parquet(Path(self.out_dir) / "runs.parquet")
 
     @property
     def cells(self):
@@ -424,7 +428,9 @@ class ExperimentResult:
                                  "rmse_of_mean_mse": c.rmse_of_mean_mse.mean,
                                  "mean_run_rmse": c.rmse.mean, "bias": c.bias.signed,
                                  "bias_significant": c.bias.significant, "seconds": c.seconds,
-                                 "efficiency": c.efficiency_of(study.metric)})
+                                 "efficiency": c.efficiency_of(study.metric),
+                                 "mse_rel_ci": c.mse_rel_ci, "target_met": c.target_met,
+                                 "samples_needed": c.samples_needed})
         return pd.DataFrame(rows)
 
     @property

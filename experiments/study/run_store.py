@@ -1,72 +1,197 @@
-"""The run files of an experiment folder: `runs/<run id>.npz` (image), `runs/<run id>.json` (record)
-and `runs.csv` (one row per finished run, in the plan's order).
+"""The run files of an experiment folder: one table of runs and one array file per cell.
 
-Every file is written atomically (temp file + os.replace). The JSON is the commit point: a run is done
-exactly when its JSON exists (beside its image), so the image is always written first. The runner
-writes these files; the analysis and the report only read them.
+* `runs.parquet`: one row per finished run (`pandas.read_parquet` reads it), rewritten atomically
+  (temp file + os.replace) after every batch of repetitions.
+* `cells/<cell>.npz`: per (scene, integrator, resolution, sampler, spp) cell what the analysis and
+  the report need of its images: the per-pixel mean over its repetitions and the total of squared
+  deviations from it (the bias and its noise), the first repetition's image (the strips), the ids of
+  the batches merged in, and with `keep_images` every repetition's image.
+
+Commit protocol (a `kill -9` at any moment leaves a consistent folder): a batch writes the table
+first, then its cell file. A run counts as done when its row is in the table AND its batch is listed
+in its cell file, so rows of a batch whose cell file was not replaced are dropped on load and that
+batch renders again (same seeds, same images). `runs.csv` is an export of the table.
 """
 from __future__ import annotations
 
-import csv
 import io
-import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from drtlab.experiments.files import atomic_savez, atomic_write_json, atomic_write_text
+from drtlab.experiments.files import atomic_savez, atomic_write_bytes, atomic_write_json, atomic_write_text
+from drtlab.experiments.stats.hypothesis_tests import Z_CI
 
+RUNS_FILE = "runs.parquet"
+CELLS_DIR = "cells"
 CSV_COLUMNS = (
     "run_id", "studies", "scene", "sampler", "integrator", "width", "height", "spp", "rep", "seed",
     "rmse", "rmse_corrected", "mse", "mse_corrected", "gt_var", "relmse", "relmse_corrected", "mae",
-    "mean_error", "ciede2000", "render_seconds", "compile_seconds", "wall_seconds",
-    "samples_per_second", "gt_spp", "worker",
+    "mean_error", "ciede2000", "render_seconds", "cpu_seconds", "compile_seconds", "wall_seconds",
+    "samples_per_second", "gt_spp", "worker", "batch", "batch_reps",
 )
+# What a row holds beyond the CSV's columns (the resume keys).
+TABLE_COLUMNS = CSV_COLUMNS + ("scene_key", "cell", "fingerprint", "gt_key", "code_version", "finite")
+# Columns that measure the machine, not the estimator: they differ between reruns and workers.
+TIMING_COLUMNS = ("render_seconds", "cpu_seconds", "compile_seconds", "wall_seconds",
+                  "samples_per_second", "worker")
 
 
-def save_run(runs_dir: Path, run_id: str, image: np.ndarray, record: dict) -> None:
-    """A finished run: its image (float32) and then its record, the commit point."""
-    atomic_savez(Path(runs_dir) / f"{run_id}.npz", image=image.astype(np.float32))
-    save_record(runs_dir, run_id, record)
+# ---------------------------------------------------------------------------------------------------
+# Per-cell moments
+# ---------------------------------------------------------------------------------------------------
+
+@dataclass
+class CellMoments:
+    """n repetitions' per-pixel mean and the sum over pixels and channels of their squared deviations
+    from it: enough for the bias of the cell's mean image and its noise (metrics.cell_bias)."""
+    n: int
+    mean: np.ndarray              # (H, W, 3) float64
+    m2: float                     # sum over elements of sum_r (x_r - mean)^2
+
+    @classmethod
+    def of(cls, images: np.ndarray) -> "CellMoments":
+        x = np.asarray(images, dtype=np.float64)
+        mean = x.mean(axis=0)
+        return cls(int(x.shape[0]), mean, float(np.sum(np.square(x - mean))))
+
+    def merged(self, other: "CellMoments") -> "CellMoments":
+        """Chan et al.'s pairwise update: the moments of both sets of repetitions together."""
+        n = self.n + other.n
+        delta = other.mean - self.mean
+        mean = self.mean + delta * (other.n / n)
+        m2 = self.m2 + other.m2 + float(np.sum(np.square(delta))) * self.n * other.n / n
+        return CellMoments(n, mean, m2)
+
+    def pixel_variance(self) -> float:
+        """Mean over pixels and channels of the per-pixel sample variance of one repetition."""
+        return self.m2 / (self.mean.size * (self.n - 1)) if self.n > 1 else float("nan")
 
 
-def save_record(runs_dir: Path, run_id: str, record: dict) -> None:
-    atomic_write_json(Path(runs_dir) / f"{run_id}.json", record)
+@dataclass
+class CellFile:
+    """What `cells/<cell>.npz` holds (see the module docstring)."""
+    moments: CellMoments | None
+    batches: tuple = ()
+    first: np.ndarray | None = None           # repetition 0's image, float32
+    images: np.ndarray | None = None          # (n, H, W, 3) float32, with keep_images
+    reps: np.ndarray | None = None            # the repetition of each of `images` (commit order)
+
+    def with_batch(self, batch: str, images: np.ndarray, reps: list, keep: bool) -> "CellFile":
+        m = CellMoments.of(images)
+        kept = images.astype(np.float32)
+        return CellFile(moments=m if self.moments is None else self.moments.merged(m),
+                        batches=self.batches + (batch,),
+                        first=kept[reps.index(0)] if 0 in reps else self.first,
+                        images=(kept if self.images is None else np.concatenate([self.images, kept]))
+                        if keep else None,
+                        reps=(np.asarray(reps) if self.reps is None else
+                              np.concatenate([self.reps, reps])) if keep else None)
 
 
-def load_records(runs_dir: Path) -> dict:
-    """run id -> record of every committed run in `runs_dir` (a JSON with its image beside it)."""
+def cell_path(out_dir: Path, cell: str) -> Path:
+    return Path(out_dir) / CELLS_DIR / f"{cell}.npz"
+
+
+def load_cell(out_dir: Path, cell: str) -> CellFile:
+    """The cell file of `cell`, or an empty one."""
+    p = cell_path(out_dir, cell)
+    if not p.is_file():
+        return CellFile(None)
+    with np.load(p, allow_pickle=False) as z:
+        moments = CellMoments(int(z["n"]), z["mean"].astype(np.float64), float(z["m2"]))
+        return CellFile(moments, tuple(str(b) for b in z["batches"]),
+                        z["first"] if "first" in z.files else None,
+                        z["images"] if "images" in z.files else None,
+                        z["reps"] if "reps" in z.files else None)
+
+
+def save_cell(out_dir: Path, cell: str, cf: CellFile) -> None:
+    arrays = {"n": np.int64(cf.moments.n), "mean": cf.moments.mean.astype(np.float32),
+              "m2": np.float64(cf.moments.m2), "batches": np.array(cf.batches, dtype=str)}
+    if cf.first is not None:
+        arrays["first"] = cf.first.astype(np.float32)
+    if cf.images is not None:
+        arrays["images"], arrays["reps"] = cf.images.astype(np.float32), cf.reps
+    p = cell_path(out_dir, cell)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    atomic_savez(p, **arrays)
+
+
+def first_image(out_dir: Path, cell: str) -> np.ndarray | None:
+    """Repetition 0's image of a cell (float64), or None."""
+    f = load_cell(out_dir, cell).first
+    return None if f is None else f.astype(np.float64)
+
+
+def cell_images(out_dir: Path, cell: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(repetitions, their images) of a cell in repetition order, for an experiment run with
+    keep_images; else None."""
+    cf = load_cell(out_dir, cell)
+    if cf.images is None:
+        return None
+    order = np.argsort(cf.reps, kind="stable")
+    return cf.reps[order], cf.images[order].astype(np.float64)
+
+
+# ---------------------------------------------------------------------------------------------------
+# The table of runs
+# ---------------------------------------------------------------------------------------------------
+
+def load_records(out_dir: Path) -> dict:
+    """run id -> record of every committed run of the folder (row in the table and batch in its
+    cell file)."""
+    p = Path(out_dir) / RUNS_FILE
+    if not p.is_file():
+        return {}
+    import pandas as pd
+    rows = pd.read_parquet(p).to_dict("records")
+    batches: dict = {}
     out = {}
-    if not runs_dir.is_dir():
-        return out
-    for f in runs_dir.glob("*.json"):
-        try:
-            rec = json.loads(f.read_text())
-        except (OSError, ValueError):
-            continue                       # cannot happen with atomic writes; treat as not done
-        if rec.get("run_id") == f.stem and (runs_dir / f"{f.stem}.npz").is_file():
-            out[f.stem] = rec
+    for row in rows:
+        cell = row["cell"]
+        if cell not in batches:
+            batches[cell] = set(load_cell(out_dir, cell).batches)
+        if row["batch"] in batches[cell]:
+            out[row["run_id"]] = {k: _python(v) for k, v in row.items()}
     return out
 
 
-def load_run_image(out_dir: Path, run_id: str) -> np.ndarray:
-    """The image of a run of the experiment folder `out_dir`, as float64."""
-    with np.load(Path(out_dir) / "runs" / f"{run_id}.npz", allow_pickle=False) as z:
-        return z["image"].astype(np.float64)
+def _python(v):
+    """numpy scalars from the table -> Python values (records are compared and written as JSON)."""
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def write_table(out_dir: Path, records: dict, order: list) -> None:
+    """runs.parquet from `records` (run id -> record), rows in `order` (run ids) first."""
+    import pandas as pd
+    ids = [i for i in order if i in records] + sorted(set(records) - set(order))
+    df = pd.DataFrame([{k: records[i].get(k) for k in TABLE_COLUMNS} for i in ids],
+                      columns=list(TABLE_COLUMNS))
+    buf = io.BytesIO()
+    df.to_parquet(buf, index=False)
+    atomic_write_bytes(Path(out_dir) / RUNS_FILE, buf.getvalue())
+
+
+def commit_batch(out_dir: Path, records: dict, order: list, cell: str, cf: CellFile) -> None:
+    """A batch's rows (already in `records`) and then its cell file: the commit protocol."""
+    write_table(out_dir, records, order)
+    save_cell(out_dir, cell, cf)
 
 
 def _record_row(rec: dict, studies: tuple[str, ...]) -> dict:
     row = {k: rec.get(k, "") for k in CSV_COLUMNS}
     row["studies"] = ";".join(studies)
-    row["worker"] = rec.get("worker") or "local"      # records from before the column ran here
+    row["worker"] = rec.get("worker") or "local"
     return row
 
 
 def write_runs_csv(path: Path, plan: list, records: dict) -> int:
-    """`runs.csv` from the records of the plan's runs (RunSpec: run_id, studies), in plan order;
-    floats as repr (round-trip exact). Returns the number of rows."""
+    """`runs.csv` (the table's export) from the records of the plan's runs (RunSpec: run_id,
+    studies), in plan order; floats as repr (round-trip exact). Returns the number of rows."""
+    import csv
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
     w.writeheader()
@@ -85,18 +210,21 @@ def write_runs_csv(path: Path, plan: list, records: dict) -> int:
 
 
 # ---------------------------------------------------------------------------------------------------
-# Cost calibration: `calibration.json`, and the cost model fitted from it and the runs' timings
+# The cost of a cell: its own batches' timings, or timing-only batches for cells too small to time
 # ---------------------------------------------------------------------------------------------------
 
 CALIBRATION_FILE = "calibration.json"
-# Run-to-run drift of the per-sample cost that repeats within one run cannot see (CPU clock, caches):
-# fresh reruns of bitcheck/tiny.toml on the 2-core dev VM differed by 2-4%; the cost's 95% interval
-# adds this relative half-width in quadrature.
+MIN_TIMED_SECONDS = 0.2          # a cell whose batches took less than this gets timing-only batches
+CAL_BATCHES = 4                  # timing-only batches per such cell
+# Run-to-run drift of the per-repetition cost that repeats within one run cannot see (CPU clock,
+# caches): fresh reruns on the 2-core dev VM differed by 2-4%; the cost's 95% interval adds this
+# relative half-width in quadrature.
 SYSTEMATIC = 0.05
 
 
 def load_calibration(out_dir: Path) -> dict:
-    """key -> calibration entry (see `runner._calibrate`); {} when there is none."""
+    """cell -> timing-only batches ({"seconds": per-repetition seconds, "clock"}); {} when none."""
+    import json
     try:
         return json.loads((Path(out_dir) / CALIBRATION_FILE).read_text())
     except (OSError, ValueError):
@@ -107,51 +235,6 @@ def save_calibration(out_dir: Path, entries: dict) -> None:
     atomic_write_json(Path(out_dir) / CALIBRATION_FILE, entries)
 
 
-def calibration_key(group_name: str, sampler: str) -> str:
-    return f"{group_name}__{sampler}"
-
-
-@dataclass
-class CostModel:
-    """cost(spp) = overhead + per_sample * pixels * spp. `per_sample` holds one value per calibration
-    render of the faster half of the calibration renders (the t interval of their mean is the cost's);
-    `overhead` is the lower quartile of the residuals `overhead_samples` pooled over the group's
-    samplers (the launch cost does not depend on them; load from other jobs only adds time)."""
-    per_sample: np.ndarray
-    pixels: int
-    overhead: float = 0.0
-    overhead_samples: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    calibrated: bool = False
-    clock: str = "wall"                  # "cpu": CPU seconds of the render call (see runner)
-
-    @property
-    def mean(self) -> float:
-        return float(np.mean(self.per_sample))
-
-    def t_halfwidth(self) -> float:
-        """95% half-width of the mean per-sample cost: t over the renders, and `SYSTEMATIC`."""
-        n = self.per_sample.size
-        if n < 2:
-            return float("nan")
-        from scipy import stats
-        h = float(stats.t.ppf(0.975, n - 1)) * float(np.std(self.per_sample, ddof=1)) / math.sqrt(n)
-        return math.hypot(h, SYSTEMATIC * self.mean)
-
-    def seconds(self, spp: int, per_sample: float | None = None, overhead: float | None = None) -> float:
-        ps = self.mean if per_sample is None else per_sample
-        return (self.overhead if overhead is None else overhead) + ps * self.pixels * spp
-
-    def draw_per_sample(self, rng) -> float:
-        """A draw of the mean per-sample cost from its t law (parametric bootstrap)."""
-        n = self.per_sample.size
-        if n < 2:
-            return self.mean
-        sd = float(np.std(self.per_sample, ddof=1)) / math.sqrt(n)
-        sys_sd = SYSTEMATIC / 1.96 * self.mean
-        return max(self.mean + sd * float(rng.standard_t(n - 1)) + sys_sd * float(rng.standard_normal()),
-                   1e-3 * self.mean)
-
-
 def _faster_half(values) -> list:
     """The faster half of repeated timings (at least 2): load from other jobs only slows a render
     down, so the faster renders are the ones that measure the code."""
@@ -159,36 +242,46 @@ def _faster_half(values) -> list:
     return v[:max(2, (len(v) + 1) // 2)] if len(v) > 2 else v
 
 
-def _per_sample(entry: dict | None, recs: list, overhead: float) -> tuple[np.ndarray, bool]:
+@dataclass
+class CellTiming:
+    """Seconds one repetition of a cell costs: one value per timed batch (its seconds / its
+    repetitions), the faster half kept; `calibrated` when they come from timing-only batches."""
+    samples: np.ndarray
+    calibrated: bool = False
+    clock: str = "cpu"            # "cpu": CPU seconds of the render call (all threads); else wall
+
+    @property
+    def mean(self) -> float:
+        return float(np.mean(self.samples)) if self.samples.size else float("nan")
+
+    def t_halfwidth(self) -> float:
+        """95% half-width of the mean: t over the batches, and `SYSTEMATIC`."""
+        n = self.samples.size
+        if n < 2:
+            return SYSTEMATIC * self.mean if n else float("nan")
+        from drtlab.experiments.study.metrics import t_quantile
+        h = t_quantile(n) * float(np.std(self.samples, ddof=1)) / math.sqrt(n)
+        return math.hypot(h, SYSTEMATIC * self.mean)
+
+    def draw(self, rng) -> float:
+        """A draw of the mean cost from its t law and the systematic term (parametric bootstrap)."""
+        n, m = self.samples.size, self.mean
+        sd = float(np.std(self.samples, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
+        t = float(rng.standard_t(n - 1)) if n > 1 else 0.0
+        return max(m + sd * t + SYSTEMATIC / Z_CI * m * float(rng.standard_normal()), 1e-3 * m)
+
+
+def batch_timings(recs: list, cpu: bool) -> list:
+    """Per-repetition seconds of each batch of a cell's records."""
+    per: dict = {}
+    for rec in recs:
+        per.setdefault(rec["batch"], rec["cpu_seconds"] if cpu else rec["render_seconds"])
+    return list(per.values())
+
+
+def cell_timing(recs: list, entry: dict | None, cpu: bool) -> CellTiming:
+    """The cost of a cell from its timing-only batches when it has them, else its own batches."""
     if entry and entry.get("seconds"):
-        work = entry["pixels"] * entry["spp"]
-        # The faster half, of wall and of CPU seconds alike: a job sharing the two cores inflates the
-        # CPU time of a render too (five reruns beside a test suite: speed-ups +-30-50% with every
-        # render counted).
-        ts = _faster_half(entry["seconds"])
-        return np.array([max(t - overhead, 1e-3 * t) / work for t in ts]), True
-    top = max(rec["spp"] for rec in recs)            # no calibration: the sweep's top cell
-    return np.array([max(rec["render_seconds"] - overhead, 1e-3 * rec["render_seconds"])
-                     / (rec["width"] * rec["height"] * rec["spp"]) for rec in recs if rec["spp"] == top]), False
-
-
-def fit_cost_models(recs_by_sampler: dict, calibration: dict, group_name: str) -> dict:
-    """sampler -> CostModel of one (scene, integrator, resolution) group, from its runs' records
-    (sampler -> list of records) and the calibration entries."""
-    entries = {s: calibration.get(calibration_key(group_name, s)) for s in recs_by_sampler}
-    overhead = 0.0
-    for _ in range(3):                               # per-sample and overhead, alternately
-        ps = {s: _per_sample(entries[s], recs, overhead) for s, recs in recs_by_sampler.items()}
-        # CPU-clock calibrations (see runner) pool only their own low-spp renders: the runs are wall.
-        resid = [rec["render_seconds"] - float(np.mean(ps[s][0])) * rec["width"] * rec["height"] * rec["spp"]
-                 for s, recs in recs_by_sampler.items() for rec in recs
-                 if not (entries[s] and entries[s].get("clock") == "cpu")]
-        for s, e in entries.items():
-            if e and e.get("low_seconds"):
-                resid += [t - float(np.mean(ps[s][0])) * e["pixels"] * e["low_spp"] for t in e["low_seconds"]]
-        resid_a = np.array(resid)
-        overhead = max(float(np.percentile(resid_a, 25)), 0.0) if resid_a.size else 0.0
-        cpu = any(e and e.get("clock") == "cpu" for e in entries.values())
-    pixels = {s: recs[0]["width"] * recs[0]["height"] for s, recs in recs_by_sampler.items()}
-    return {s: CostModel(ps[s][0], pixels[s], overhead, resid_a, ps[s][1], "cpu" if cpu else "wall")
-            for s in recs_by_sampler}
+        return CellTiming(np.array(_faster_half(entry["seconds"])), True, entry.get("clock", "cpu"))
+    return CellTiming(np.array(_faster_half(batch_timings(recs, cpu))), False,
+                      "cpu" if cpu else "wall")

@@ -1,12 +1,13 @@
-"""The sweep: ground truth, then every (scene, sampler, spp, repetition) run, resumable at run level;
+"""The sweep: ground truth, then every cell (scene, sampler, spp) of the plan in batches of
+repetitions, resumable at batch level; precision-targeted cells grow until their target or budget;
 then the analysis, summary.json, the report and the manifest.
 
-Each finished run is two files under `<out>/runs/`, both written atomically (temp file + os.replace;
-see `run_store`): `<run id>.npz` (the image, float32) and then `<run id>.json` (its record: seeds,
-metrics, timings). The JSON is the commit point: a run is done exactly when its JSON exists and its fingerprint (code
-version, ground-truth key, scene hash) matches. `runs.csv` is regenerated from the records after every
-run, also atomically, in the plan's order, so a `kill -9` anywhere loses at most the run in flight,
-and can never leave a torn file or a duplicate row.
+A batch is one `render_batch` call: consecutive repetitions of one cell, rendered together so that
+short renders stop paying per-call overhead and every call is long enough to time (`BATCH_SAMPLES`).
+Batch boundaries follow from the cell's work alone (never from timings), so the tables are the same
+whatever the machine, the thread count or a Dask cluster. Each batch is committed by `run_store`
+(the table of runs, then the cell file: see its docstring), so a `kill -9` anywhere loses at most
+the batch in flight and can never leave a torn file or a duplicate row.
 """
 from __future__ import annotations
 
@@ -25,20 +26,19 @@ from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.config import Experiment, SceneRef
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
-from drtlab.experiments.study.metrics import _lab, image_metrics
-from drtlab.experiments.study.results import ExperimentResult
-from drtlab.experiments.study.run_store import (calibration_key, load_calibration, load_records,
-                                          load_run_image, save_calibration, save_record, save_run,
-                                          write_runs_csv)
+from drtlab.experiments.study.metrics import batch_metrics
+from drtlab.experiments.study.results import METRICS, ExperimentResult
+from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
+from drtlab.experiments.stats.intervals import repetitions_for_precision
+from drtlab.kernels.colour import to_lab
 
-OUTPUT_NAMES = ("runs", "runs.csv", "summary.json", "report.md", "plots", "images", "manifest.json",
-                "calibration.json")
-CSV_EVERY = 15.0            # seconds between rewrites of runs.csv during a sweep (and at each scene end)
-CAL_SECONDS = 0.15          # target length of one calibration render
-CAL_REPEATS = 8             # calibration renders per (scene, sampler) at that length
-CAL_LOW_REPEATS = 6         # and at the ladder's smallest spp (overhead)
-CAL_BUDGET = 3.0            # most seconds of calibration renders per (scene, sampler)
+OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "report.md", "plots",
+                "images", "manifest.json", store.CALIBRATION_FILE)
+# Samples (pixels x spp x repetitions) a batch aims at: on this 2-core machine 0.2-1 s of CPU, long
+# enough for the process clock to time it to a few percent, short enough for a kill to lose little.
+BATCH_SAMPLES = 1 << 20
+MAX_BATCH_PIXELS = 1 << 24       # pixels x repetitions of one batch: bounds its buffers (~1 GiB)
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,12 @@ class RunSpec:
         w, h = self.resolution
         return (f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}"
                 f"__spp{self.spp:05d}__rep{self.rep:02d}__{self.seed:08x}")
+
+    @property
+    def cell(self) -> str:
+        """The cell it is a repetition of (what `run_store` names its cell file by)."""
+        w, h = self.resolution
+        return f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}__spp{self.spp:05d}"
 
     @property
     def group(self) -> tuple:
@@ -131,7 +137,7 @@ def _lock(out_dir: Path):
 
 def _remove_orphaned_temps(out_dir: Path) -> None:
     """Temp files of writes a kill interrupted (never read: the os.replace never happened)."""
-    for d in (out_dir, out_dir / "runs"):
+    for d in (out_dir, out_dir / store.CELLS_DIR):
         for p in d.glob(".*"):
             if p.is_file() and p.suffix in (".tmp", ".exr", ".npz", ".json", ".csv"):
                 p.unlink(missing_ok=True)
@@ -157,9 +163,15 @@ class _Progress:
             self.bar = tqdm(total=total, unit="sample", unit_scale=True, file=sys.stderr,
                             desc="sweep", dynamic_ncols=True, smoothing=0.05)
 
-    def update(self, n: int, what: str | None = None, run_done: bool = False) -> None:
-        if run_done:
-            self.runs_done += 1
+    def add_work(self, samples: int, runs: int) -> None:
+        """Repetitions a precision target added to the sweep."""
+        self.runs_total += runs
+        if self.bar is not None:
+            self.bar.total += samples
+            self.bar.refresh()
+
+    def update(self, n: int, what: str | None = None, runs_done: int = 0) -> None:
+        self.runs_done += runs_done
         if self.bar is not None:
             if what:
                 self.bar.set_postfix_str(f"{what} | runs {self.runs_done}/{self.runs_total}", refresh=not n)
@@ -174,11 +186,13 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                    backend=None, threads: int | None = None, fresh: bool = False,
                    progress: bool = True, clock: Callable[[], float] = time.perf_counter,
                    log: Callable[[str], None] | None = None, analyze: bool = True,
-                   argv: list[str] | None = None, executor=None) -> ExperimentResult:
+                   argv: list[str] | None = None, executor=None,
+                   keep_images: bool | None = None) -> ExperimentResult:
     """Run (or resume) the sweep, then analyse it and write every output. Returns the run counts,
     the wall time and (with `analyze`) the typed summary; `result["studies"]` reads summary.json's
-    content. With an `executor` (`distributed.DaskExecutor`) the renders run on its cluster and this
-    process writes their results; the calibration and the analysis stay here."""
+    content. With an `executor` (`cluster.DaskExecutor`) the batches render on its cluster and this
+    process writes their results; the timing-only batches and the analysis stay here.
+    `keep_images` (default: each study's setting) keeps every repetition's image in its cell file."""
     if backend is None:
         from drtlab.experiments.study.backend import default_backend
         backend = default_backend()
@@ -194,10 +208,10 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     try:
         if fresh:
             _clean_outputs(out_dir)
-        (out_dir / "runs").mkdir(exist_ok=True)
         _remove_orphaned_temps(out_dir)
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
-                       records=load_records(out_dir / "runs"), executor=executor)
+                       records=store.load_records(out_dir), executor=executor,
+                       studies={s.name: s for s in exp.studies}, keep_images=keep_images)
         sweep.run(gt_req, progress)
         if analyze:
             sweep.calibrate()
@@ -214,30 +228,54 @@ def _reference_info(gt) -> dict:
             "compile_seconds": gt.manifest.get("compile_seconds"), "seeds": gt.manifest.get("seeds")}
 
 
-def _run_record(r: RunSpec, fingerprint: str, img: np.ndarray, result, wall: float, gt,
+def batch_ranges(reps: int, pixels: int, spp: int, start: int = 0) -> list[tuple[int, int]]:
+    """[a, b) repetition ranges of a cell's batches from `start` to `reps`: about BATCH_SAMPLES each,
+    at least two when there are two repetitions or more (a cell's cost then has an interval), and
+    within MAX_BATCH_PIXELS. A function of the work alone, so every machine cuts the same batches."""
+    per = max(1, min(-(-BATCH_SAMPLES // (pixels * spp)), MAX_BATCH_PIXELS // pixels))
+    per = min(per, max(1, -(-(reps - start) // 2)))
+    return [(a, min(a + per, reps)) for a in range(start, reps, per)]
+
+
+@dataclass
+class _Batch:
+    """Repetitions [a, b) of one cell, to render together."""
+    cell: str
+    runs: list                    # RunSpec, in repetition order
+    fingerprints: list
+
+    @property
+    def batch_id(self) -> str:
+        return f"r{self.runs[0].rep:05d}-{self.runs[-1].rep + 1:05d}"
+
+
+def _run_record(r: RunSpec, fingerprint: str, batch: _Batch, result, wall: float, gt,
                 metrics: dict, code_version: str, worker: str = "local") -> dict:
+    n = len(batch.runs)
+    render_s = float(result.render_seconds) / n
     return {
-        "run_id": r.run_id, "fingerprint": fingerprint,
+        "run_id": r.run_id, "fingerprint": fingerprint, "cell": r.cell,
         "scene": r.scene.label, "scene_key": r.scene.key, "sampler": r.sampler,
         "integrator": r.integrator, "width": r.resolution[0], "height": r.resolution[1],
-        "spp": r.spp, "rep": r.rep, "seed": r.seed,
+        "spp": r.spp, "rep": r.rep, "seed": r.seed, "studies": ";".join(r.studies),
         **metrics,
-        "render_seconds": float(result.render_seconds),
+        # A batch's timings, shared out over its repetitions (each row carries its share).
+        "render_seconds": render_s,
+        "cpu_seconds": float(getattr(result, "cpu_seconds", result.render_seconds)) / n,
         "compile_seconds": float(getattr(result, "compile_seconds", 0.0)),
-        "wall_seconds": float(wall),
-        "samples_per_second": float(getattr(result, "samples_per_second", 0.0)
-                                    or (r.spp * img.shape[0] * img.shape[1]
-                                        / max(float(result.render_seconds), 1e-12))),
+        "wall_seconds": float(wall) / n,
+        "samples_per_second": r.spp * r.resolution[0] * r.resolution[1] / max(render_s, 1e-12),
         "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
         "code_version": code_version,
         "worker": worker,                     # where it rendered: a Dask worker's address, or local
+        "batch": batch.batch_id, "batch_reps": n,
     }
 
 
 @dataclass
 class _Sweep:
-    """The runs of a plan, group by group (one ground truth in memory at a time): each run reused,
-    refreshed (same render, better reference: new metrics, same timings) or rendered."""
+    """The cells of a plan, group by group (one ground truth in memory at a time): each batch of
+    repetitions reused or rendered; precision-targeted cells grown batch by batch."""
     plan: list[RunSpec]
     out_dir: Path
     gt_root: Path
@@ -245,11 +283,14 @@ class _Sweep:
     threads: int | None
     clock: Callable[[], float]
     log: Callable[[str], None]
-    records: dict                             # run id -> record, of the runs on disk
+    records: dict                             # run id -> record, of the committed runs
     gts: dict = field(default_factory=dict)   # group -> _reference_info
     stats: dict = field(default_factory=dict)
     bar: _Progress | None = None
-    executor: object = None                   # distributed.DaskExecutor, or None: render here
+    executor: object = None                   # cluster.DaskExecutor, or None: render here
+    studies: dict = field(default_factory=dict)   # study name -> Study (settings, seed)
+    keep_images: bool | None = None
+    targets: dict = field(default_factory=dict)   # cell -> precision-target outcome
 
     def run(self, gt_req: dict, progress: bool) -> None:
         # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
@@ -258,8 +299,9 @@ class _Sweep:
         candidates = [r for r in self.plan if r.run_id not in self.records]
         total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
         self.bar = _Progress(total, len(candidates), progress)
-        self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0, "runs_refreshed": 0}
-        self._csv_written = time.monotonic()
+        self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0,
+                      "runs_added_for_precision": 0, "batches": 0}
+        self._seconds = {"render_total": 0.0, "ground_truth_total": 0.0}
         self._precompile()
         try:
             groups: dict = {}
@@ -267,17 +309,12 @@ class _Sweep:
                 groups.setdefault(r.group, []).append(r)
             for g, runs in groups.items():
                 self._group(g, runs, *gt_req[g])
-        except BaseException:
-            # An interrupted sweep's table catches up; a finished one is written by each scene's end
-            # and, from the plan's records, by the analysis.
-            if self.stats["runs_new"] or self.stats["runs_refreshed"]:
-                self._write_csv()
-            raise
         finally:
             self.bar.close()
+            self.stats.update({k: round(v, 3) for k, v in self._seconds.items()})
 
     def _precompile(self) -> None:
-        """Every kernel variant the sweep, its ground truths and its calibration render, compiled
+        """Every kernel variant the sweep, its ground truths and its timing batches need, compiled
         side by side first (a cold kernel cache: ~4 s per variant, one core each); a warm cache
         loads them in milliseconds. Renders on a cluster compile there instead."""
         if self.executor is not None or getattr(self.backend, "precompile", None) is None:
@@ -297,157 +334,208 @@ class _Sweep:
             self.log(f"compiled {facts['compiled']} kernel variants in {facts['wall_seconds']:.1f} s "
                      f"on {facts['threads']} threads ({facts['compile_seconds']:.1f} s of compiles)")
 
-    def _write_csv(self, every: float = 0.0) -> None:
-        """runs.csv from the records, if `every` seconds have passed since the last write. Per run
-        it would be quadratic in the runs (60% of a 10,000-run sweep); the records are the commit
-        points, and the table catches up at the end of each scene and of an interrupted sweep."""
-        now = time.monotonic()
-        if now - self._csv_written >= every:
-            write_runs_csv(self.out_dir / "runs.csv", self.plan, self.records)
-            self._csv_written = now
+    def _settings(self, r: RunSpec):
+        """The settings a cell follows: those of the first study that plans it."""
+        return self.studies[r.studies[0]].settings if self.studies else None
+
+    def _keeps_images(self, r: RunSpec) -> bool:
+        if self.keep_images is not None:
+            return self.keep_images
+        return any(self.studies[s].settings.keep_images for s in r.studies) if self.studies else False
 
     def _group(self, g, runs: list[RunSpec], gt_spp: int, gt_batch: int) -> None:
         scene_ref, integrator, res = g
         gt_backend = self.backend if self.executor is None else \
             self.executor.ground_truth_backend(self.backend, scene_ref, gt_spp)
+        t0 = time.perf_counter()
         gt = gtmod.ensure_ground_truth(
             scene_ref, integrator, res, gt_spp, gt_batch, gt_backend, self.gt_root,
             threads=self.threads, progress=False, log=self.log,
             on_batch=lambda n, lab=scene_ref.label: self.bar.update(n, f"ground truth {lab}"))
+        self._seconds["ground_truth_total"] += time.perf_counter() - t0
         self.gts[g] = _reference_info(gt)
-        gt_lab = None
-        todo = []
+        cells: dict = {}
         for r in runs:
-            fp = _fingerprint(r, gt, self.backend.code_version)
-            rec = self.records.get(r.run_id)
-            if rec is not None and rec.get("fingerprint") == fp:
-                if rec.get("gt_spp") == gt.spp:
-                    self.stats["runs_reused"] += 1
-                    continue
-                # Same render, better reference: recompute the metrics, keep the timings.
-                if gt_lab is None:
-                    gt_lab = _lab(gt.mean)
-                img = load_run_image(self.out_dir, r.run_id)
-                rec.update(image_metrics(img, gt.mean, gt.stderr, gt_lab), gt_spp=gt.spp)
-                save_record(self.out_dir / "runs", r.run_id, rec)
-                self.stats["runs_refreshed"] += 1
-                continue
-            todo.append((r, fp))
-        if not todo:
+            cells.setdefault(r.cell, []).append(r)
+        batches = [b for cell, cruns in cells.items() for b in self._cell_batches(cell, cruns, gt)]
+        ctx = _GroupContext(self.backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
+                            if batches or self._targeted(cells) else None, gt, None)
+        self._render_batches(batches, ctx)
+        # Precision targets: grow each targeted cell (doubling its repetitions, within its budget)
+        # until its mean MSE's interval is narrow enough; decisions read only the committed values.
+        while True:
+            grow = [b for cell, cruns in cells.items() for b in self._grow(cell, cruns, gt)]
+            if not grow:
+                break
+            self._render_batches(grow, ctx)
+
+    def _targeted(self, cells: dict) -> bool:
+        return any(getattr(self._settings(cruns[0]), "target_rel_ci", None) for cruns in cells.values())
+
+    def _cell_batches(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch]:
+        """The batches of a cell still to render; a cell with stored runs of other code or another
+        reference starts over (its cell file merged those runs' images)."""
+        key, code = gt.manifest.get("key"), self.backend.code_version
+        if any(rec.get("cell") == cell and (rec.get("gt_key") != key or rec.get("code_version") != code)
+               for rec in self.records.values()):
+            for rid in [rid for rid, rec in self.records.items() if rec.get("cell") == cell]:
+                del self.records[rid]
+            store.cell_path(self.out_dir, cell).unlink(missing_ok=True)
+        pixels = cruns[0].resolution[0] * cruns[0].resolution[1]
+        return self._batches(cell, cruns, gt, batch_ranges(len(cruns), pixels, cruns[0].spp))
+
+    def _batches(self, cell: str, cruns: list[RunSpec], gt, ranges) -> list[_Batch]:
+        """The not yet committed runs of each range, as batches (a range whose runs are all stored
+        is reused: its images are in the cell file already)."""
+        out = []
+        for a, b in ranges:
+            fps = [_fingerprint(r, gt, self.backend.code_version) for r in cruns[a:b]]
+            todo = [(r, fp) for r, fp in zip(cruns[a:b], fps)
+                    if self.records.get(r.run_id, {}).get("fingerprint") != fp]
+            self.stats["runs_reused"] += (b - a) - len(todo)
+            if todo:
+                out.append(_Batch(cell, [r for r, _ in todo], [fp for _, fp in todo]))
+        return out
+
+    def _grow(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch]:
+        """The next batches of a precision-targeted cell, or [] when its target is met or its budget
+        spent (recorded in `targets`)."""
+        settings = self._settings(cruns[0])
+        target = getattr(settings, "target_rel_ci", None)
+        if not target:
+            return []
+        have = [r for r in self.plan if r.cell == cell]
+        study = self.studies[cruns[0].studies[0]]
+        key = METRICS[study.metric].mse
+        values = [self.records[r.run_id][key] for r in have if r.run_id in self.records]
+        prec = repetitions_for_precision(values, target)
+        budget = settings.max_runs_at(cruns[0].spp)
+        met = bool(prec["enough"])
+        self.targets[cell] = {"target_rel_ci": target, "mse_rel_ci": prec["current_rel_halfwidth"],
+                              "target_met": met, "runs": len(have), "max_runs": budget,
+                              "runs_needed": prec["repetitions"]}
+        if met or len(have) >= budget:
+            return []
+        r0 = cruns[0]
+        new_n = min(2 * len(have), budget)
+        extra = [RunSpec(r0.scene, r0.sampler, r0.integrator, r0.resolution, r0.spp, rep,
+                         run_seed(study.seed, r0.scene.key, r0.sampler, r0.integrator, r0.resolution,
+                                  r0.spp, rep), r0.studies)
+                 for rep in range(len(have), new_n)]
+        self.plan.extend(extra)
+        self.stats["runs_added_for_precision"] += len(extra)
+        pixels = r0.resolution[0] * r0.resolution[1]
+        self.bar.add_work(sum(r.spp * pixels for r in extra), len(extra))
+        return self._batches(cell, have + extra, gt, batch_ranges(new_n, pixels, r0.spp, start=len(have)))
+
+    def _render_batches(self, batches: list[_Batch], ctx: "_GroupContext") -> None:
+        if not batches:
             return
-        scene = self.backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
-        gt_lab = _lab(gt.mean) if gt_lab is None else gt_lab
+        if ctx.gt_lab is None:
+            ctx.gt_lab = to_lab(ctx.gt.mean)
         if self.executor is None:
-            for r, fp in todo:
-                self._render(r, scene, gt, gt_lab, fp)
-            self._write_csv()
+            for b in batches:
+                r0 = b.runs[0]
+                t0 = self.clock()
+                result = self.backend.batch(ctx.scene, spp=r0.spp, sampler=r0.sampler,
+                                            integrator=r0.integrator, seeds=[r.seed for r in b.runs],
+                                            res=r0.resolution, threads=self.threads)
+                self._commit(b, result, self.clock() - t0, ctx, "local")
             return
-        fps = {r.run_id: fp for r, fp in todo}
         workers = self.stats.setdefault("workers", {})
-        for r, result, wall, worker in self.executor.render_runs(self.backend, scene,
-                                                                 [r for r, _ in todo], self.threads):
-            self._commit(r, result, wall, gt, gt_lab, fps[r.run_id], worker)
-            workers[worker] = workers.get(worker, 0) + 1
-        self._write_csv()
+        for b, result, wall, worker in self.executor.render_batches(self.backend, ctx.scene, batches,
+                                                                    self.threads):
+            self._commit(b, result, wall, ctx, worker)
+            workers[worker] = workers.get(worker, 0) + len(b.runs)
 
-    def _render(self, r: RunSpec, scene, gt, gt_lab, fingerprint: str) -> None:
-        t0 = self.clock()
-        result = self.backend.render(scene, spp=r.spp, sampler=r.sampler, integrator=r.integrator,
-                                     seed=r.seed, res=r.resolution, threads=self.threads)
-        self._commit(r, result, self.clock() - t0, gt, gt_lab, fingerprint, "local")
-
-    def _commit(self, r: RunSpec, result, wall: float, gt, gt_lab, fingerprint: str,
-                worker: str) -> None:
-        """A rendered run: its metrics and its files (the record last: the commit point)."""
-        img = np.asarray(result.image, dtype=np.float64)
-        metrics = image_metrics(img, gt.mean, gt.stderr, gt_lab)
-        rec = _run_record(r, fingerprint, img, result, wall, gt, metrics, self.backend.code_version,
-                          worker)
-        save_run(self.out_dir / "runs", r.run_id, img, rec)          # the record is the commit point
-        self.records[r.run_id] = rec
-        self._write_csv(every=CSV_EVERY)
-        self.stats["runs_new"] += 1
-        self.bar.update(r.spp * r.resolution[0] * r.resolution[1],
-                        f"{r.scene.label} {r.sampler} {r.spp}spp", run_done=True)
+    def _commit(self, b: _Batch, result, wall: float, ctx: "_GroupContext", worker: str) -> None:
+        """A rendered batch: its metrics, its rows and its cell file (run_store's commit protocol)."""
+        images = np.asarray(result.images, dtype=np.float64)
+        metrics = batch_metrics(images, ctx.gt.mean, ctx.gt.stderr, ctx.gt_lab)
+        for r, fp, m in zip(b.runs, b.fingerprints, metrics):
+            self.records[r.run_id] = _run_record(r, fp, b, result, wall, ctx.gt, m,
+                                                 self.backend.code_version, worker)
+        cf = store.load_cell(self.out_dir, b.cell).with_batch(
+            b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]))
+        store.commit_batch(self.out_dir, self.records, [r.run_id for r in self.plan], b.cell, cf)
+        self._seconds["render_total"] += float(result.render_seconds)
+        self.stats["runs_new"] += len(b.runs)
+        self.stats["batches"] += 1
+        r0 = b.runs[0]
+        self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
+                        f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
 
     def calibrate(self) -> None:
-        """Cost calibration of every (scene, sampler) of the plan, after the sweep (the kernel variants
-        are compiled), stored in calibration.json keyed by backend, code version and threads: a rerun
-        reuses it (`--fresh` recalibrates). Per group, the samplers take turns (round robin) so that
-        load from other jobs hits them alike: `CAL_REPEATS` renders each of about `CAL_SECONDS` (spp
-        from a probe render, itself sized from the sweep's own per-sample time) and `CAL_LOW_REPEATS`
-        at the ladder's smallest spp (the overhead)."""
-        from drtlab.experiments.study.analysis import group_name
-        cal = load_calibration(self.out_dir)
+        """Timing-only batches for the cells whose own batches took under store.MIN_TIMED_SECONDS in all
+        (too short for the clock to time honestly), after the sweep; stored in calibration.json
+        keyed by cell, backend, code version and threads, so a rerun reuses them. Per group, the
+        cells take turns (round robin) so that load from other jobs hits them alike."""
+        cal = store.load_calibration(self.out_dir)
         fp = short_hash({"code": self.backend.code_version, "backend": self.backend.name,
-                         "threads": self.threads, "repeats": CAL_REPEATS, "clock": 4}, 16)
+                         "threads": self.threads, "batches": store.CAL_BATCHES, "clock": 5}, 16)
+        cpu = self.backend.name == "warp-cpu"
         t0 = time.perf_counter()
-        todo: dict = {}
+        by_group: dict = {}
         for r in self.plan:
-            if r.run_id in self.records:
-                todo.setdefault(r.group, {}).setdefault(r.sampler, []).append(self.records[r.run_id])
-        for g, by_sampler in todo.items():
-            keys = {s: calibration_key(group_name(g), s) for s in by_sampler}
-            if all(cal.get(k, {}).get("fingerprint") == fp for k in keys.values()):
+            rec = self.records.get(r.run_id)
+            if rec is not None:
+                by_group.setdefault(r.group, {}).setdefault(r.cell, (r, []))[1].append(rec)
+        for g, cells in by_group.items():
+            # Each record carries its share of its batch's time: their sum is the cell's.
+            small = {c: (r, recs) for c, (r, recs) in cells.items()
+                     if sum(rec["cpu_seconds" if cpu else "render_seconds"] for rec in recs)
+                     < store.MIN_TIMED_SECONDS and cal.get(c, {}).get("fingerprint") != fp}
+            if not small:
                 continue
             scene = self.backend.load_scene(g[0].name, g[0].overrides_dict or None)
-            for s, entry in self._calibrate_group(scene, g, by_sampler).items():
-                cal[keys[s]] = {"fingerprint": fp, **entry}
-            save_calibration(self.out_dir, cal)
-        self.stats["calibration_seconds"] = time.perf_counter() - t0
+            for c, entry in self._time_cells(scene, small, cpu).items():
+                cal[c] = {"fingerprint": fp, **entry}
+            store.save_calibration(self.out_dir, cal)
+        self._seconds["calibration_total"] = time.perf_counter() - t0
+        self.stats["calibration_seconds"] = round(self._seconds["calibration_total"], 3)
 
-    def _calibrate_group(self, scene, g, by_sampler: dict) -> dict:
-        res = g[2]
-        pixels = res[0] * res[1]
-
-        # CPU backend: cost in CPU seconds of the render call (process_time, all threads: far less
-        # moved by other jobs' load, which doubles wall times on a busy 2-core VM, though not blind to
-        # it: run_store keeps the faster half); render_seconds otherwise.
-        cpu = self.backend.name == "warp-cpu"
-
-        def render(sampler, spp, i):
-            c0 = time.process_time()
-            result = self.backend.render(
-                scene, spp=spp, sampler=sampler, integrator=g[1], res=res, threads=self.threads,
-                seed=run_seed(0xCA11B, g[0].key, sampler, g[1], res, spp, 10_000 + i))
-            c1 = time.process_time()
-            return c1 - c0 if cpu else float(result.render_seconds)
-
+    def _time_cells(self, scene, small: dict, cpu: bool) -> dict:
         entries = {}
-        for s, recs in by_sampler.items():       # spp of about CAL_SECONDS per render
-            top = max(rec["spp"] for rec in recs)
-            per = float(np.median([rec["render_seconds"] for rec in recs if rec["spp"] == top])) / (pixels * top)
-            spp = max(1, int(math.ceil(CAL_SECONDS / max(per * pixels, 1e-12))))
-            for _ in range(3):                   # the sweep's estimate includes overhead: correct it
-                t = render(s, spp, 0)
-                if t >= 0.6 * CAL_SECONDS:
-                    break
-                spp = int(math.ceil(spp * min(CAL_SECONDS / max(t, 1e-6), 64.0)))
-            repeats = max(3, min(CAL_REPEATS, int(CAL_BUDGET / max(t, 1e-9)) - 1))
-            entries[s] = {"spp": spp, "pixels": pixels, "seconds": [], "repeats": repeats,
-                          "clock": "cpu" if cpu else "render_seconds",
-                          "low_spp": min(rec["spp"] for rec in recs), "low_seconds": []}
-        for i in range(max(e["repeats"] for e in entries.values())):     # round robin
-            for s, e in entries.items():
-                if i < e["repeats"]:
-                    e["seconds"].append(render(s, e["spp"], i + 1))
-                if i < CAL_LOW_REPEATS:
-                    e["low_seconds"].append(render(s, e["low_spp"], 100 + i))
+        for c, (r, recs) in small.items():
+            per_rep = max(float(np.mean(store.batch_timings(recs, cpu))), 1e-6)
+            reps = max(1, int(math.ceil(store.MIN_TIMED_SECONDS / store.CAL_BATCHES / per_rep)))
+            entries[c] = {"reps": reps, "seconds": [], "clock": "cpu" if cpu else "wall",
+                          "spp": r.spp}
+        for i in range(store.CAL_BATCHES):                                   # round robin
+            for c, (r, _) in small.items():
+                e = entries[c]
+                seeds = [run_seed(0xCA11B, r.scene.key, r.sampler, r.integrator, r.resolution,
+                                  r.spp, 10_000 + i * e["reps"] + k) for k in range(e["reps"])]
+                res = self.backend.batch(scene, spp=r.spp, sampler=r.sampler, integrator=r.integrator,
+                                         seeds=seeds, res=r.resolution, threads=self.threads)
+                t = float(getattr(res, "cpu_seconds", res.render_seconds)) if cpu else float(res.render_seconds)
+                e["seconds"].append(t / e["reps"])
         return entries
+
+
+@dataclass
+class _GroupContext:
+    """What every batch of one (scene, integrator, resolution) group shares."""
+    scene: object
+    gt: object
+    gt_lab: object
 
 
 def _analyse_and_report(exp, sweep: _Sweep, analyze: bool, argv, t_start: float) -> ExperimentResult:
     out_dir, plan = sweep.out_dir, sweep.plan
-    # Only the plan's runs count; stale records (other code version, other plan) stay on disk unused.
+    # Only the plan's runs count; stale records (other code version, other plan) are left out.
     plan_ids = {r.run_id for r in plan}
     records = {k: v for k, v in sweep.records.items() if k in plan_ids}
-    sweep.stats["rows"] = write_runs_csv(out_dir / "runs.csv", plan, records)
+    sweep.stats["rows"] = store.write_runs_csv(out_dir / "runs.csv", plan, records)
     summary = None
     if analyze:
+        t0 = time.perf_counter()
         summary = analysis.analyze(exp, plan, records, out_dir, sweep.gts, log=sweep.log,
-                                   calibration=load_calibration(out_dir))
+                                   calibration=store.load_calibration(out_dir),
+                                   targets=sweep.targets, cpu=sweep.backend.name == "warp-cpu")
         atomic_write_json(out_dir / "summary.json", summary.to_json())
         report.write_report(exp, summary, plan, records, out_dir, sweep.gts)
+        sweep.stats["analysis_seconds"] = round(time.perf_counter() - t0, 3)
     wall = time.time() - t_start
     if analyze:
         manifest.write_manifest(out_dir, exp, sweep.backend, plan, records, sweep.gts, sweep.stats,

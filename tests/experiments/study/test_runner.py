@@ -1,5 +1,6 @@
 """The experiment runner end to end: on the fake renderer (known error laws, deterministic), resume
-after an interruption or a `kill -9`, and once on the real renderer with a tiny scene."""
+after an interruption or a `kill -9` (batches are the commit unit: the table stays whole), and once
+on the real renderer with a tiny scene."""
 import csv
 import json
 import os
@@ -16,7 +17,7 @@ import pytest
 from drtlab.experiments.study.config import load_experiment
 from repo_paths import SUPPORT
 from fakes import fake_backend, tiny_real_experiment
-from drtlab.experiments.study.run_store import CSV_COLUMNS
+from drtlab.experiments.study.run_store import CSV_COLUMNS, TIMING_COLUMNS, first_image, load_records
 from drtlab.experiments.study.runner import plan_runs, run_experiment
 
 TINY = """
@@ -138,12 +139,19 @@ def test_end_to_end_on_fake_renderer(tmp_path):
     m = json.loads((out / "manifest.json").read_text())
     assert {"git", "packages", "machine", "seeds", "wall_seconds"} <= set(m)
     assert m["packages"]["emcee"] and m["seeds"]["roots"] == {"strat": 11, "rel": 11}
-    # Each run's seed reproduces its image alone.
-    r0 = rows[5]
+    # The table is one Parquet file whose rows are runs.csv's; each cell keeps its first
+    # repetition's image, which that run's seed reproduces alone.
+    import pandas as pd
+    table = pd.read_parquet(out / "runs.parquet")
+    assert list(table["run_id"]) == [r["run_id"] for r in rows]
+    assert np.allclose(table["mse"], [float(r["mse"]) for r in rows], rtol=0, atol=0)
+    r0 = next(r for r in rows[4:] if r["rep"] == "0")
     img = fake.render(fake.load_scene(r0["scene"]), spp=int(r0["spp"]), sampler=r0["sampler"],
                       integrator="drt", seed=int(r0["seed"]), res=(16, 12)).image
-    with np.load(out / "runs" / f"{r0['run_id']}.npz") as z:
-        assert np.array_equal(z["image"], img.astype(np.float32))
+    cell = table.set_index("run_id").loc[r0["run_id"], "cell"]
+    assert np.array_equal(first_image(out, cell), img.astype(np.float32).astype(np.float64))
+    # Files: the table, one array file per cell, and the few outputs; no file per run.
+    assert len(list((out / "cells").iterdir())) == 2 * 2 * 4 and not (out / "runs").exists()
 
     # A rerun renders nothing and rewrites the same runs.csv.
     before = (out / "runs.csv").read_bytes()
@@ -159,13 +167,16 @@ def test_resume_after_interruption_gives_the_same_runs_csv(tmp_path):
     reference = (ref_out / "runs.csv").read_bytes()
 
     out = tmp_path / "out"
-    for stop in (5, 17, 12):                       # interrupted three times, at different points
+    committed = 0
+    for stop in (5, 17, 12):                       # interrupted three times, mid-batch
         with pytest.raises(KeyboardInterrupt):
             run(exp, out, gt, fake_kw={"fail_after": stop})
-    rows = list(csv.DictReader(open(out / "runs.csv")))
-    assert len(rows) == 5 + 17 + 12 and len({r["run_id"] for r in rows}) == len(rows)
+        done = load_records(out)
+        # An interrupted batch commits nothing: whole batches of the renders done before the stop.
+        assert committed < len(done) <= committed + stop
+        committed = len(done)
     _, fake = run(exp, out, gt)
-    assert fake.calls == 48 - 34
+    assert fake.calls == 48 - committed
     assert (out / "runs.csv").read_bytes() == reference
 
 
@@ -180,7 +191,7 @@ KILL_SCRIPT = textwrap.dedent("""
     def render(*a, **k):
         time.sleep(float(sys.argv[4]))
         return slow(*a, **k)
-    backend.render = render
+    backend.render = render                        # Backend.batch renders a batch through it
     class Clock:
         t = 0.0
         def __call__(self):
@@ -206,28 +217,24 @@ def test_kill_9_mid_sweep_then_resume(tmp_path):
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.time() + 60
     while time.time() < deadline:
-        n = len(list((out / "runs").glob("*.json"))) if (out / "runs").is_dir() else 0
-        if n >= 12:
+        if len(load_records(out)) >= 12:
             break
         assert proc.poll() is None, proc.stderr.read()
         time.sleep(0.01)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    # Whatever is on disk parses: no torn JSON, no torn CSV, no duplicate rows.
-    for f in (out / "runs").glob("*.json"):
-        json.loads(f.read_text())
-    done = len(list((out / "runs").glob("*.json")))
-    assert 12 <= done < 48
-    # runs.csv (rewritten every CSV_EVERY seconds and at each scene's end) lags the run records
-    # but lists only committed runs, once each.
-    if (out / "runs.csv").exists():
-        rows = list(csv.DictReader(open(out / "runs.csv")))
-        ids = {f.stem for f in (out / "runs").glob("*.json")}
-        assert len({r["run_id"] for r in rows}) == len(rows) and {r["run_id"] for r in rows} <= ids
+    # Whatever is on disk reads back: a whole table, every committed run once, and the cell files of
+    # every committed batch (a batch whose cell file the kill stopped is not counted).
+    done = load_records(out)
+    assert 12 <= len(done) < 48
     _, fake = run(exp, out, gt)
-    assert fake.calls == 48 - done
+    assert fake.calls == 48 - len(done)
     assert (out / "runs.csv").read_bytes() == (ref / "runs.csv").read_bytes()
-    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]
+    import pandas as pd
+    a, b = pd.read_parquet(out / "runs.parquet"), pd.read_parquet(ref / "runs.parquet")
+    assert a.drop(columns=list(TIMING_COLUMNS)).equals(b.drop(columns=list(TIMING_COLUMNS)))
+    assert not [p for d in (out, out / "cells") for p in d.iterdir()
+                if p.name.startswith(".") and p.name != ".lock"]         # no temp file left
 
 
 def test_fresh_starts_over_and_keeps_ground_truth(tmp_path):
