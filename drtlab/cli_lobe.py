@@ -62,7 +62,7 @@ def add_lobe_command(sub) -> None:
                         "uniform (hemisphere, sphere for transmission)")
     p.add_argument("--samples", type=int_flag(L.MIN_SAMPLES, L.MAX_SAMPLES),
                    default=L.DEFAULT_SAMPLES, metavar="N", help="samples per incident angle")
-    p.add_argument("--seed", type=int_flag(0, L.MAX_SEED), default=0, metavar="S",
+    p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="root seed (angle i uses S + 7919 i)")
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="output folder (default: results/lobes/KIND[_nE][_iorI]_STRATEGY)")

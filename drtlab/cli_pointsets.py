@@ -83,7 +83,7 @@ def add_pointset_commands(sub) -> None:
     p.add_argument("--realisations", type=int_flag(1, A.MAX_REALISATIONS),
                    default=A.DEFAULT_REALISATIONS, metavar="R",
                    help="independent realisations (seeds) the numbers are averaged over")
-    p.add_argument("--seed", type=int_flag(0, A.MAX_SEED), default=0, metavar="S",
+    p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="first seed")
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="output folder (default: results/pointsets/NAME_nN_dI-J)")
@@ -99,7 +99,7 @@ def add_pointset_commands(sub) -> None:
                     "test passes, 1 when any fails. Tests: "
                     + "; ".join(f"{k}: {w}" for k, w in V.TESTS.items()) + ".")
     v.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
-    v.add_argument("--seed", type=int_flag(0, A.MAX_SEED), default=0, metavar="S",
+    v.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="the point set's seed")
     v.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
                    help="false-alarm probability of the whole battery")

@@ -15,6 +15,9 @@ import numpy as np
 from drtlab.errors import InputError
 
 REQUIRED = object()         # sentinel default: the key must be present
+# The kernels take a seed (and a pixel key) as a uint32 and a sample count as an int32.
+MAX_SEED = 2**32 - 1
+MAX_COUNT = 2**31 - 1
 
 def show(v: Any) -> str:
     """A value as the user wrote it (TOML spelling for booleans), shortened for messages."""

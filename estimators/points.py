@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.estimators import dimensions as D
 from drtlab.warp_runtime import warp as _warp
@@ -66,7 +67,7 @@ def _kernel(name: str):
 
 def _uint32(value, field: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or \
-            not 0 <= int(value) <= 0xFFFFFFFF:
+            not 0 <= int(value) <= fields.MAX_SEED:
         raise InputError(field, f"must be an integer in [0, 2^32 - 1], got {value!r}")
     return int(value)
 
@@ -79,7 +80,7 @@ def points(name: str, n: int, dims: int, seed: int = 0, pixel: int = 0) -> np.nd
         raise InputError("points", f"unknown point set {name!r}; allowed: {', '.join(POINTSETS)}")
     for value, field in ((n, "n"), (dims, "dims")):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or \
-                not 1 <= int(value) <= 2**31 - 1:
+                not 1 <= int(value) <= fields.MAX_COUNT:
             raise InputError(field, f"must be an integer >= 1, got {value!r}")
     seed, pixel = _uint32(seed, "seed"), _uint32(pixel, "pixel")
     n, dims = int(n), int(dims)

@@ -1,4 +1,6 @@
-"""Luminance of linear sRGB / Rec. 709 radiance (ITU-R BT.709 Y weights), for light power."""
+"""Colour of linear sRGB / Rec. 709 radiance: luminance (ITU-R BT.709 Y weights, for light power), the
+sRGB encoding of what a display shows (previews, image strips), and that displayed image in CIELAB
+(colour differences). colour-science is imported only by the last two: it is slow to load."""
 import numpy as np
 
 REC709_Y = (0.2126, 0.7152, 0.0722)
@@ -8,3 +10,24 @@ def luminance(rgb) -> np.ndarray | float:
     """Y of linear RGB values, shape (..., 3) -> (...)."""
     c = np.asarray(rgb, dtype=np.float64)
     return REC709_Y[0] * c[..., 0] + REC709_Y[1] * c[..., 1] + REC709_Y[2] * c[..., 2]
+
+
+def displayed(image: np.ndarray) -> np.ndarray:
+    """Linear radiance as a display shows it: float64 in [0, 1], NaN as 0 and +Inf as 1."""
+    linear = np.nan_to_num(np.asarray(image, dtype=np.float64), nan=0.0, posinf=1.0)
+    return np.clip(linear, 0.0, 1.0)
+
+
+def to_srgb(image: np.ndarray) -> np.ndarray:
+    """Linear radiance -> display sRGB in [0, 1] (`displayed`, then the IEC 61966-2-1 transfer)."""
+    import colour
+    return colour.cctf_encoding(displayed(image), function="sRGB")
+
+
+def to_lab(image: np.ndarray) -> np.ndarray:
+    """CIELAB (D65) of the displayed image, the space in which CIEDE2000 compares colours."""
+    import colour
+    d65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    xyz = colour.RGB_to_XYZ(displayed(image), colour.RGB_COLOURSPACES["sRGB"], illuminant=d65,
+                            apply_cctf_decoding=False)
+    return colour.XYZ_to_Lab(xyz, d65)

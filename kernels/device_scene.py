@@ -120,7 +120,9 @@ def _f3(v) -> tuple:
     return tuple(float(x) for x in np.asarray(v, dtype=np.float64).reshape(3))
 
 
-def _scene_extent(scene: Scene) -> float:
+def scene_extent(scene: Scene) -> float:
+    """Diagonal of the box around the camera and every shape: the scale of the BVH boxes' padding,
+    public because bench/primitives.py times the BVH builds alone with the same padding."""
     pts = [scene.camera.position]
     for s in scene.shapes:
         if s.kind == "sphere":
@@ -349,7 +351,7 @@ def _upload(scene: Scene, device: str) -> SceneData:
     _put_shapes(sd, scene, spheres, quads, arr, device)
     # SceneData holds only the ids of these; the objects ride along so that they outlive it (a
     # Warp struct takes no attributes of its own, hence __dict__).
-    extent = _scene_extent(scene)
+    extent = scene_extent(scene)
     sd.__dict__["_accel"] = (_put_meshes(sd, scene, meshes, arr, device, extent)
                              + _put_sphere_bvh(sd, scene, spheres, device, extent))
     _put_materials(sd, scene.materials, arr)

@@ -6,12 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-def to_srgb(image: np.ndarray) -> np.ndarray:
-    """Linear radiance -> display sRGB in [0, 1] (NaN as 0, clipped, IEC 61966-2-1 transfer)."""
-    import colour
-    linear = np.nan_to_num(np.asarray(image, dtype=np.float64), nan=0.0, posinf=1.0)
-    return colour.cctf_encoding(np.clip(linear, 0.0, 1.0), function="sRGB")
+from drtlab.kernels.colour import to_srgb
 
 
 def to_srgb8(image: np.ndarray) -> np.ndarray:

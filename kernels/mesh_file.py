@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import Table, integer, number, numbers, show, string
+from drtlab.fields import MAX_SEED, Table, integer, number, numbers, show, string
 from drtlab.kernels.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
 from drtlab.kernels.scene import Shape, TriangleMesh
 from drtlab.kernels.transforms import apply_transform, mirrors, parse_transform
@@ -89,7 +89,7 @@ def _param(t: Table, key: str, default: Any, kind) -> Any:
     if kind == "nonneg":
         return number(v, field, ">= 0", lambda x: x >= 0.0)
     if kind == "seed":
-        return integer(v, field, "in [0, 2^32)", lambda n: 0 <= n < 2**32)
+        return integer(v, field, "in [0, 2^32)", lambda n: 0 <= n <= MAX_SEED)
     _, low, high = kind
     return integer(v, field, f"in [{low}, {high}]", lambda n: low <= n <= high)
 

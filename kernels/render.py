@@ -211,7 +211,7 @@ class BatchStats:
 
 
 def _check_seed(seed, field: str = "seed") -> int:
-    return fields.integer_in(seed, field, 0, 2**32 - 1)
+    return fields.integer_in(seed, field, 0, fields.MAX_SEED)
 
 
 def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, seed=0, res=None,
@@ -242,9 +242,9 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
     filled by one launch). Repetition r is bit-identical to `render(..., seed=seeds[r])` whatever
     the batch, `threads` and `tile`."""
     spec, scene, integ = _resolve_job(scene, sampler, integrator, res)
-    spp = fields.integer_in(scene.spp if spp is None else spp, "spp", 1, 2**31 - 1)
+    spp = fields.integer_in(scene.spp if spp is None else spp, "spp", 1, fields.MAX_COUNT)
     if isinstance(seeds, (str, bytes)) or not hasattr(seeds, "__len__") or len(seeds) == 0:
-        raise InputError("seeds", f"must be a non-empty list of integers in [0, {2**32 - 1}], got {seeds!r}")
+        raise InputError("seeds", f"must be a non-empty list of integers in [0, {fields.MAX_SEED}], got {seeds!r}")
     seeds = tuple(_check_seed(s, "seeds") for s in seeds)
     threads = fields.integer_in((os.cpu_count() or 1) if threads is None else threads, "threads", 1, 1024)
     tile = fields.integer_in(DEFAULT_TILE if tile is None else tile, "tile", 1, 1 << 16)

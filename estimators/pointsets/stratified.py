@@ -12,7 +12,7 @@ import warp as wp
 from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
 from drtlab.estimators.pointsets.base import PointSet
 
-_JITTER = wp.constant(wp.uint32(0x68E31DA4))
+JITTER = wp.constant(wp.uint32(0x68E31DA4))
 
 
 @wp.func
@@ -53,7 +53,7 @@ def stratified_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
                   spp: wp.uint32) -> float:
     n = wp.max(spp, wp.uint32(1))
     s = stratum(seed, pixel, index, dim, n)
-    jitter = unit_float(hash_key(seed, pixel, index, dim ^ _JITTER))
+    jitter = unit_float(hash_key(seed, pixel, index, dim ^ JITTER))
     return place(s, jitter, n)
 
 
@@ -64,7 +64,7 @@ def stratified_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
     nx = grid_columns(n)
     ny = n / nx
     s = stratum(seed, pixel, index, dim, n)
-    h = hash_key(seed, pixel, index, dim ^ _JITTER)
+    h = hash_key(seed, pixel, index, dim ^ JITTER)
     jx = unit_float(h)
     jy = unit_float(mix32(h))
     return wp.vec2(place(s % nx, jx, nx), place(s / nx, jy, ny))

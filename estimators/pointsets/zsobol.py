@@ -31,13 +31,13 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_scramble, sobol_bits
 
 
-def _packed_permutations() -> list[int]:
+def packed_permutations() -> list[int]:
     """The 24 permutations of (0, 1, 2, 3), each packed as 4 x 2 bits (entry d at bits 2d)."""
     from itertools import permutations
     return [sum(p[d] << (2 * d) for d in range(4)) for p in permutations(range(4))]
 
 
-_PERM4 = wp.constant(wp.types.vector(length=24, dtype=wp.uint32)(*_packed_permutations()))
+_PERM4 = wp.constant(wp.types.vector(length=24, dtype=wp.uint32)(*packed_permutations()))
 _SALT_DIGITS = wp.constant(wp.uint32(0x2D1B5A0F))
 _SALT_OWEN = wp.constant(wp.uint32(0x7A3C11E5))
 _SY = wp.constant(wp.uint32(0x4F6CDD1D))

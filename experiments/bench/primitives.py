@@ -42,7 +42,7 @@ def _build_seconds(build) -> float:
 
 def _sphere_row(n: int, sampler: str, repeats: int) -> dict:
     import drtlab.kernels.features as features
-    from drtlab.kernels.device_scene import _scene_extent
+    from drtlab.kernels.device_scene import scene_extent
     from drtlab.kernels.intersection.bvh_build import build_bvh, sphere_boxes
     from drtlab.kernels.scene_file import load_scene
     scene = load_scene("sphere-grid", {"shapes[1].count": n})
@@ -55,7 +55,7 @@ def _sphere_row(n: int, sampler: str, repeats: int) -> dict:
         bvh = _speed(scene, sampler, repeats)
     finally:
         features.SPHERE_BVH_MIN = saved
-    extent = _scene_extent(scene)
+    extent = scene_extent(scene)
     build = _build_seconds(lambda: build_bvh(*sphere_boxes(spheres, 0.0, 0.0, extent), "cpu"))
     return {"spheres": len(spheres), "msamples_per_second_loop": loop,
             "msamples_per_second_bvh": bvh, "bvh_build_seconds": build}
@@ -63,7 +63,7 @@ def _sphere_row(n: int, sampler: str, repeats: int) -> dict:
 
 def _triangle_row(s: int, sampler: str, repeats: int) -> dict:
     import tomllib
-    from drtlab.kernels.device_scene import _scene_extent
+    from drtlab.kernels.device_scene import scene_extent
     from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables
     from drtlab.kernels.scene_file import BUILTIN_DIR, scene_from_dict
     data = tomllib.loads((BUILTIN_DIR / "displaced-sphere.toml").read_text())
@@ -71,7 +71,7 @@ def _triangle_row(s: int, sampler: str, repeats: int) -> dict:
     data["shapes"][2]["subdivisions"] = s
     scene = scene_from_dict(data, name="displaced-sphere")
     meshes = [sh for sh in scene.shapes if sh.kind == "mesh"]
-    extent = _scene_extent(scene)
+    extent = scene_extent(scene)
 
     def build():
         tables = mesh_tables(meshes, 0.0, extent)
@@ -120,9 +120,8 @@ def primitives(sampler: str, repeats: int) -> dict:
 
 def plot_primitives(result: dict, path: Path) -> None:
     """Log-log samples/s and BVH build time against primitive count."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from drtlab.experiments.plotting import pyplot
+    plt = pyplot()
     sp, tr = result["spheres"], result["triangles"]
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4))
     ax.loglog([r["spheres"] for r in sp], [r["msamples_per_second_loop"] for r in sp], "o-",

@@ -22,7 +22,6 @@ with saved ones (bit for bit, and the largest difference relative to the image's
 that a speed change left the images alone.
 """
 
-import argparse
 import sys
 import time
 

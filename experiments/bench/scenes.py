@@ -14,7 +14,6 @@ default experiment if its manifest records it.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import platform
@@ -23,8 +22,11 @@ import tempfile
 import time
 from pathlib import Path
 
+from drtlab import fields
+from drtlab.cli_args import Help, Parser, int_flag, run_main
 from drtlab.estimators.defaults import DEFAULT_SAMPLER
 from drtlab.experiments.bench.primitives import plot_primitives, primitives
+from drtlab.experiments.paths import default_out_dir, results_root
 from drtlab.experiments.study.manifest import peak_rss_mib as _peak_rss_mib
 
 # The scaling sweeps: each varies one setting of --scaling-scene, the others at their defaults.
@@ -130,20 +132,34 @@ def print_scaling(sc: dict) -> None:
                   f"{r['msamples_per_second']:7.3f} {r['msamples_per_second_whole_call']:9.3f}")
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="drtlab-bench")
-    ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--repeats", type=int, default=3)
+def build_parser() -> Parser:
+    ap = Parser(prog="python -m drtlab.experiments.bench", formatter_class=Help,
+                description="Render speed and compile time of every built-in scene, and how speed "
+                            "scales with resolution, spp, path depth, threads and primitive count.")
+    ap.add_argument("--spp", type=int_flag(1, 1 << 20), default=64,
+                    help="samples per pixel of the scene table")
+    ap.add_argument("--repeats", type=int_flag(1, 1000), default=3,
+                    help="renders per scene (the best is kept)")
     ap.add_argument("--sampler", default=DEFAULT_SAMPLER)
     ap.add_argument("--scaling-scene", default="cornell-box")
-    ap.add_argument("--scaling-repeats", type=int, default=2)
+    ap.add_argument("--scaling-repeats", type=int_flag(1, 1000), default=2,
+                    help="renders per point of the scaling sweeps")
     ap.add_argument("--no-scaling", action="store_true", help="only the per-scene table")
     ap.add_argument("--scaling-primitives", action="store_true",
                     help="only the primitive-count sweep (spheres: loop vs BVH; triangles), merged "
                          "into --out; the default run includes it")
-    ap.add_argument("--out", default="results/bench/render.json")
-    args = ap.parse_args(argv)
+    ap.add_argument("--out", type=Path, default=results_root() / "bench" / "render.json",
+                    help="JSON written (the primitive-count figure goes beside it)")
+    ap.set_defaults(func=_command)
+    return ap
 
+
+def main(argv: list[str] | None = None) -> int:
+    return run_main(build_parser, argv)
+
+
+def _command(args) -> int:
+    fields.writable_location(args.out, "--out")
     cache = tempfile.mkdtemp(prefix="drtlab-bench-cache-")
     import warp as wp
     wp.config.kernel_cache_dir = cache
@@ -164,7 +180,7 @@ def main(argv: list[str] | None = None) -> int:
         print_scaling(sc)
 
     experiment_rss = None
-    manifest = Path("results/stratified/manifest.json")
+    manifest = default_out_dir("stratified") / "manifest.json"
     if manifest.exists():
         try:
             experiment_rss = json.loads(manifest.read_text()).get("peak_rss_mib")

@@ -8,10 +8,12 @@ carries, and redraws the error-vs-samples figure from the results alone.
 """
 from __future__ import annotations
 
-import argparse
+import sys
 from pathlib import Path
 
 import drtlab
+from drtlab.cli_args import Help, Parser, run_main
+from drtlab.experiments.paths import results_root
 
 STUDY = {
     "experiment": {
@@ -33,10 +35,20 @@ STUDY = {
 }
 
 
+def build_parser() -> Parser:
+    parser = Parser(prog="python -m drtlab.experiments.examples.python_study", formatter_class=Help,
+                    description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=results_root() / "example-python-study",
+                        help="output folder (its ground truth goes in OUT/ground-truth)")
+    parser.set_defaults(func=_command)
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--out", type=Path, default=Path("results/example-python-study"))
-    args = parser.parse_args(argv)
+    return run_main(build_parser, argv)
+
+
+def _command(args) -> int:
     result = drtlab.run_experiment(STUDY, name="example-python-study", out_dir=args.out,
                                    gt_root=args.out / "ground-truth", progress=False)
     cells = result.cells
@@ -49,4 +61,4 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(main())

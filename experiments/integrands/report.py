@@ -36,19 +36,19 @@ def _slope(row: dict) -> str:
 def plot_kind(summary: dict, kind: str, path: Path) -> Path | None:
     """RMSE against N, one panel per integrand of `kind`, one series per point set (95% intervals of
     the RMSE as error bars, the fitted power law as a line)."""
-    from drtlab.experiments.study.figures import _grid, _plt, _style
+    from drtlab.experiments.plotting import compact_pyplot, panel_grid, series_style
     names = [n for n, v in summary["integrands"].items() if v["kind"] == kind]
     if not names:
         return None
-    plt = _plt()
-    rows, cols = _grid(len(names))
+    plt = compact_pyplot()
+    rows, cols = panel_grid(len(names))
     # Each panel's legend (point set and fitted slope) sits to its right: inside, it hid data.
     fig, axes = plt.subplots(rows, cols, figsize=(5.0 * cols, 3.0 * rows), squeeze=False)
     for k, name in enumerate(names):
         ax = axes[k // cols][k % cols]
         for i, ps in enumerate(summary["pointsets"]):
             row = next(r for r in summary["results"] if r["pointset"] == ps and r["integrand"] == name)
-            st = _style(i)
+            st = series_style(i)
             ns = [c["n"] for c in row["cells"]]
             ys = [c["rmse"]["mean"] for c in row["cells"]]
             err = [[max(y - c["rmse"]["lo"], 0) for y, c in zip(ys, row["cells"])],

@@ -18,7 +18,7 @@ the rate lies in the 95% interval widened by the stated tolerance, else "differs
 the report lists. Each cell's mean error is also tested against zero (a biased point set shows).
 
 Outputs (default results/integrands/): summary.json, report.md, one log-log plot per integrand kind
-(integrand_report.py), manifest.json.
+(experiments/integrands/report.py), manifest.json.
 """
 from __future__ import annotations
 
@@ -41,13 +41,13 @@ from drtlab.experiments.study.metrics import mean_ci
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.paths import default_out_dir
 from drtlab.experiments.seeds import short_hash
-from drtlab.experiments.stats.slopes import fit_rmse_slope
+from drtlab.experiments.stats.hypothesis_tests import sidak
+from drtlab.experiments.stats.slopes import STUDY_CHAIN, fit_rmse_slope
 
 STUDY_FILE = Path(__file__).with_name("integrands.toml")
 DEFAULT_PROFILE = "quick"
 GRID = 2.0 ** -24            # points are k * 2^-24 (hashing.unit_float keeps a hash's top 24 bits)
 FLOOR = GRID ** 2            # squared errors below the points' own resolution are not resolved
-FIT = {"nsteps": 2000, "burn": 400}     # the experiments' chain length (analysis.fit_slopes)
 BIAS_ALPHA = 0.01            # family-wise level of the mean-error checks (Sidak over all of them)
 
 
@@ -204,10 +204,10 @@ def bias_p(errors: np.ndarray) -> float:
 # Fits and verdicts
 # ---------------------------------------------------------------------------------------------------
 
-def fit_slope(ns, errors: np.ndarray, seed: int, **kwargs) -> dict:
-    """`fit_rmse_slope` of the per-run squared errors (every repetition a point)."""
+def fit_ladder_slope(ns, errors: np.ndarray, seed: int, **kwargs) -> dict:
+    """`fit_rmse_slope` of one cell ladder's per-run squared errors (every repetition a point)."""
     n = np.repeat(np.asarray(ns, dtype=np.float64), errors.shape[1])
-    return fit_rmse_slope(n, np.ravel(errors) ** 2, seed=seed, floor=FLOOR, **{**FIT, **kwargs})
+    return fit_rmse_slope(n, np.ravel(errors) ** 2, seed=seed, floor=FLOOR, **{**STUDY_CHAIN, **kwargs})
 
 
 def verdict(fit: dict, rate: float | None, tolerance: float) -> str:
@@ -258,11 +258,11 @@ def run(study: Study, log=None) -> dict:
             f"({time.perf_counter() - t:.1f} s)")
     sim_seconds = time.perf_counter() - t0
     keys = list(errors)
-    calls = [(fit_slope, (study.n, errors[k], fit_seed(study.seed, *k)), {}) for k in keys]
+    calls = [(fit_ladder_slope, (study.n, errors[k], fit_seed(study.seed, *k)), {}) for k in keys]
     t1 = time.perf_counter()
     fits = pmap(calls)
     log(f"{len(fits)} slope fits ({time.perf_counter() - t1:.1f} s)")
-    alpha = 1.0 - (1.0 - BIAS_ALPHA) ** (1.0 / len(keys))          # Sidak over every cell ladder
+    alpha = sidak(BIAS_ALPHA, len(keys))          # over every cell ladder
     rows = [_row(study, ps, name, errors[ps, name], fit, alpha) for (ps, name), fit in zip(keys, fits)]
     return {
         "study": "integrands", "description": study.description, "profile": study.profile,

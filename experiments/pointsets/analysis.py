@@ -33,12 +33,13 @@ from pathlib import Path
 import numpy as np
 
 from drtlab.errors import InputError
+from drtlab.experiments.paths import results_root
+from drtlab.fields import MAX_SEED
 
 MIN_N, MAX_N = 2, 16384          # two points for a distance; O(N^2) discrepancies beyond
 MAX_DIM = 255                    # 31 bounces of the tracer's layout
 MAX_REALISATIONS = 1024
 DEFAULT_REALISATIONS = 16
-MAX_SEED = 2**32 - 1
 DISCREPANCY_METHODS = ("L2-star", "CD", "WD", "MD")
 # The ones scipy returns squared (a table printing them beside L2-star says so).
 SQUARED_DISCREPANCIES = ("CD", "WD", "MD")
@@ -47,7 +48,7 @@ FILES = ("scatter.png", "periodogram.png", "radial_spectrum.png", "analysis.json
 
 
 def default_out_dir(name: str, n: int, dims: tuple[int, int]) -> Path:
-    return Path("results/pointsets") / f"{name}_n{n}_d{dims[0]}-{dims[1]}"
+    return results_root() / "pointsets" / f"{name}_n{n}_d{dims[0]}-{dims[1]}"
 
 
 def parse_dims(text: str, field: str = "--dims") -> tuple[int, int]:

@@ -1,28 +1,12 @@
-"""The three PNGs of `drtlab pointset` (experiments/pointsets/analysis.py), rendered to bytes with
-matplotlib's Agg backend so that nothing touches the output folder until every figure exists."""
+"""The three PNGs of `drtlab pointset` (experiments/pointsets/analysis.py), rendered to bytes
+(experiments/plotting.py) so that nothing touches the output folder until every figure exists."""
 from __future__ import annotations
 
-import io
 import math
 
 import numpy as np
 
-
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-    plt.rcParams.update({"font.size": 8, "axes.titlesize": 9, "savefig.dpi": 130,
-                         "figure.dpi": 100})
-    return plt
-
-
-def _png(fig) -> bytes:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", bbox_inches="tight")
-    fig.clf()
-    _plt().close(fig)
-    return buf.getvalue()
+from drtlab.experiments.plotting import compact_pyplot, png_bytes
 
 
 def _head(result) -> str:
@@ -39,7 +23,7 @@ def _title(result, what: str) -> str:
 def scatter_png(result) -> bytes:
     """The first realisation, with the sqrt(N) x sqrt(N) grid where N is a square (the strata a
     jittered set fills one point each) and the minimum distance in the caption."""
-    plt = _plt()
+    plt = compact_pyplot()
     fig, ax = plt.subplots(figsize=(4.6, 4.9))
     g = math.isqrt(result.n)
     if g * g == result.n and g <= 32:         # finer grids hide the points
@@ -54,13 +38,13 @@ def scatter_png(result) -> bytes:
     dmin = result.summary["min_distance_relative"]
     ax.text(0.0, -0.13, f"toroidal min distance / hexagonal max: {dmin['values'][0]:.3f} (this "
                         f"seed), {dmin['mean']:.3f} mean", transform=ax.transAxes, fontsize=7)
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def periodogram_png(result) -> bytes:
     """The mean periodogram, k = 0 left out (it is N), on a linear scale up to twice the white-noise
     level, so blue noise's dark centre and ring show (UTK's display)."""
-    plt = _plt()
+    plt = compact_pyplot()
     k = result.summary["periodogram"]["frequency_limit"]
     p = result.power.mean(axis=0).copy()
     p[k, k] = np.nan
@@ -70,12 +54,12 @@ def periodogram_png(result) -> bytes:
     fig.colorbar(im, ax=ax, label="P(k)   (i.i.d. points: 1)", shrink=0.85)
     ax.set(xlabel="k_x", ylabel="k_y")
     ax.set_title(_title(result, "periodogram"), fontsize=7)
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def radial_png(result) -> bytes:
     """Radially averaged power with a +-2 standard-error band, the i.i.d. level 1 dashed."""
-    plt = _plt()
+    plt = compact_pyplot()
     radial = result.summary["periodogram"]["radial"]
     r, mean = np.array(radial["radius"]), np.array(radial["mean"])
     fig, ax = plt.subplots(figsize=(5.6, 3.4))
@@ -90,4 +74,4 @@ def radial_png(result) -> bytes:
            ylim=(0, max(2.0, float(mean.max()) * 1.05)))
     ax.legend(fontsize=7, loc="lower right")
     ax.set_title(_title(result, "radial power spectrum"), fontsize=7)
-    return _png(fig)
+    return png_bytes(fig)

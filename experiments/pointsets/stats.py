@@ -1,13 +1,13 @@
-"""Statistics of point-set samples held as arrays: the checks of tests/test_pointsets*.py and
-tests/estimators/test_pointset_uniformity.py, written against numpy arrays so that `pointset_validate` can run
-them on any generator (a registered point set through `points()`, or a researcher's own arrays).
+"""Statistics of point-set samples held as arrays: the checks of tests/estimators/test_pointsets*.py
+and tests/estimators/test_pointset_uniformity.py, written against numpy arrays so that `validate` can
+run them on any generator (a registered point set through `points()`, or a researcher's own arrays).
 
 Shapes: `u` is (P, spp, C): the spp samples of P pixels in C coordinates (pixels are independent:
 every point set keys its samples by pixel); `pooled` is (P, C), one sample per pixel (index
 p mod spp, as the tests pool), so its rows are independent draws.
 
 Every function returns (label, p-value) pairs, one per sub-test, plus descriptive numbers where
-useful; `sidak_adjusted` folds a family of sub-tests into one p-value.
+useful; `hypothesis_tests.sidak_adjusted` folds a family of sub-tests into one p-value.
 """
 from __future__ import annotations
 
@@ -57,17 +57,6 @@ def slot_pairs(dims: list[int]) -> list[tuple[int, int]]:
     col = {d: i for i, d in enumerate(dims)}
     return [(col[d], col[d + 1]) for d in dims
             if slot(d) == (2, d) and d + 1 in col]
-
-
-def sidak_adjusted(p_values) -> float:
-    """P-value of the smallest of m sub-test p-values under Sidak: 1 - (1 - p_min)^m. Exact for
-    independent sub-tests, conservative (Sidak's inequality) for two-sided tests of jointly normal
-    statistics; the correlated pair tests here are of that kind or close to it."""
-    p = np.asarray(list(p_values), dtype=np.float64)
-    if p.size == 0:
-        return 1.0
-    p_min = float(np.clip(p.min(), 0.0, 1.0))
-    return float(-math.expm1(p.size * math.log1p(-p_min))) if p_min < 1.0 else 1.0
 
 
 def pairs(n: int) -> list[tuple[int, int]]:

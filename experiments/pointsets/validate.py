@@ -13,7 +13,7 @@ choice, direction, roulette), exactly as `points(name, SPP, dims, seed, pixel)` 
 Pooled tests use one sample per pixel (index p mod SPP), so their samples are independent.
 
 Each test folds its sub-tests (per coordinate, per pair, per projection) into one Sidak-adjusted
-p-value (experiments/pointsets/stats.py), and the battery's level is Sidak-corrected over its
+p-value (experiments/stats/hypothesis_tests.py), and the battery's level is Sidak-corrected over its
 tests: a test fails when its p-value is below 1 - (1 - level)^(1 / tests). So an unbiased point
 set with independent dimensions fails the battery with probability at most about `level`.
 """
@@ -139,7 +139,7 @@ def sample(generator: Generator, label: str, seed: int, pixels: int,
 
 
 def _fold(name: str, subtests, level: float, info=None) -> TestResult:
-    from drtlab.experiments.pointsets.stats import sidak_adjusted
+    from drtlab.experiments.stats.hypothesis_tests import sidak_adjusted
     worst = min(subtests, key=lambda s: s[1])
     return TestResult(name, sidak_adjusted(p for _, p in subtests), level, len(subtests),
                       f"{worst[0]}: p = {worst[1]:.2g}", info or {})
@@ -149,7 +149,7 @@ def run_battery(generator: Generator, label: str, seed: int = 0, level: float = 
                 pixels: int = PIXELS) -> BatteryResult:
     """Every test of TESTS on `generator`'s samples (module docstring)."""
     from drtlab.experiments.pointsets import stats as S
-    from drtlab.experiments.stats.chi2.harness import sidak
+    from drtlab.experiments.stats.hypothesis_tests import sidak
     t0 = time.perf_counter()
     dims = S.tracer_dims(BOUNCES)
     labels = [S.dimension_label(d) for d in dims]

@@ -31,6 +31,8 @@ import warnings
 import numpy as np
 from scipy import stats
 
+from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
+
 METHODS = ("log-t", "bca")
 FLOOR_FRACTION = 1e-3      # default floor: this fraction of the mean (or of the largest |value|)
 
@@ -56,7 +58,7 @@ def _bca(v: np.ndarray, level: float, n_resamples: int, seed: int) -> tuple[floa
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
-def positive_mean_ci(values, level: float = 0.95, *, method: str = "log-t", floor: float | None = None,
+def positive_mean_ci(values, level: float = CI_LEVEL, *, method: str = "log-t", floor: float | None = None,
                      n_resamples: int = 4999, seed: int = 0) -> dict:
     """Mean of per-run values (>= 0 in expectation; slightly negative ones allowed) with a confidence
     interval whose ends are never below `floor` > 0.
@@ -97,7 +99,7 @@ def positive_mean_ci(values, level: float = 0.95, *, method: str = "log-t", floo
     return out
 
 
-def rmse_ci(mse_values, level: float = 0.95, **kwargs) -> dict:
+def rmse_ci(mse_values, level: float = CI_LEVEL, **kwargs) -> dict:
     """RMSE = sqrt(mean MSE) over runs, with the square roots of `positive_mean_ci`'s MSE interval
     ends as its interval (a monotone map keeps the coverage). `mse` holds the MSE interval."""
     ci = positive_mean_ci(mse_values, level, **kwargs)
@@ -107,7 +109,7 @@ def rmse_ci(mse_values, level: float = 0.95, **kwargs) -> dict:
             "clipped": ci["clipped"], "mse": ci}
 
 
-def repetitions_for_precision(values, rel_halfwidth: float = 0.1, level: float = 0.95,
+def repetitions_for_precision(values, rel_halfwidth: float = 0.1, level: float = CI_LEVEL,
                               max_repetitions: int = 10 ** 9) -> dict:
     """How many repetitions would bring the relative half-width of the mean's interval to
     `rel_halfwidth`: the smallest n with t_{n-1} * cv / sqrt(n) <= rel_halfwidth, cv = s / mean the

@@ -40,7 +40,7 @@ rates apart, and reports say so instead of quoting the median. A single end cell
 the dispersion law (and gets little weight); a cell at the noise floor (median at or below it) is
 left out of the fit and listed in `at_floor`, besides the noise-floor check of the analysis.
 
-Typical-error slope (`fit_typical_slope`, also `fit_slope`): log RMSE_run = a + b log N + eps,
+Typical-error slope (`fit_typical_slope`): log RMSE_run = a + b log N + eps,
 eps ~ Normal(0, sigma^2), over the per-run RMSEs: the slope of the geometric mean of the error, what a
 single run typically shows. Priors are flat in a and b (a wide box) and flat in log sigma, under which
 the marginal posterior of b is the Student-t of ordinary least squares: the 95% credible interval is
@@ -60,6 +60,8 @@ import warnings
 import numpy as np
 from scipy import special, stats
 
+from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
+
 A_BOX = 100.0
 B_BOX = 10.0
 LOG_SIGMA_BOX = (-12.0, 4.0)
@@ -71,6 +73,9 @@ RESOLVED_WIDTH = 0.5
 SATURATION = 0.9        # a cell's CV at this fraction of sqrt(runs) or more: one run carries it
 CELL_MEANS_MIN_CELLS = 4  # the model-free interval needs C - 2 >= 2 degrees of freedom (t(1) is 12.7)
 LOG_CDF_MIN = -700.0             # log P(m <= floor) is clipped here (gammainc underflows to 0)
+# The chain of every study's RMSE fit: the renderer's analysis and the integrand testbed report
+# slopes side by side, so they fit them alike (fit_rmse_slope's own default serves the tests).
+STUDY_CHAIN = {"nsteps": 2000, "burn": 400}
 
 
 def _log_prob(theta: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -142,7 +147,7 @@ def _band(lines: np.ndarray, grid: np.ndarray, level: float) -> dict:
 
 
 def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int = 1000,
-                      burn: int = 200, level: float = 0.95, line_points: int = 24) -> dict:
+                      burn: int = 200, level: float = CI_LEVEL, line_points: int = 24) -> dict:
     """Typical-error slope: fit log RMSE = a + b log N over per-run RMSEs, with a fitted noise term.
 
     `n` and `rmse` are per-run values (repetitions included); non-positive or non-finite RMSE values
@@ -184,9 +189,6 @@ def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int
         "line": _band(lines, grid, level),
     })
     return out
-
-
-fit_slope = fit_typical_slope     # the name analysis.py and older reports use
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -318,7 +320,7 @@ def _cell_means_interval(c: dict, floor: float, level: float) -> tuple[float, fl
 
 
 def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2500,
-                   burn: int = 500, level: float = 0.95, line_points: int = 24,
+                   burn: int = 500, level: float = CI_LEVEL, line_points: int = 24,
                    floor: float | None = None) -> dict:
     """RMSE slope: fit mean MSE(N) = A N^(2b) to per-run MSEs; b is the slope of RMSE = sqrt(mean MSE).
 

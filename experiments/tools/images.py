@@ -161,9 +161,8 @@ def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path) -> list[Pat
     with its scale bar)."""
     from drtlab.kernels.colour import luminance
     from drtlab.kernels.imageio import write_exr
-    import matplotlib
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    from drtlab.experiments.plotting import pyplot
+    plt = pyplot()
     diff = np.asarray(a, dtype=np.float64)[..., :3] - np.asarray(b, dtype=np.float64)[..., :3]
     exr, png = Path(f"{out_stem}.diff.exr"), Path(f"{out_stem}.error.png")
     write_exr(exr, diff, {"what": "signed difference A - B"})

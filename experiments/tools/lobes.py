@@ -42,6 +42,8 @@ from drtlab.kernels.scene import MATERIAL_KINDS
 
 from drtlab import fields
 from drtlab.errors import InputError
+from drtlab.experiments.paths import results_root
+from drtlab.fields import MAX_SEED
 
 DELTA_KINDS = ("mirror", "dielectric")          # all light leaves in one or two directions
 NO_SCATTER_KINDS = ("emitter",)                 # sample_bsdf never returns a direction
@@ -56,7 +58,6 @@ MAX_INCIDENT = 89.0
 MAX_ANGLES = 6
 MAX_EXPONENT = 10_000.0
 MIN_SAMPLES, MAX_SAMPLES, DEFAULT_SAMPLES = 10_000, 10_000_000, 1_000_000
-MAX_SEED = 2 ** 32 - 1
 BAND_DEG = 2.0                 # half-width of the band around the plane of incidence
 BINS_PER_HALF = 90             # histogram bins over 180 degrees of alpha
 MIN_EXPECTED = 200.0           # "well-populated": a bin expecting at least this many samples
@@ -135,7 +136,7 @@ def default_out_dir(kind: str, exponent: float, ior: float, strategy: str) -> Pa
     if kind in USES_IOR:
         parts.append(f"ior{ior:g}")
     parts.append(strategy)
-    return Path("results/lobes") / "_".join(parts)
+    return results_root() / "lobes" / "_".join(parts)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -298,9 +299,8 @@ def analyse(kind: str, *, exponent: float = 20.0, ior: float = 1.5,
 def lobe_png(result: LobeResult) -> bytes:
     import io
 
-    import matplotlib
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
+    from drtlab.experiments.plotting import pyplot
+    plt = pyplot()
     S = result.summary
     full = S["kind"] in TRANSMITS
     from matplotlib.ticker import MaxNLocator

@@ -16,7 +16,7 @@ from drtlab.estimators.pointsets.stratified import grid_columns, place
 from drtlab.estimators.registry import POINTSETS
 from drtlab.warp_runtime import warp as _wp
 
-from pointset_util import (M32, _GOLDEN, _M1, _M2, _M3, eval_kernel, evaluate, py_hash_key,
+from pointset_util import (M32, GOLDEN, M1, M2, M3, eval_kernel, evaluate, py_hash_key,
                             py_mix32, py_permute)
 
 

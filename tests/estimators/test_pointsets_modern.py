@@ -422,7 +422,7 @@ def py_zsobol_index(seed: int, pixel: int, local: int, k: int, dim: int) -> int:
     """pbrt-v4's GetSampleIndex as zsobol's docstring states it: each of the 16 + k/2 base-4 digits
     of (pixel << k) | local permuted by the hash of all the digits above it, one by one (the kernel
     sets the all-zero leading digits at once)."""
-    perms = zsobol_mod._packed_permutations()
+    perms = zsobol_mod.packed_permutations()
     dkey = py_hash_key(seed, 0x2D1B5A0F, 0, dim)
     m = (pixel << k) | local
     odd, n4 = k % 2, 16 + k // 2

@@ -58,7 +58,7 @@ from drtlab.estimators import registry
 from drtlab.estimators.hashing import hash_key, mix32, unit_float
 from drtlab.estimators.integrators import INTEGRATORS
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import _JITTER, grid_columns, place, stratum
+from drtlab.estimators.pointsets.stratified import JITTER, grid_columns, place, stratum
 from drtlab.estimators.registry import all_sampler_names, parse_sampler
 from drtlab.experiments.stats.chi2 import sidak
 from drtlab.kernels.scene_file import builtin_names, load_scene
@@ -211,7 +211,7 @@ def reuse_stratum_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: w
     s = stratum(seed, pixel, index, dim, n)
     if s == n - wp.uint32(1):
         s = wp.uint32(0)
-    return place(s, unit_float(hash_key(seed, pixel, index, dim ^ _JITTER)), n)
+    return place(s, unit_float(hash_key(seed, pixel, index, dim ^ JITTER)), n)
 
 
 @wp.func
@@ -223,7 +223,7 @@ def reuse_stratum_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: w
     s = stratum(seed, pixel, index, dim, n)
     if s == n - wp.uint32(1):
         s = wp.uint32(0)
-    h = hash_key(seed, pixel, index, dim ^ _JITTER)
+    h = hash_key(seed, pixel, index, dim ^ JITTER)
     jx = unit_float(h)
     jy = unit_float(mix32(h))
     return wp.vec2(place(s % nx, jx, nx), place(s / nx, jy, ny))

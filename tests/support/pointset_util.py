@@ -48,24 +48,24 @@ def evaluate(pointset: PointSet, seed: int, spp: int, pixel, index, dim):
 
 
 M32 = 0xFFFFFFFF
-_M1, _M2, _M3, _GOLDEN = 0x7FEB352D, 0x2C1B3C6D, 0x297A2D39, 0x1E3779B9
+M1, M2, M3, GOLDEN = 0x7FEB352D, 0x2C1B3C6D, 0x297A2D39, 0x1E3779B9
 
 
 def py_mix32(x: int) -> int:
     h = (x ^ (x >> 16)) & M32
-    h = (h * _M1) & M32
+    h = (h * M1) & M32
     h ^= h >> 15
-    h = (h * _M2) & M32
+    h = (h * M2) & M32
     h ^= h >> 16
     return h
 
 
 def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
-    h = py_mix32((seed + _GOLDEN) & M32)
-    h = py_mix32(h ^ ((pixel + _M3) & M32))
-    h = py_mix32(h ^ ((index + _GOLDEN) & M32))
-    h = py_mix32(h ^ ((dim + _M1) & M32))
-    return py_mix32((h + _GOLDEN) & M32)
+    h = py_mix32((seed + GOLDEN) & M32)
+    h = py_mix32(h ^ ((pixel + M3) & M32))
+    h = py_mix32(h ^ ((index + GOLDEN) & M32))
+    h = py_mix32(h ^ ((dim + M1) & M32))
+    return py_mix32((h + GOLDEN) & M32)
 
 
 def py_permute(i: int, n: int, key: int) -> int:
@@ -77,7 +77,7 @@ def py_permute(i: int, n: int, key: int) -> int:
         bits += 1
     half = (bits + 1) // 2
     hmask = (1 << half) - 1
-    keys = [py_mix32(key ^ ((_M1 + r) & M32)) for r in range(4)]
+    keys = [py_mix32(key ^ ((M1 + r) & M32)) for r in range(4)]
     x = i
     while True:
         left, right = x >> half, x & hmask
@@ -85,7 +85,7 @@ def py_permute(i: int, n: int, key: int) -> int:
             left, right = right, left ^ (py_mix32(right ^ k) & hmask)
         x = (left << half) | right
         if x < n:
-            return (x + py_mix32((key + _GOLDEN) & M32) % n) % n
+            return (x + py_mix32((key + GOLDEN) & M32) % n) % n
 
 
 @wp.func

@@ -49,6 +49,7 @@ from drtlab.experiments.bench.mitsuba.render import (DRTLAB, LLVM, REF_SEED0, RE
                                                timed_renders, warm_up)
 from drtlab.experiments.bench.mitsuba.report import markdown
 from drtlab.experiments.files import atomic_savez, atomic_write_text
+from drtlab.experiments.paths import results_root
 from drtlab.experiments.study.manifest import cpu_model, package_versions, peak_rss_mib
 
 VERSIONED = ("drtlab", "warp-lang", "mitsuba", "drjit", "numpy")
@@ -96,7 +97,8 @@ def build_parser() -> Parser:
     p.add_argument("--save-images", type=Path, default=None, metavar="FILE.npz",
                    help="also save every image (drtlab renders, Mitsuba timed renders, reference "
                         "batches) to this .npz, to look into a disagreement")
-    p.add_argument("--out", type=Path, default=Path("results/bench/compare.json"), help="JSON written")
+    p.add_argument("--out", type=Path, default=results_root() / "bench" / "compare.json",
+                   help="JSON written")
     p.set_defaults(func=_command)
     return p
 

@@ -35,7 +35,7 @@ METHOD = ("Every render of a pair uses the main comparison's settings (resolutio
           "and Mitsuba-LLVM's reference batches.")
 
 
-def _mse_and_variance(stack: np.ndarray, region: np.ndarray) -> tuple[float, float]:
+def mse_and_variance(stack: np.ndarray, region: np.ndarray) -> tuple[float, float]:
     """The mean per-pixel variance over `region` of a stack of n independent renders, and the
     jackknife estimate of its sampling variance (leave one render out: each pixel's sample variance
     without render i is ((n - 1) s^2 - n / (n - 1) d_i^2) / (n - 2), d_i its deviation from the mean).
@@ -51,11 +51,11 @@ def _mse_and_variance(stack: np.ndarray, region: np.ndarray) -> tuple[float, flo
     return float(s2.mean()), float((n - 1) / n * ((loo - loo.mean()) ** 2).sum())
 
 
-def _efficiency_ratio(a: np.ndarray, ta: float, b: np.ndarray, tb: float, region: np.ndarray) -> dict:
+def efficiency_ratio(a: np.ndarray, ta: float, b: np.ndarray, tb: float, region: np.ndarray) -> dict:
     """(ta x MSE_a) / (tb x MSE_b): the time a needs for b's RMSE at this spp, with a 90% interval from
     the two MSEs' jackknife variances (independent stacks; normal on the log scale; the times are
     taken as exact)."""
-    (ma, va), (mb, vb) = _mse_and_variance(a, region), _mse_and_variance(b, region)
+    (ma, va), (mb, vb) = mse_and_variance(a, region), mse_and_variance(b, region)
     point = ta * ma / (tb * mb)
     half = Z90 * math.sqrt(va / ma ** 2 + vb / mb ** 2)
     return {"time_ratio": round(point, 4),
@@ -101,15 +101,15 @@ def sampler_pairs(rig, seeds: int, baseline: dict, ref_stack: np.ndarray) -> dic
             base_stack, base_t = baseline[who]
             row[who] = {
                 **{k: t[k] for k in ("best_seconds", "median_seconds", "msamples_per_second_best")},
-                "mse_from_spread": {r: _mse_and_variance(stack, m)[0] for r, m in regions.items()},
+                "mse_from_spread": {r: mse_and_variance(stack, m)[0] for r, m in regions.items()},
                 "time_to_equal_rmse_over_own_independent": {
-                    r: _efficiency_ratio(stack, t["best_seconds"], base_stack, base_t, m)
+                    r: efficiency_ratio(stack, t["best_seconds"], base_stack, base_t, m)
                     for r, m in regions.items()},
                 "vs_reference_channel_means": agreement(stack, ref_stack, who, "reference")["channel_means"],
             }
         d, m = got["drtlab"], got["mitsuba"]
         row["time_to_equal_rmse_drtlab_over_mitsuba"] = {
-            r: _efficiency_ratio(d[0], row["drtlab"]["best_seconds"], m[0], row["mitsuba"]["best_seconds"],
+            r: efficiency_ratio(d[0], row["drtlab"]["best_seconds"], m[0], row["mitsuba"]["best_seconds"],
                                  mask) for r, mask in regions.items()}
         row["samples_per_second_drtlab_over_mitsuba"] = round(
             row["drtlab"]["msamples_per_second_best"] / row["mitsuba"]["msamples_per_second_best"], 4)

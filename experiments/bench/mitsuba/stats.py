@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from drtlab.experiments.bench.mitsuba.render import DRTLAB, LLVM, RENDERERS, SCALAR
+from drtlab.experiments.stats.hypothesis_tests import welch_dof
 
 REGION_TAG = {"full": "", "excl_light": "_excl_light"}     # region -> its infix in the ratio keys
 
@@ -160,10 +161,6 @@ def _channel_means(stack: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return per.mean(axis=0), per.std(axis=0, ddof=1) / math.sqrt(len(per))
 
 
-def _welch_dof(a2: np.ndarray, na: int, b2: np.ndarray, nb: int) -> np.ndarray:
-    return (a2 + b2) ** 2 / (a2 ** 2 / (na - 1) + b2 ** 2 / (nb - 1))
-
-
 def _channel_agreement(a_stack, b_stack, a_name: str, b_name: str) -> tuple[list[dict], np.ndarray]:
     """Per channel: the image means' difference over its standard error; and those z values."""
     from scipy import stats as sst
@@ -171,7 +168,7 @@ def _channel_agreement(a_stack, b_stack, a_name: str, b_name: str) -> tuple[list
     mb, sb = _channel_means(b_stack)
     se = np.sqrt(sa ** 2 + sb ** 2)
     cz = (ma - mb) / np.where(se > 0, se, np.inf)
-    cdof = _welch_dof(sa ** 2, len(a_stack), sb ** 2, len(b_stack))
+    cdof = welch_dof(sa ** 2, len(a_stack), sb ** 2, len(b_stack))
     channels = []
     for c, name in enumerate("RGB"):
         channels.append({"channel": name, f"{a_name}_mean": float(ma[c]), f"{a_name}_se": float(sa[c]),
@@ -206,7 +203,7 @@ def _pixel_agreement(a_stack, b_stack, a_name: str, b_name: str) -> dict:
     z = np.zeros_like(d2)
     z[valid] = (a_mean - b_mean)[valid] / np.sqrt(d2[valid])
     zv = z[valid]
-    dof = _welch_dof(a2[valid], na, b2[valid], nb)
+    dof = welch_dof(a2[valid], na, b2[valid], nb)
     dof_sd = dof[dof > 2.05]
     n = int(valid.sum())
     nan = float("nan")

@@ -51,16 +51,18 @@ Additions for this project:
   report the consistency checks a chi-square test cannot see: the pdf a sample carries against the
   pdf evaluated separately for the same direction, and the weight against f|cos|/pdf.
 
-Modules: `domains` (the parameter grids), `harness` (the test: pooling, ChiSquareTest, run_chi2,
-sidak), `adapters` (the Warp adapters and upload_scene), `mesh_adapter` (`MeshLightAdapter`: light
-sampling of scenes with triangle-mesh emitters). Every public name is re-exported here, so
-`from drtlab.experiments import chi2 as C; C.ChiSquareTest(...)` is the way to use the harness.
+Modules: `domains` (the parameter grids), `harness` (the test: pooling, ChiSquareTest, run_chi2),
+`adapters` (the Warp adapters and upload_scene), `mesh_adapter` (`MeshLightAdapter`: light sampling
+of scenes with triangle-mesh emitters). Every public name is re-exported here, with `sidak` of
+experiments/stats/hypothesis_tests.py, so `from drtlab.experiments.stats import chi2 as C;
+C.ChiSquareTest(...)` is the way to use the harness.
 """
 from drtlab.experiments.stats.chi2.domains import (CapDomain, ConeDomain, Domain, PlanarDomain,
                                              SphericalDomain, orthonormal_frame)
 from drtlab.experiments.stats.chi2.harness import (ALPHA, POOL_THRESHOLD, ChiSquareResult, ChiSquareTest,
                                              PdfFunc, SampleFunc, pooled_chi2, relative_error,
-                                             run_chi2, sidak)
+                                             run_chi2)
+from drtlab.experiments.stats.hypothesis_tests import sidak
 from drtlab.experiments.stats.chi2.adapters import (ALL_KINDS, CONE, COSINE_HEMISPHERE, DISK, KIND_INDEX,
                                               PHONG, SQUARE, UNIFORM_HEMISPHERE, UNIFORM_SPHERE,
                                               BSDFAdapter, BSDFSamples, LightAdapter, LightSamples,

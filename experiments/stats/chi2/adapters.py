@@ -319,7 +319,7 @@ class LightAdapter:
 
     @staticmethod
     def _build(*key):
-        return _make_light_kernel(*key)
+        return make_light_kernel(*key)
 
     def _launch(self, mode, sd, x, n, seed, pts=None):
         wp = _wp()
@@ -355,8 +355,8 @@ def face_normal(sd: SceneData, face: int) -> wp.vec3:
     return wp.normalize(wp.cross(sd.mesh_points[idx[1]] - a, sd.mesh_points[idx[2]] - a))
 
 
-def _make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
-                       meshes: bool = False, mesh_fault: bool = False):
+def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
+                      meshes: bool = False, mesh_fault: bool = False):
     """The light-sampling kernel of LightAdapter (spheres and quads) and, with `meshes`, of
     chi2.mesh_adapter.MeshLightAdapter (mesh lights too; `mesh_fault` compiles its negative control).
     The mesh branches are compiled out without `meshes`."""

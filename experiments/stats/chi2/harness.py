@@ -10,14 +10,10 @@ import numpy as np
 from scipy import stats
 
 from drtlab.experiments.stats.chi2.domains import Domain
+from drtlab.experiments.stats.hypothesis_tests import sidak
 
 ALPHA = 0.01
 POOL_THRESHOLD = 5.0
-
-
-def sidak(alpha: float, test_count: int) -> float:
-    """Per-test level so that `test_count` independent tests falsely reject with probability alpha."""
-    return 1.0 - (1.0 - alpha) ** (1.0 / max(int(test_count), 1))
 
 
 def pooled_chi2(observed: np.ndarray, expected: np.ndarray, threshold: float = POOL_THRESHOLD):

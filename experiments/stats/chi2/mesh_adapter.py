@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drtlab.experiments.stats.chi2.adapters import LightAdapter, LightSamples, _make_light_kernel
+from drtlab.experiments.stats.chi2.adapters import LightAdapter, LightSamples, make_light_kernel
 
 
 @dataclass
@@ -36,4 +36,4 @@ class MeshLightAdapter(LightAdapter):
 
     @staticmethod
     def _build(solid_angle: bool, power_pick: bool, mesh_fault: bool):
-        return _make_light_kernel(solid_angle, power_pick, False, meshes=True, mesh_fault=mesh_fault)
+        return make_light_kernel(solid_angle, power_pick, False, meshes=True, mesh_fault=mesh_fault)

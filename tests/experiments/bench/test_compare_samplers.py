@@ -14,7 +14,7 @@ from scipy import stats
 
 import pytest
 
-from drtlab.experiments.bench.mitsuba.samplers import _efficiency_ratio, _mse_and_variance
+from drtlab.experiments.bench.mitsuba.samplers import efficiency_ratio, mse_and_variance
 
 ALPHA = 0.001 / 3
 TRIALS = 100
@@ -31,7 +31,7 @@ def _noise(rng, var: float, tails: str) -> np.ndarray:
 def _trial(k: int, vb: float, tails: str) -> dict:
     rng = np.random.default_rng(1000 + k)
     a, b = _noise(rng, 4.0, tails), _noise(rng, vb, tails)
-    return _efficiency_ratio(a, 2.0, b, 1.0, np.ones(SHAPE[1:3], dtype=bool))
+    return efficiency_ratio(a, 2.0, b, 1.0, np.ones(SHAPE[1:3], dtype=bool))
 
 
 def test_mse_is_the_mean_per_pixel_variance():
@@ -40,7 +40,7 @@ def test_mse_is_the_mean_per_pixel_variance():
     region = np.zeros((4, 6), dtype=bool)
     region[1:3, 2:5] = True
     want = np.var(stack, axis=0, ddof=1)[region].mean()
-    assert _mse_and_variance(stack, region)[0] == pytest.approx(want, rel=1e-12)
+    assert mse_and_variance(stack, region)[0] == pytest.approx(want, rel=1e-12)
 
 
 @pytest.mark.parametrize("tails", ["gaussian", "student_t10"])

@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 from drtlab.errors import InputError
 from drtlab.experiments.integrands import study
-from drtlab.experiments.stats.chi2.harness import sidak
+from drtlab.experiments.stats.hypothesis_tests import sidak
 from drtlab.experiments.integrands.functions import (INTEGRANDS, KINDS, SMOOTH, Disk, Family, Gaussian,
                                            HalfPlane, Triangle, half_plane_area)
 from scipy import integrate, stats
@@ -185,7 +185,7 @@ def test_negative_control_is_rejected(control):
 
 def _fit(pointset: str, integrand: str) -> dict:
     e = study.signed_errors(pointset, [integrand], QUICK.n, QUICK.repetitions, QUICK.seed)[integrand]
-    fit = study.fit_slope(QUICK.n, e, study.fit_seed(QUICK.seed, pointset, integrand))
+    fit = study.fit_ladder_slope(QUICK.n, e, study.fit_seed(QUICK.seed, pointset, integrand))
     assert fit["ok"] and fit["converged"], fit.get("reason")
     return fit
 
@@ -252,7 +252,7 @@ def test_out_must_be_a_folder(capsys, tmp_path):
 def test_outputs(tmp_path, monkeypatch):
     from dataclasses import replace
     from drtlab.experiments.integrands.report import write_outputs
-    monkeypatch.setattr(study, "FIT", {"nsteps": 300, "burn": 100})     # short chains: files only
+    monkeypatch.setattr(study, "STUDY_CHAIN", {"nsteps": 300, "burn": 100})     # short chains: files only
     small = replace(QUICK, pointsets=("independent", "sobol"), integrands=("disk", "bilinear"),
                     n=(16, 64, 256), repetitions=4)
     summary = study.run(small)

@@ -141,6 +141,7 @@ def test_experiment_folder_end_to_end(tmp_path):
     (["--scene", "sc", "--spp", "4", "--samplers", "white,bogus"], "--samplers"),
     (["--scene", "sc", "--spp", "4", "--samplers", "white,white"], "--samplers"),
     (["--scene", "sc", "--spp", "16", "--samplers", "white"], "--spp"),
+    (["--scene", "sc", "--spp", "-3", "--samplers", "white"], "--spp"),
     (["--scene", "sc", "--spp", "4", "--samplers", "white", "--cutoff", "0"], "--cutoff"),
 ])
 def test_bad_input_is_one_line(tmp_path, capsys, args, flag):

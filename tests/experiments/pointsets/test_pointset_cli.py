@@ -212,7 +212,7 @@ class _Pow4(PointSet):
                        (n.bit_length() - 1) % 2 == 0)
 
 
-# A point set that declares which counts it supports (the `spp_rule` of pointset_validate).
+# A point set that declares which counts it supports (the `spp_rule` of experiments/pointsets/validate.py).
 POW4 = _Pow4("pow4", "sobol, restricted to powers of 4", POINTSETS["sobol"].get1d,
              POINTSETS["sobol"].get2d)
 

@@ -1,5 +1,5 @@
 """The emcee convergence-slope fits recover known slopes, and their 95% intervals cover the truth in
-about 95% of seeded trials: the typical-error fit (`fit_typical_slope`, alias `fit_slope`) on Gaussian
+about 95% of seeded trials: the typical-error fit (`fit_typical_slope`) on Gaussian
 errors, the RMSE-slope fit (`fit_rmse_slope`) on Gaussian AND heavy-tailed errors, where the typical
 fit must fail (negative control).
 
@@ -28,7 +28,7 @@ import os
 import numpy as np
 import pytest
 from drtlab.experiments.parallel import pmap
-from drtlab.experiments.stats.slopes import fit_rmse_slope, fit_slope, fit_typical_slope, ols
+from drtlab.experiments.stats.slopes import fit_rmse_slope, fit_typical_slope, ols
 from scipy import stats
 
 FULL = os.environ.get("DRTLAB_TEST_TIER") == "full"
@@ -81,7 +81,7 @@ def calibrated(covered: int, trials: int) -> bool:
 def test_recovers_known_slope(beta):
     rng = np.random.default_rng(123)
     n, r = synth(beta, rng, reps=4)
-    f = fit_slope(n, r, seed=1)
+    f = fit_typical_slope(n, r, seed=1)
     assert f["ok"] and f["converged"]
     assert f["slope_lo"] < -beta < f["slope_hi"]
     assert abs(f["slope"] + beta) < 0.03
@@ -89,7 +89,7 @@ def test_recovers_known_slope(beta):
     assert len(f["autocorr_time"]) == 3 and max(f["autocorr_time"]) * 50 <= f["steps"] - f["burn"]
     assert abs(f["slope"] - f["ols_slope"]) < 0.01
     # The fit is reproducible: a fixed seed gives the same numbers.
-    g = fit_slope(n, r, seed=1)
+    g = fit_typical_slope(n, r, seed=1)
     assert (g["slope"], g["slope_lo"], g["slope_hi"]) == (f["slope"], f["slope_lo"], f["slope_hi"])
     # The fitted noise term is close to the scatter of log RMSE (about 1/sqrt(2*64)).
     assert 0.5 / math.sqrt(128) < f["sigma"] < 2.0 / math.sqrt(128)
@@ -99,7 +99,7 @@ def test_credible_interval_coverage():
     trials = 400 if FULL else 60
     rng = np.random.default_rng(2024)
     data = [synth(0.5 if i % 2 else 0.75, rng) for i in range(trials)]
-    fits = pmap([(fit_slope, (n, r), {"seed": i, "nsteps": 600, "burn": 150})
+    fits = pmap([(fit_typical_slope, (n, r), {"seed": i, "nsteps": 600, "burn": 150})
                  for i, (n, r) in enumerate(data)])
     covered, width_ratio = 0, []
     for i, ((n, r), f) in enumerate(zip(data, fits)):
@@ -115,11 +115,10 @@ def test_credible_interval_coverage():
 def test_drops_unusable_points_and_reports_too_few():
     n = [1, 1, 4, 4, 16, 16]
     r = [0.3, 0.31, 0.15, -1.0, 0.075, float("nan")]
-    f = fit_slope(n, r, seed=0)
+    f = fit_typical_slope(n, r, seed=0)
     assert f["ok"] and f["dropped"] == 2 and f["n_points"] == 4
-    g = fit_slope([1, 4], [0.3, 0.15], seed=0)
+    g = fit_typical_slope([1, 4], [0.3, 0.15], seed=0)
     assert not g["ok"] and "fewer than 3" in g["reason"]
-    assert fit_slope is fit_typical_slope
 
 
 # ---------------------------------------------------------------------------------------------------
