@@ -11,7 +11,6 @@ import math
 import numpy as np
 
 from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
-from drtlab.experiments.stats.running_moments import RunningMoments
 from drtlab.kernels.colour import to_lab
 
 REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
@@ -100,15 +99,6 @@ def cell_bias(n: int, mean: np.ndarray, pixel_variance: float, gt: np.ndarray,
     ms = float(np.mean(np.square(b))) - pixel_variance / n - gvar
     return {"signed": signed, "lo": signed - h, "hi": signed + h,
             "rms": math.sqrt(max(ms, 0.0)), "pixel_variance": pixel_variance}
-
-
-class CellAccumulator(RunningMoments):
-    """Streams the repetitions of one cell (one image at a time) into per-pixel moments."""
-
-    def bias(self, gt: np.ndarray, gt_stderr: np.ndarray, mean_errors, level: float = CI_LEVEL) -> dict:
-        """`cell_bias` of the repetitions added so far."""
-        return cell_bias(self.n, self.mean, float(np.mean(self.variance())), gt, gt_stderr,
-                         mean_errors, level)
 
 
 def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,

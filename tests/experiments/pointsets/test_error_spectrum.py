@@ -13,7 +13,7 @@ import pytest
 
 import drtlab.experiments.pointsets.error_spectrum as ES
 from drtlab.errors import InputError
-from drtlab.experiments.study.run_store import save_run
+from drtlab.experiments.study.run_store import CellFile, commit_batch
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -99,23 +99,29 @@ def _fake_experiment(tmp_path):
     ref = np.full((H, W, 3), 0.5)
     gdir = gt_root / f"sc__drt__{W}x{H}"
     gdir.mkdir(parents=True)
-    (out / "runs").mkdir(parents=True)
+    out.mkdir(parents=True)
     np.savez(gdir / "gt.npz", mean=ref, m2=np.zeros_like(ref), batches=4, batch_spp=16)
     (gdir / "manifest.json").write_text(json.dumps({"key": "k1"}))
     y, x = np.mgrid[0:H, 0:W]
+    records = {}
     for sampler in ("white", "smooth"):
         for spp in (1, 4):
+            cell = f"sc__{sampler}__drt__{W}x{H}__spp{spp:05d}"
+            images = []
             for rep in range(REPS):
                 if sampler == "white":
                     e = rng.normal(0, 0.1, (H, W))
                 else:
                     e = 0.1 * np.sin(2 * np.pi * x / W + rep)
-                img = ref + e[..., None]
-                rid = f"sc__{sampler}__drt__{W}x{H}__spp{spp:05d}__rep{rep:02d}"
-                save_run(out / "runs", rid, img, {
-                    "run_id": rid, "scene": "sc", "scene_key": "sc", "sampler": sampler,
-                    "integrator": "drt", "width": W, "height": H, "spp": spp, "rep": rep,
-                    "gt_key": "k1"})
+                images.append(ref + e[..., None])
+                rid = f"{cell}__rep{rep:02d}"
+                records[rid] = {"run_id": rid, "cell": cell, "batch": "b0", "scene": "sc",
+                                "scene_key": "sc", "sampler": sampler, "integrator": "drt",
+                                "width": W, "height": H, "spp": spp, "rep": rep, "gt_key": "k1"}
+            # Repetitions committed out of order (as a cluster's batches may be): read back in order.
+            order = [2, 0, 1]
+            cf = CellFile(None).with_batch("b0", np.stack([images[i] for i in order]), order, True)
+            commit_batch(out, records, list(records), cell, cf)
     return out, gt_root
 
 

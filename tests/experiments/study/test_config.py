@@ -101,7 +101,7 @@ def test_profiles_override_experiment_settings(tmp_path):
     (("gt_spp = 1024", "gt_spp = 1000"), "experiment.gt_spp"),
     (("gt_spp = 1024", "gt_spp = 256"), "experiment.gt_spp"),
     (("seed = 3", "seed = 3\ncolour = 1"), "experiment.colour"),
-    (('samplers = ["uniform", "stratified"]', 'samplers = ["uniform", "sobol"]'), "study[0].samplers[1]"),
+    (('samplers = ["uniform", "stratified"]', 'samplers = ["uniform", "sobol+nope"]'), "study[0].samplers[1]"),
     (('samplers = ["uniform", "stratified"]', 'samplers = ["uniform", "independent+uniform"]'),
      "study[0].samplers[1]"),
     (('scenes = ["aa-edges", "glossy"]', 'scenes = ["aa-edges", "nope"]'), "study[0].scenes[1]"),

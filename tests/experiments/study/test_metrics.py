@@ -5,7 +5,8 @@ import numpy as np
 from scipy import stats
 
 from drtlab.experiments.study.analysis import time_to_target
-from drtlab.experiments.study.metrics import CellAccumulator, ciede2000, image_metrics, mean_ci
+from drtlab.experiments.study.metrics import cell_bias, ciede2000, image_metrics, mean_ci
+from drtlab.experiments.study.run_store import CellMoments
 
 
 def test_gt_variance_is_subtracted_without_bias():
@@ -44,12 +45,19 @@ def test_mean_ci_is_the_student_t_interval():
 
 
 def _cell(rng, gt, bias, reps=6):
-    acc, errs = CellAccumulator(), []
-    for _ in range(reps):
-        img = gt + bias + 0.05 * rng.standard_normal(gt.shape)
-        acc.add(img)
-        errs.append(float(np.mean(img - gt)))
-    return acc.bias(gt, np.zeros_like(gt), errs)
+    # Two batches merged, as the runner stores a cell (run_store.CellMoments.merged).
+    images = gt + bias + 0.05 * rng.standard_normal((reps,) + gt.shape)
+    m = CellMoments.of(images[:2]).merged(CellMoments.of(images[2:]))
+    errs = [float(np.mean(img - gt)) for img in images]
+    return cell_bias(m.n, m.mean, m.pixel_variance(), gt, np.zeros_like(gt), errs)
+
+
+def test_merged_cell_moments_equal_the_moments_of_all_repetitions():
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((9, 4, 5, 3)) * 0.3 + 2.0
+    m = CellMoments.of(x[:4]).merged(CellMoments.of(x[4:5])).merged(CellMoments.of(x[5:]))
+    assert m.n == 9 and np.allclose(m.mean, x.mean(axis=0), rtol=1e-14, atol=0)
+    assert math.isclose(m.pixel_variance(), float(np.mean(x.var(axis=0, ddof=1))), rel_tol=1e-12)
 
 
 def test_cell_bias_screen_is_calibrated_and_detects_bias():
@@ -79,3 +87,23 @@ def test_time_to_target():
     # OverflowError) extrapolates to an infinite time, not an exception.
     r = time_to_target([0.1, 0.4], [0.4, 0.4 * (1 - 1e-12)], 0.01)
     assert r["how"] == "extrapolated" and r["seconds"] == float("inf")
+
+
+def test_batch_metrics_equal_each_image_s_metrics_exactly():
+    # The runner scores a batch in one vectorised pass; every value must be what image_metrics
+    # gives that image alone (bit for bit), the noise and colour terms included.
+    from drtlab.experiments.study.metrics import batch_metrics
+    from drtlab.kernels.colour import to_lab
+    rng = np.random.default_rng(5)
+    gt = rng.uniform(0.0, 1.5, (9, 13, 3))
+    se = rng.uniform(0.0, 0.02, gt.shape)
+    images = gt + 0.2 * rng.standard_normal((5,) + gt.shape)
+    images[2, 3, 4] = np.nan                                    # a non-finite run is kept as such
+    lab = to_lab(gt)
+    rows = batch_metrics(images, gt, se, lab)
+    for img, row in zip(images, rows):
+        single = image_metrics(img, gt, se, lab)
+        assert row.keys() == single.keys()
+        for k in row:
+            assert row[k] == single[k] or (math.isnan(row[k]) and math.isnan(single[k])), k
+    assert rows[2]["finite"] is False and rows[0]["finite"] is True
