@@ -22,7 +22,8 @@ from drtlab.kernels.colour import luminance
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
-from drtlab.kernels.scene import MATERIAL_CODE, Scene
+from drtlab.kernels.material_kinds import MATERIAL_CODE
+from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
 # Shape kinds (Hit.kind, SceneData.light_shape_kind).

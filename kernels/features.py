@@ -5,6 +5,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from drtlab.kernels.material_kinds import kinds_where
 from drtlab.kernels.scene import Scene
 
 # Faults a test may compile into a kernel to check that a statistical test rejects a wrong estimator.
@@ -31,7 +32,7 @@ RUNTIME_SWITCHES = ("lens", "motion", "checker", "background")
 
 # Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
 WHITTED_SPLITS = 4
-SPLITTING_KINDS = frozenset({"dielectric", "glossy_dielectric"})
+SPLITTING_KINDS = frozenset(kinds_where(lambda k: k.transmits))    # they reflect and refract
 
 
 def material_kinds(scene: Scene) -> frozenset:

@@ -22,9 +22,9 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.primitives import Hit
-from drtlab.kernels.scene import MATERIAL_CODE
+from drtlab.kernels.material_kinds import MATERIAL_CODE, kinds_where
 
-# Material kind codes (SceneData.mat_kind), defined by scene.MATERIAL_KINDS.
+# Material kind codes (SceneData.mat_kind), defined by material_kinds.KINDS.
 DIFFUSE = wp.constant(MATERIAL_CODE["diffuse"])
 GLOSSY = wp.constant(MATERIAL_CODE["glossy"])
 MIRROR = wp.constant(MATERIAL_CODE["mirror"])
@@ -179,9 +179,8 @@ def plastic_coat_probability(co: float, ior: float) -> float:
     return fresnel(co, ior)
 
 
-# The material kinds whose sample_bsdf reads u_lobe (a choice between a reflection and a transmission
-# or a coat lobe); every other kind samples one lobe.
-LOBE_CHOICE_KINDS = frozenset({"dielectric", "glossy_dielectric", "plastic"})
+# The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
+LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
 
 
 class Bsdf(NamedTuple):

@@ -11,11 +11,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-# New kinds go at the end: the codes of the existing ones stay what compiled kernels and caches saw.
-MATERIAL_KINDS = ("diffuse", "glossy", "mirror", "dielectric", "glossy_dielectric", "emitter",
-                  "plastic")
-# The integer code of each material kind, as the kernels see it (SceneData.mat_kind).
-MATERIAL_CODE = {kind: code for code, kind in enumerate(MATERIAL_KINDS)}
 INTEGRATORS = ("whitted", "drt", "path")
 
 
@@ -37,7 +32,7 @@ class Camera:
 @dataclass
 class Material:
     name: str
-    kind: str                                   # one of MATERIAL_KINDS
+    kind: str                                   # one of material_kinds.MATERIAL_KINDS
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
     albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy/plastic)
     checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters

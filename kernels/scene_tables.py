@@ -15,8 +15,9 @@ import numpy as np
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
-from drtlab.kernels.scene import (INTEGRATORS, MATERIAL_KINDS, Camera, DirectionalLight, Material,
-                                  PointLight, Scene, Shape)
+from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS
+from drtlab.kernels.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
+                                  Shape)
 from drtlab.kernels.transforms import parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
@@ -25,16 +26,6 @@ SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "ru
               "rr_depth", "background")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
                "focal_length", "image_distance", "shutter")
-# Keys a material may have, by kind: a key that the kind ignores is an error, not a silent no-op.
-MATERIAL_KEYS = {
-    "diffuse": ("kind", "albedo", "albedo2", "checker", "emission"),
-    "glossy": ("kind", "albedo", "albedo2", "checker", "exponent", "emission"),
-    "mirror": ("kind", "albedo", "emission"),
-    "dielectric": ("kind", "albedo", "ior", "emission"),
-    "glossy_dielectric": ("kind", "albedo", "exponent", "ior", "emission"),
-    "emitter": ("kind", "emission"),
-    "plastic": ("kind", "albedo", "albedo2", "checker", "exponent", "ior", "emission"),
-}
 # What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/mesh_file.py).
 SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
 SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
@@ -227,21 +218,22 @@ def _parse_material(name: str, value: Any) -> Material:
     path = f"materials.{name}"
     t = Table(value, path, f"material '{name}'")
     kind = string(t.get("kind", "diffuse", ""), t.field("kind"), MATERIAL_KINDS)
-    t.check_keys(MATERIAL_KEYS[kind])
+    spec = KIND_BY_NAME[kind]
+    t.check_keys(spec.keys)
     m = Material(name=name, kind=kind)
     m.emission = _color(t.get("emission", [0, 0, 0], ""), t.field("emission"))
-    if kind == "emitter":
+    if spec.emitter:
         m.albedo = np.zeros(3)          # an emitter is black apart from what it emits
         if not m.emissive:
             raise InputError(t.field("emission"), "an emitter needs emission >= 0 with at least one "
                                                   f"channel > 0, got {show(m.emission.tolist())}")
         return m
     m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
-    if kind in ("glossy", "glossy_dielectric", "plastic"):
+    if spec.phong:
         m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
-    if kind in ("dielectric", "glossy_dielectric"):
+    if spec.transmits:
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
-    if kind == "plastic":       # a coat of index 1 reflects nothing; below 1 it is no coat at all
+    if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 1 (the coat's index of refraction)",
                        lambda x: x > 1.0)
     if t.has("albedo2"):

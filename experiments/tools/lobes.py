@@ -38,19 +38,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from drtlab.kernels.scene import MATERIAL_KINDS
+from drtlab.kernels.material_kinds import kinds_where
 
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.experiments.paths import results_root
 from drtlab.fields import MAX_SEED
 
-DELTA_KINDS = ("mirror", "dielectric")          # all light leaves in one or two directions
-NO_SCATTER_KINDS = ("emitter",)                 # sample_bsdf never returns a direction
-LOBE_KINDS = tuple(k for k in MATERIAL_KINDS if k not in DELTA_KINDS + NO_SCATTER_KINDS)
-USES_EXPONENT = ("glossy", "glossy_dielectric", "plastic")
-USES_IOR = ("glossy_dielectric", "plastic")
-TRANSMITS = ("glossy_dielectric",)              # lobes below the surface too: full circle
+DELTA_KINDS = kinds_where(lambda k: k.delta)        # all light leaves in one or two directions
+NO_SCATTER_KINDS = kinds_where(lambda k: k.emitter)  # sample_bsdf never returns a direction
+LOBE_KINDS = kinds_where(lambda k: not (k.delta or k.emitter))
+USES_EXPONENT = kinds_where(lambda k: k.phong)
+USES_IOR = kinds_where(lambda k: k.ior and k.name in LOBE_KINDS)
+# Lobes below the surface too: a full circle.
+TRANSMITS = kinds_where(lambda k: k.transmits and k.name in LOBE_KINDS)
 STRATEGIES = ("importance", "uniform")
 
 DEFAULT_INCIDENT = (0.0, 30.0, 60.0, 80.0)

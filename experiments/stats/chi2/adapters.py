@@ -14,7 +14,7 @@ from drtlab.estimators.strategies import LightSampling, Strategy
 from drtlab.experiments.stats.chi2.harness import PdfFunc, SampleFunc
 from drtlab.kernels.device_scene import SPHERE, SceneData
 from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, Features
-from drtlab.kernels.scene import MATERIAL_CODE, MATERIAL_KINDS
+from drtlab.kernels.material_kinds import MATERIAL_CODE, MATERIAL_KINDS
 from drtlab.warp_runtime import warp as _wp
 
 
@@ -165,7 +165,7 @@ def _make_warps_kernel():
     return warps_kernel
 
 
-# The kernels' integer material kind of each kind name (one definition: kernels/scene.py).
+# The kernels' integer material kind of each kind name (one definition: kernels/material_kinds.py).
 KIND_INDEX = MATERIAL_CODE
 ALL_KINDS = frozenset(MATERIAL_KINDS)
 

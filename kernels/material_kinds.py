@@ -1,0 +1,63 @@
+"""One descriptor per material kind: what every layer reads of a kind, in one table.
+
+The scene loader reads which keys a kind takes (`MaterialKind.keys`), the kernels its integer code
+(`MATERIAL_CODE`) and which of their code paths it needs (features.SPLITTING_KINDS,
+materials.LOBE_CHOICE_KINDS), the lobe tool which kinds have a lobe to plot and how
+(experiments/tools/lobes.py). A new kind is one row here, then its BSDF in kernels/materials.py.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class MaterialKind:
+    name: str
+    delta: bool = False         # light leaves in one or two directions only: no density to sample
+    phong: bool = False         # a modified-Phong lobe of the material's `exponent`
+    transmits: bool = False     # light crosses the surface, refracted at the material's `ior`
+    coat: bool = False          # a dielectric coat of index `ior` (> 1) over a diffuse base
+    checker: bool = False       # may alternate two albedos (`albedo2`, `checker`)
+    emitter: bool = False       # black: it only emits, and scatters nothing
+
+    @property
+    def ior(self) -> bool:
+        """It has a Fresnel interface (the material's `ior`)."""
+        return self.transmits or self.coat
+
+    @property
+    def lobe_choice(self) -> bool:
+        """sample_bsdf reads u_lobe: a Fresnel interface splits light between two lobes
+        (reflection and transmission, or coat and base)."""
+        return self.ior
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        """The keys its scene-file table may have: a key the kind ignores is an error, not a silent
+        no-op."""
+        return (("kind",) + (() if self.emitter else ("albedo",))
+                + (("albedo2", "checker") if self.checker else ())
+                + (("exponent",) if self.phong else ()) + (("ior",) if self.ior else ())
+                + ("emission",))
+
+
+# New kinds go at the end: a kind's code is its place here, and the codes of the existing ones stay
+# what compiled kernels and caches saw.
+KINDS = (
+    MaterialKind("diffuse", checker=True),
+    MaterialKind("glossy", phong=True, checker=True),
+    MaterialKind("mirror", delta=True),
+    MaterialKind("dielectric", delta=True, transmits=True),
+    MaterialKind("glossy_dielectric", phong=True, transmits=True),
+    MaterialKind("emitter", emitter=True),
+    MaterialKind("plastic", phong=True, coat=True, checker=True),
+)
+KIND_BY_NAME = {k.name: k for k in KINDS}
+MATERIAL_KINDS = tuple(KIND_BY_NAME)
+# The integer code of each material kind, as the kernels see it (SceneData's material kind).
+MATERIAL_CODE = {k.name: code for code, k in enumerate(KINDS)}
+
+
+def kinds_where(test) -> tuple[str, ...]:
+    """The names of the kinds whose descriptor passes `test`, in code order."""
+    return tuple(k.name for k in KINDS if test(k))
