@@ -252,29 +252,42 @@ def cmd_info(args) -> int:
 
 
 def cmd_compare(args) -> int:
+    """A against B, or with --ref each of A and B against R: metrics, error images of each pair,
+    and with --per-pixel-z the z-scores (a pair's image and reference standard errors)."""
     from drtlab.experiments.tools import images as tools
-    a, _ = tools.read_image(args.a, "A")
-    b, _ = tools.read_image(args.b, "B")
-    ref = tools.read_image(args.ref, "--ref")[0] if args.ref else None
-    se_b = None
+    reference = args.ref or args.b
+    images = {path: tools.read_image(path, field)[0]
+              for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
+    se = {}                                     # path -> (standard error, values behind it)
     if args.per_pixel_z:
-        se_path = args.stderr or tools.stderr_beside(args.ref or args.b)
+        se_path = args.stderr or tools.stderr_beside(reference)
         if se_path is None:
-            raise InputError("--per-pixel-z", f"needs the standard error of {args.ref or args.b}: "
+            raise InputError("--per-pixel-z", f"needs the standard error of {reference}: "
                              "--stderr FILE, or X.stderr.exr beside X.exr (stderr.exr beside a "
                              "ground truth's mean.exr)")
-        se_b = tools.read_image(se_path, "--stderr")[0]
+        pixels, meta = tools.read_image(se_path, "--stderr")
+        se[reference] = (pixels, tools.samples_behind(meta))
+        for path, field in ((args.a, "A"), (args.b, "B") if args.ref else (None, None)):
+            beside = tools.stderr_beside(path) if path else None
+            if beside is not None:
+                pixels, meta = tools.read_image(beside, field)
+                se[path] = (pixels, tools.samples_behind(meta))
     out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
-    se_a_path = tools.stderr_beside(args.a) if args.per_pixel_z else None
-    se_a = tools.read_image(se_a_path, "A")[0] if se_a_path else None
-    pairs = [(a, b, args.a, args.b, se_a)] if ref is None else \
-        [(a, ref, args.a, args.ref, se_a), (b, ref, args.b, args.ref, None)]
-    for img, reference, name, ref_name, se_img in pairs:
-        result = tools.compare_images(img, reference, names=(name, ref_name), se_a=se_img, se_b=se_b)
+    pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
+    results = []
+    for path, ref_path in pairs:
+        se_img, n_img = se.get(path, (None, None))
+        se_ref, n_ref = se.get(ref_path, (None, None))
+        result = tools.compare_images(images[path], images[ref_path], names=(path, ref_path),
+                                      se_a=se_img, se_b=se_ref, n_a=n_img, n_b=n_ref)
         print(result.line())
+        results.append(result)
     out_dir.mkdir(parents=True, exist_ok=True)
-    stem = out_dir / f"{Path(args.a).stem}-vs-{Path(args.b).stem}"
-    written = tools.write_error_images(a, b, stem)
+    written = []
+    for (path, ref_path), result in zip(pairs, results):
+        stem = out_dir / f"{Path(path).stem}-vs-{Path(ref_path).stem}"
+        written += tools.write_error_images(images[path], images[ref_path], stem,
+                                            z=None if result.z is None else result.z.image)
     print("wrote " + ", ".join(str(p) for p in written))
     return 0
 

@@ -102,12 +102,17 @@ def image_info(path) -> ImageInfo:
 
 @dataclass
 class ZScores:
-    """Per-pixel (A - B) / sqrt(se_A^2 + se_B^2): N(0, 1) where the two agree within their noise."""
+    """Per-pixel (A - B) / sqrt(se_A^2 + se_B^2) where the two agree within their noise: Student's t
+    at the Welch-Satterthwaite degrees of freedom of the two standard errors (each estimated from
+    the number of samples or batches its image's metadata gives; unknown counts as infinite, N(0, 1))."""
     mean: float
     sd: float
+    sd_expected: float              # sd of that t (1 for N(0, 1))
     beyond_3: float                 # fraction of |z| > 3 (0.0027 for N(0, 1))
-    ks_pvalue: float                # Kolmogorov-Smirnov test against N(0, 1)
+    ks_pvalue: float                # Kolmogorov-Smirnov test against that t, pixel by pixel
     pixels: int
+    dropped: int                    # values without a standard error (zero), left out of it all
+    image: np.ndarray | None = None     # (H, W, 3) z, NaN where dropped
 
 
 @dataclass
@@ -125,40 +130,68 @@ class Comparison:
         text = (f"{self.image} vs {self.reference}: RMSE {self.rmse:.6g}, relMSE {self.relmse:.6g}, "
                 f"MAE {self.mae:.6g}, CIEDE2000 {self.ciede2000:.4g}, mean error {self.mean_error:+.6g}")
         if self.z is not None:
-            text += (f"; z: mean {self.z.mean:+.3f}, sd {self.z.sd:.3f}, |z|>3 {100 * self.z.beyond_3:.2f}%"
-                     f", KS p {self.z.ks_pvalue:.3g} ({self.z.pixels} values)")
+            z = self.z
+            text += (f"; z: mean {z.mean:+.3f}, sd {z.sd:.3f} (expected {z.sd_expected:.3f}), "
+                     f"|z|>3 {100 * z.beyond_3:.2f}%, KS p {z.ks_pvalue:.3g} ({z.pixels} values"
+                     f"{f'; {z.dropped} with zero standard error dropped' if z.dropped else ''})")
         return text
 
 
-def z_scores(a: np.ndarray, b: np.ndarray, se_a: np.ndarray | None, se_b: np.ndarray) -> ZScores:
+def samples_behind(meta: dict) -> int | None:
+    """How many independent values a standard-error image was estimated from: a ground truth's
+    batches, or a render's spp (`drtlab render --variance`); None when its metadata does not say."""
+    for key in ("batches", "spp"):
+        if isinstance(meta.get(key), (int, np.integer)) and meta[key] >= 2:
+            return int(meta[key])
+    return None
+
+
+def z_scores(a: np.ndarray, b: np.ndarray, se_a: np.ndarray | None, se_b: np.ndarray,
+             n_a: int | None = None, n_b: int | None = None) -> ZScores:
+    """ZScores of `a` against `b` with their standard errors, estimated from n_a and n_b values."""
     from scipy import stats
-    var = np.square(se_b.astype(np.float64))
-    if se_a is not None:
-        var = var + np.square(se_a.astype(np.float64))
+    from drtlab.experiments.stats.hypothesis_tests import welch_dof
+    var_b = np.square(se_b.astype(np.float64))
+    var_a = np.zeros_like(var_b) if se_a is None else np.square(se_a.astype(np.float64))
+    var = var_a + var_b
     ok = var > 0
-    z = (a.astype(np.float64) - b.astype(np.float64))[ok] / np.sqrt(var[ok])
+    z_image = np.full(var.shape, np.nan)
+    z_image[ok] = (a.astype(np.float64) - b.astype(np.float64))[ok] / np.sqrt(var[ok])
+    z = z_image[ok]
     if z.size == 0:
         raise InputError("--per-pixel-z", "the standard error is zero everywhere")
-    return ZScores(mean=float(z.mean()), sd=float(z.std()), beyond_3=float(np.mean(np.abs(z) > 3)),
-                   ks_pvalue=float(stats.kstest(z, "norm").pvalue), pixels=int(z.size))
+    huge = 1e12                             # an unknown count: the estimate is taken as exact
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dof = welch_dof(var_a[ok], n_a or huge, var_b[ok], n_b or huge)
+    dof = np.where(np.isfinite(dof), dof, huge)
+    t = dof > 2.05                           # t's variance exists only for dof > 2
+    sd_expected = float(np.sqrt(np.mean(dof[t] / (dof[t] - 2)))) if t.any() else float("nan")
+    return ZScores(mean=float(z.mean()), sd=float(z.std()), sd_expected=sd_expected,
+                   beyond_3=float(np.mean(np.abs(z) > 3)),
+                   ks_pvalue=float(stats.kstest(stats.t.cdf(z, dof), "uniform").pvalue),
+                   pixels=int(z.size), dropped=int((~ok).sum()), image=z_image)
 
 
-def compare_images(a: np.ndarray, b: np.ndarray, *, names=("A", "B"), se_a=None, se_b=None) -> Comparison:
-    """Metrics of image `a` against reference `b` (RGB, (H, W, 3)); z-scores when `se_b` is given."""
+def compare_images(a: np.ndarray, b: np.ndarray, *, names=("A", "B"), se_a=None, se_b=None,
+                   n_a: int | None = None, n_b: int | None = None) -> Comparison:
+    """Metrics of image `a` against reference `b` (RGB, (H, W, 3)); z-scores when `se_b` is given
+    (standard errors estimated from n_a and n_b values, see `z_scores`)."""
     from drtlab.experiments.study.metrics import image_metrics
     a3, b3 = np.asarray(a, dtype=np.float64)[..., :3], np.asarray(b, dtype=np.float64)[..., :3]
     if a3.shape != b3.shape:
         raise InputError("B", f"{names[1]} is {b3.shape[1]}x{b3.shape[0]} but {names[0]} is "
                               f"{a3.shape[1]}x{a3.shape[0]}: images must have the same resolution")
     m = image_metrics(a3, b3, np.zeros_like(b3))
-    z = None if se_b is None else z_scores(a3, b3, None if se_a is None else se_a[..., :3], se_b[..., :3])
+    z = None if se_b is None else z_scores(a3, b3, None if se_a is None else se_a[..., :3],
+                                           se_b[..., :3], n_a, n_b)
     return Comparison(image=names[0], reference=names[1], rmse=m["rmse"], relmse=m["relmse"],
                       mae=m["mae"], ciede2000=m["ciede2000"], mean_error=m["mean_error"], z=z)
 
 
-def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path) -> list[Path]:
+def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
+                       z: np.ndarray | None = None) -> list[Path]:
     """`STEM.diff.exr` (signed A - B, linear) and `STEM.error.png` (false-colour |A - B| luminance,
-    with its scale bar)."""
+    with its scale bar); with `z` (ZScores.image) also `STEM.z.exr`, NaN where no standard error."""
     from drtlab.kernels.colour import luminance
     from drtlab.kernels.imageio import write_exr
     from drtlab.experiments.plotting import pyplot
@@ -176,4 +209,9 @@ def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path) -> list[Pat
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
     fig.savefig(png, bbox_inches="tight")
     plt.close(fig)
-    return [exr, png]
+    if z is None:
+        return [exr, png]
+    z_path = Path(f"{out_stem}.z.exr")
+    write_exr(z_path, z, {"what": "per-pixel z = (A - B) / sqrt(se_A^2 + se_B^2), NaN without a "
+                                  "standard error"})
+    return [exr, png, z_path]

@@ -74,3 +74,57 @@ def test_import_drtlab_still_loads_no_warp_or_render_code():
             "print('warp' in sys.modules, 'drtlab.kernels.render' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
+
+
+# ---------------------------------------------------------------------------------------------------
+# compare --ref: error images against the reference, z-score images, the KS line's bookkeeping
+# ---------------------------------------------------------------------------------------------------
+
+def test_compare_against_a_reference_writes_each_images_errors(tmp_path, capsys):
+    from drtlab.cli import main
+    from drtlab.kernels.imageio import read_exr, write_exr
+    a, b, r = tmp_path / "a.exr", tmp_path / "b.exr", tmp_path / "r.exr"
+    write_exr(a, np.full((4, 6, 3), 0.5))
+    write_exr(b, np.full((4, 6, 3), 0.375))
+    write_exr(r, np.full((4, 6, 3), 0.25))
+    se_r = np.full((4, 6, 3), 0.125)
+    se_r[0, :3] = 0.0                               # 3 pixels x 3 channels without an error
+    write_exr(tmp_path / "r.stderr.exr", se_r, {"spp": 5})     # t with 4 dof: sd sqrt(2)
+    out = tmp_path / "cmp"
+    assert main(["compare", str(a), str(b), "--ref", str(r), "--per-pixel-z", "--out-dir", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"{a} vs {r}:") and lines[1].startswith(f"{b} vs {r}:")
+    assert "z: mean +2.000, sd 0.000 (expected 1.414)" in lines[0], lines[0]
+    assert "z: mean +1.000" in lines[1]
+    assert "(63 values; 9 with zero standard error dropped)" in lines[0], lines[0]
+    assert np.all(read_exr(out / "a-vs-r.diff.exr")[0] == np.float32(0.25))
+    assert np.all(read_exr(out / "b-vs-r.diff.exr")[0] == np.float32(0.125))
+    z = read_exr(out / "b-vs-r.z.exr")[0]
+    assert np.all(np.isnan(z[0, :3])) and np.all(z[1:] == 1.0)
+    assert (out / "a-vs-r.error.png").is_file() and not (out / "a-vs-b.diff.exr").exists()
+
+
+def test_expected_z_sd_follows_welch_dof():
+    from drtlab.experiments.tools.images import z_scores
+    shape = (8, 8, 3)
+    a, b = np.zeros(shape), np.zeros(shape)
+    se = np.full(shape, 0.1)
+    assert z_scores(a, b, None, se).sd_expected == pytest.approx(1.0, abs=1e-6)   # unknown: N(0, 1)
+    assert z_scores(a, b, None, se, n_b=11).sd_expected == pytest.approx(np.sqrt(10 / 8))
+    # Equal errors from 11 values each: Welch dof = (2v)^2 / (2 v^2 / 10) = 20.
+    assert z_scores(a, b, se, se, 11, 11).sd_expected == pytest.approx(np.sqrt(20 / 18))
+
+
+def test_z_ks_test_is_calibrated_and_rejects_a_wrong_error():
+    """z of t-distributed differences against t at the right dof: KS accepts (level 0.001, one
+    test); the negative control, standard errors half the truth, is rejected."""
+    from drtlab.experiments.tools.images import z_scores
+    rng = np.random.default_rng(11)
+    shape = (64, 64, 3)
+    n = 6
+    samples = rng.standard_normal((n, *shape))
+    mean = samples.mean(axis=0)
+    se = samples.std(axis=0, ddof=1) / np.sqrt(n)
+    good = z_scores(mean, np.zeros(shape), None, se, n_b=n)
+    assert good.ks_pvalue > 0.001 and good.sd == pytest.approx(good.sd_expected, rel=0.05)
+    assert z_scores(mean, np.zeros(shape), None, se / 2, n_b=n).ks_pvalue < 1e-6
