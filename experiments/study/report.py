@@ -291,6 +291,29 @@ def _resolution_warning(study: StudyResult) -> list[str]:
             f"{', '.join(low[:8])}{', ...' if len(low) > 8 else ''}): cost from timing-only batches.\n"]
 
 
+def _precision_section(study: StudyResult) -> list[str]:
+    """Which precision-targeted cells met their target and, for the rest, what they would need."""
+    cells = [(scene.scene, c) for scene in study.scenes for c in scene.cells
+             if c.target_rel_ci is not None]
+    if not cells:
+        return []
+    met = [x for x in cells if x[1].target_met]
+    target = cells[0][1].target_rel_ci
+    lines = [f"**Precision target** (95% interval of a cell's mean MSE within ±{100 * target:g}%): "
+             f"{len(met)} of {len(cells)} cells met it.", ""]
+    missed = [x for x in cells if not x[1].target_met]
+    if missed:
+        lines += ["| Scene | Sampler | N | Repetitions | Reached ± | Samples per pixel it would need |",
+                  "|---|---|---|---|---|---|"]
+        for scene, c in missed:
+            need = f"≥ {c.samples_needed:,}" if c.samples_needed else "–"
+            lines.append(f"| {scene} | `{c.sampler}` | {c.spp} | {c.n} | {fmt(100 * c.mse_rel_ci)}% | "
+                         f"{need} |")
+        lines.append("\nA heavy-tailed cell underestimates its spread from few repetitions, so what it "
+                     "would need is a lower bound.\n")
+    return lines + [""]
+
+
 def _cell_table(study: StudyResult) -> list[str]:
     lines = ["<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n",
              f"| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
@@ -395,6 +418,7 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
         lines += _study_table(study)
         lines += _findings(study)
         lines += _resolution_warning(study)
+        lines += _precision_section(study)
         lines += _figure_links(study, study_cfg, plots[study.name], strips, out_dir)
         lines += _cell_table(study)
     lines += _noise_floor_section(summary)

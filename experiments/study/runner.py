@@ -364,10 +364,11 @@ class _Sweep:
         # Precision targets: grow each targeted cell (doubling its repetitions, within its budget)
         # until its mean MSE's interval is narrow enough; decisions read only the committed values.
         while True:
-            grow = [b for cell, cruns in cells.items() for b in self._grow(cell, cruns, gt)]
-            if not grow:
+            grown = [self._grow(cell, cruns, gt) for cell, cruns in cells.items()]
+            grown = [bs for bs in grown if bs is not None]
+            if not grown:
                 break
-            self._render_batches(grow, ctx)
+            self._render_batches([b for bs in grown for b in bs], ctx)
 
     def _targeted(self, cells: dict) -> bool:
         return any(getattr(self._settings(cruns[0]), "target_rel_ci", None) for cruns in cells.values())
@@ -397,13 +398,13 @@ class _Sweep:
                 out.append(_Batch(cell, [r for r, _ in todo], [fp for _, fp in todo]))
         return out
 
-    def _grow(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch]:
-        """The next batches of a precision-targeted cell, or [] when its target is met or its budget
-        spent (recorded in `targets`)."""
+    def _grow(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch] | None:
+        """The batches of a precision-targeted cell's next repetitions (those not stored yet), or None
+        when its target is met or its budget spent (recorded in `targets`)."""
         settings = self._settings(cruns[0])
         target = getattr(settings, "target_rel_ci", None)
         if not target:
-            return []
+            return None
         have = [r for r in self.plan if r.cell == cell]
         study = self.studies[cruns[0].studies[0]]
         key = METRICS[study.metric].mse
@@ -415,7 +416,7 @@ class _Sweep:
                               "target_met": met, "runs": len(have), "max_runs": budget,
                               "runs_needed": prec["repetitions"]}
         if met or len(have) >= budget:
-            return []
+            return None
         r0 = cruns[0]
         new_n = min(2 * len(have), budget)
         extra = [RunSpec(r0.scene, r0.sampler, r0.integrator, r0.resolution, r0.spp, rep,
@@ -442,11 +443,22 @@ class _Sweep:
                                             res=r0.resolution, threads=self.threads)
                 self._commit(b, result, self.clock() - t0, ctx, "local")
             return
+        # A cluster finishes batches in any order; each cell merges its batches in list order (the
+        # float64 merge is not associative), so a batch waits in memory for its cell's earlier ones.
         workers = self.stats.setdefault("workers", {})
+        order = {id(b): i for i, b in enumerate(batches)}
+        waiting: dict = {}                        # cell -> {position: (batch, result, wall, worker)}
+        expected = {}
+        for b in batches:
+            expected.setdefault(b.cell, []).append(order[id(b)])
         for b, result, wall, worker in self.executor.render_batches(self.backend, ctx.scene, batches,
                                                                     self.threads):
-            self._commit(b, result, wall, ctx, worker)
-            workers[worker] = workers.get(worker, 0) + len(b.runs)
+            waiting.setdefault(b.cell, {})[order[id(b)]] = (b, result, wall, worker)
+            queue = expected[b.cell]
+            while queue and queue[0] in waiting[b.cell]:
+                b_, result_, wall_, worker_ = waiting[b.cell].pop(queue.pop(0))
+                self._commit(b_, result_, wall_, ctx, worker_)
+                workers[worker_] = workers.get(worker_, 0) + len(b_.runs)
 
     def _commit(self, b: _Batch, result, wall: float, ctx: "_GroupContext", worker: str) -> None:
         """A rendered batch: its metrics, its rows and its cell file (run_store's commit protocol)."""

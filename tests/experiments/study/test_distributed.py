@@ -1,6 +1,6 @@
 """Sweeps on a Dask cluster (`experiments/study/cluster.py`): a two-worker LocalCluster gives the same
-runs.csv, images and ground truth as the in-process sweep (apart from timings and the worker
-column), a partial distributed sweep resumes without redoing or duplicating runs, and bad
+table of runs, cell files and ground truth as the in-process sweep (apart from timings and the
+worker column), a partial distributed sweep resumes without redoing or duplicating runs, and bad
 --scheduler / --workers input is one line and exit 2. One cluster serves the whole module: starting
 one costs seconds."""
 import contextlib
@@ -19,11 +19,12 @@ from drtlab.experiments.study.backend import default_backend          # noqa: E4
 from drtlab.experiments.study.config import load_experiment           # noqa: E402
 from drtlab.experiments.study.runner import run_experiment            # noqa: E402
 from fakes import tiny_real_experiment                          # noqa: E402
+from drtlab.experiments.study.run_store import TIMING_COLUMNS, load_cell, load_records  # noqa: E402
 
 # Two groups (two ground truths), 16 runs, 8 ground-truth batches: tiny but every path.
 TINY = tiny_real_experiment("distributed sweep, tiny", ["soft-shadows", "aa-edges"])
 N_RUNS = 16
-TIMING = {"render_seconds", "compile_seconds", "wall_seconds", "samples_per_second", "worker"}
+TIMING = set(TIMING_COLUMNS)
 
 
 @pytest.fixture(scope="module")
@@ -65,24 +66,26 @@ def test_local_cluster_matches_the_in_process_sweep(tiny, reference, cluster, tm
     # Workers share this checkout's kernel cache (else each recompiles every variant).
     assert set(cluster.client.run(os.getenv, "WARP_CACHE_PATH").values()) == {os.environ["WARP_CACHE_PATH"]}
     s = sweep(tiny, tmp_path / "out", tmp_path / "gt", executor=cluster)
-    assert s.stats["runs_new"] == N_RUNS and cluster.submitted >= N_RUNS + 8
+    assert s.stats["runs_new"] == N_RUNS and cluster.submitted >= s.stats["batches"] + 8
     ref, got = rows(reference / "out" / "runs.csv"), rows(tmp_path / "out" / "runs.csv")
     assert len(got) == N_RUNS and without_timing(got) == without_timing(ref)
     assert {r["worker"] for r in ref} == {"local"}
     assert {r["worker"] for r in got} == set(cluster.workers())          # both workers took runs
     assert sum(s.stats["workers"].values()) == N_RUNS
-    for r in ref:                                                        # bit-identical images
-        with np.load(reference / "out" / "runs" / f"{r['run_id']}.npz") as a, \
-                np.load(tmp_path / "out" / "runs" / f"{r['run_id']}.npz") as b:
-            assert np.array_equal(a["image"], b["image"])
+    for cell in {rec["cell"] for rec in load_records(reference / "out").values()}:
+        a, b = load_cell(reference / "out", cell), load_cell(tmp_path / "out", cell)
+        # Batches finish in any order on a cluster; they are merged in order: bit-identical files.
+        assert a.batches == b.batches and a.moments.n == b.moments.n
+        assert np.array_equal(a.moments.mean, b.moments.mean) and a.moments.m2 == b.moments.m2
+        assert np.array_equal(a.first, b.first)
     for d in (reference / "gt").iterdir():                               # and ground truths
         with np.load(d / "gt.npz") as a, np.load(tmp_path / "gt" / d.name / "gt.npz") as b:
             assert all(np.array_equal(a[k], b[k]) for k in ("mean", "m2", "seeds", "batches"))
 
 
 class StopAfter:
-    """The cluster executor, but the sweep is interrupted after `k` committed runs (as Ctrl-C or a
-    killed client would stop it)."""
+    """The cluster executor, but the sweep is interrupted after `k` finished batches (as Ctrl-C or
+    a killed client would stop it)."""
 
     def __init__(self, ex, k):
         self.ex, self.k = ex, k
@@ -90,8 +93,8 @@ class StopAfter:
     def ground_truth_backend(self, *a):
         return self.ex.ground_truth_backend(*a)
 
-    def render_runs(self, *a):
-        with contextlib.closing(self.ex.render_runs(*a)) as it:     # cancels what is in flight
+    def render_batches(self, *a):
+        with contextlib.closing(self.ex.render_batches(*a)) as it:  # cancels what is in flight
             for item in it:
                 if self.k == 0:
                     raise KeyboardInterrupt("stop")
@@ -104,19 +107,23 @@ def test_partial_distributed_sweep_resumes_with_only_the_missing_runs(tiny, refe
     out, gt = tmp_path / "out", reference / "gt"          # the reference's ground truth: reused
     with pytest.raises(KeyboardInterrupt):
         sweep(tiny, out, gt, executor=StopAfter(cluster, 5))
-    assert len(list((out / "runs").glob("*.json"))) == 5 == len(rows(out / "runs.csv"))
+    done = len(load_records(out))
+    assert 0 < done < N_RUNS
     before = cluster.submitted
     s = sweep(tiny, out, gt, executor=cluster)
-    assert s.stats["runs_new"] == N_RUNS - 5 and s.stats["runs_reused"] == 5
-    assert cluster.submitted - before == N_RUNS - 5       # no ground-truth batch, no done run
+    assert s.stats["runs_new"] == N_RUNS - done and s.stats["runs_reused"] == done
+    assert cluster.submitted - before == s.stats["batches"]   # no ground-truth batch, no done run
     assert without_timing(rows(out / "runs.csv")) == without_timing(rows(reference / "out" / "runs.csv"))
 
-    # Lost run files (a disk cleanup, a copy gone wrong) are rendered again, and nothing else.
-    lost = sorted((out / "runs").glob("*.json"))[::7]
+    # Lost cell files (a disk cleanup, a copy gone wrong): their runs render again, nothing else.
+    cells = sorted((out / "cells").glob("*.npz"))
+    lost = cells[::3]
     for f in lost:
         f.unlink()
+    lost_runs = sum(1 for rec in load_records(reference / "out").values()
+                    if f"{rec['cell']}.npz" in {f.name for f in lost})
     s = sweep(tiny, out, gt, executor=cluster)
-    assert s.stats["runs_new"] == len(lost) and s.stats["runs_reused"] == N_RUNS - len(lost)
+    assert s.stats["runs_new"] == lost_runs and s.stats["runs_reused"] == N_RUNS - lost_runs
     got = rows(out / "runs.csv")
     assert len({r["run_id"] for r in got}) == len(got) == N_RUNS
     assert without_timing(got) == without_timing(rows(reference / "out" / "runs.csv"))
