@@ -1,6 +1,7 @@
 """Colour of linear sRGB / Rec. 709 radiance: luminance (ITU-R BT.709 Y weights, for light power), the
-sRGB encoding of what a display shows (previews, image strips), and that displayed image in CIELAB
-(colour differences). colour-science is imported only by the last two: it is slow to load."""
+sRGB encoding of what a display shows (previews, image strips) and its inverse (8-bit files read
+back), and the displayed image in CIELAB (colour differences). colour-science is imported only by
+to_srgb and to_lab: it is slow to load."""
 import numpy as np
 
 REC709_Y = (0.2126, 0.7152, 0.0722)
@@ -22,6 +23,12 @@ def to_srgb(image: np.ndarray) -> np.ndarray:
     """Linear radiance -> display sRGB in [0, 1] (`displayed`, then the IEC 61966-2-1 transfer)."""
     import colour
     return colour.cctf_encoding(displayed(image), function="sRGB")
+
+
+def srgb_to_linear(codes: np.ndarray) -> np.ndarray:
+    """sRGB display values in [0, 1] (an 8-bit file's codes / 255) -> linear values, by the inverse
+    IEC 61966-2-1 transfer; the dtype is kept (float32 pixels stay float32)."""
+    return np.where(codes <= 0.04045, codes / 12.92, ((codes + 0.055) / 1.055) ** 2.4)
 
 
 def to_lab(image: np.ndarray) -> np.ndarray:

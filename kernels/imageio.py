@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.kernels.colour import to_srgb
+from drtlab.kernels.colour import srgb_to_linear, to_srgb
 
 
 def to_srgb8(image: np.ndarray) -> np.ndarray:
@@ -69,8 +69,7 @@ def read_linear(path) -> tuple[np.ndarray, dict, str]:
     if fmt in floats or "linear" in colorspace.lower():
         return pixels, meta, floats.get(fmt, fmt)
     out = pixels.copy()
-    colour = out[..., :3]
-    out[..., :3] = np.where(colour <= 0.04045, colour / 12.92, ((colour + 0.055) / 1.055) ** 2.4)
+    out[..., :3] = srgb_to_linear(out[..., :3])
     return out, meta, f"{fmt}, sRGB-encoded (read as linear)"
 
 
