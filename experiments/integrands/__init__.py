@@ -1,2 +1,3 @@
 """The analytic integrand testbed (`make experiment-integrands`; `python -m drtlab.experiments.integrands`):
-2D integrands with exact integrals, the study and its report. May import stats/ and study/metrics."""
+2D integrands with exact integrals, the study and its report. May import stats/ and study/ (metrics,
+manifest)."""

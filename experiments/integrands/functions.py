@@ -1,4 +1,4 @@
-"""2D integrands on [0, 1]^2 with exact integrals: the analytic testbed of `integrand_study`.
+"""2D integrands on [0, 1]^2 with exact integrals: the analytic testbed of `integrands.study`.
 
 Each integrand is a small frozen dataclass: `f(x, y)` evaluates it, vectorised (numpy broadcasting),
 `integral()` is its closed-form integral over the unit square, `kind` says which convergence theory

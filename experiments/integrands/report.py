@@ -1,5 +1,5 @@
 """The integrand study's outputs: summary.json, report.md, one log-log plot per integrand kind and
-manifest.json (integrand_study.py computes what they hold)."""
+manifest.json (experiments/integrands/study.py computes what they hold)."""
 from __future__ import annotations
 
 import datetime as _dt

@@ -5,7 +5,7 @@ like blue noise (Ahmed & Wonka 2020, pbrt-v4's ZSobolSampler promise)?
         --samplers zsobol+importance,sobol+importance
 
 reads the finished runs of an experiment folder (`run_store`) and the scene's reference
-(`groundtruth`), and writes RESULTS_DIR/spectrum/error_spectrum.json and error_spectrum.png.
+(`study/ground_truth`), and writes RESULTS_DIR/spectrum/error_spectrum.json and error_spectrum.png.
 
 Per run (one repetition of (scene, sampler, spp)):
 * error image e = luminance(run - reference) (Rec. 709 Y), mean removed;

@@ -203,7 +203,7 @@ class DaskExecutor:
     def ground_truth_backend(self, backend, scene_ref, gt_spp: int):
         """`backend` whose render() of a ground-truth batch returns the result of a task.
 
-        `groundtruth.ensure_ground_truth` renders its batches one after another and accumulates
+        `ground_truth.ensure_ground_truth` renders its batches one after another and accumulates
         them in batch order (the float64 Welford sums depend on the order). At its first batch this
         wrapper submits that batch and every later one at once; each call then waits for its own
         batch only, so the batches render in parallel and are still added in the same order."""

@@ -21,9 +21,9 @@ path depth (Mitsuba's max_depth convention, which drtlab shares), box pixel filt
 Mitsuba is the optional extra `[compare]`; its LLVM backend needs LLVM 19 (DRJIT_LIBLLVM_PATH). When
 either is missing the run says why in one line, writes a JSON that says skipped and why, and exits 0.
 
-This module is the command line and the order of the run; the renders are in `compare_render`, the
-statistics in `compare_stats`, the printed table in `compare_report`, and Mitsuba's side (LLVM, its
-scene dict, the translation check) in `mitsuba_scene`.
+This module is the command line and the order of the run; the renders are in `render`, the
+statistics in `stats`, the printed table in `report`, the matched sampler pairs in `samplers`, and
+Mitsuba's side (LLVM, its scene dict, the translation check) in `scene` (all in this folder).
 """
 from __future__ import annotations
 

@@ -118,7 +118,7 @@ def sampler_pairs(rig, seeds: int, baseline: dict, ref_stack: np.ndarray) -> dic
 
 
 def markdown_rows(section: dict) -> list[str]:
-    """The pairs' table for compare_report."""
+    """The pairs' table for report.py."""
     lines = ["", f"Matched samplers ({section['renders_per_sampler']} renders each; MSE from their "
                  "spread; time to equal RMSE at this spp with its 90% interval, whole image):", "",
              "| drtlab sampler | Mitsuba sampler | M samples/s drtlab / Mitsuba | time to equal RMSE "

@@ -64,7 +64,7 @@ class WarpsAdapter:
 
     param: the Phong exponent, or 1 - cos(theta_max) of the cone. The disk's points are returned as
     (x, y) in [-1, 1]^2 and its claimed density is 1/pi inside the unit disk (the concentric map is
-    area-preserving; warps.py has no disk pdf). SQUARE returns the random input (u0, u1) itself, to
+    area-preserving; domain_maps.py has no disk pdf). SQUARE returns the random input (u0, u1) itself, to
     test the harness's generator. The cone's support is t <= 1 - cos(theta_max), t
     computed from the perpendicular components (see CapDomain) so tiny cones keep their edge."""
 

@@ -9,7 +9,7 @@ area is checked by hand at axis-aligned angles, diagonals, lines touching only a
 outside the square and an almost axis-aligned angle.
 
 Unbiasedness. The estimate of each integrand from `independent` points, N = 16, UNBIASED_RUNS runs
-(fixed seeds, through `integrand_study.signed_errors`, the study's own path), has a mean error whose
+(fixed seeds, through `integrands.study.signed_errors`, the study's own path), has a mean error whose
 t test against 0 must not reject at level ALPHA = 0.01 with a Sidak correction over the integrands
 (the tests share their points, so they are dependent; Sidak's inequality still holds for two-sided
 tests of jointly normal means). Negative controls: the same test must reject, for every integrand,

@@ -1,7 +1,7 @@
 """experiments/pointsets/error_spectrum.py: exact properties of the error-image spectrum on synthetic images
 (white noise is flat at its variance, a one-cycle smooth error is all low frequency, a checkerboard
 is all at the corner frequency (Nyquist, Nyquist)), the whole path through a fake experiment folder
-(run images + reference written as the runner and groundtruth write them, no rendering), and the
+(run images + reference written as the runner and study/ground_truth write them, no rendering), and the
 one-line errors of the command (exit 2, nothing written)."""
 from __future__ import annotations
 
