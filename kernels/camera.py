@@ -23,13 +23,13 @@ class CameraRay:
 
 @wp.func
 def camera_ray_dir(sd: SceneData, px: int, py: int, u: wp.vec2, lens: wp.vec2) -> wp.vec3:
-    sx = (2.0 * (float(px) + u[0]) / float(sd.width) - 1.0) * sd.half_width
-    sy = (1.0 - 2.0 * (float(py) + u[1]) / float(sd.height)) * sd.half_height
+    sx = (2.0 * (float(px) + u[0]) / float(sd.width) - 1.0) * sd.camera.half_width
+    sy = (1.0 - 2.0 * (float(py) + u[1]) / float(sd.height)) * sd.camera.half_height
     # Thin lens: aim from the lens point at the point the pinhole ray meets the focal plane;
     # written as (x, y, 1) - lens / focus so that a zero aperture reproduces the pinhole exactly.
-    cx = sx - lens[0] / sd.focus_distance
-    cy = sy - lens[1] / sd.focus_distance
-    return wp.normalize(sd.cam_right * cx + sd.cam_up * cy + sd.cam_forward)
+    cx = sx - lens[0] / sd.camera.focus_distance
+    cy = sy - lens[1] / sd.camera.focus_distance
+    return wp.normalize(sd.camera.right * cx + sd.camera.up * cy + sd.camera.forward)
 
 
 @wp.func
@@ -48,18 +48,18 @@ def make_camera(f: Features, pointset: PointSet) -> wp.Function:
                    spp: wp.uint32, px: int, py: int) -> CameraRay:
         u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), spp)
         lens = wp.vec2(0.0, 0.0)
-        o = sd.cam_position
+        o = sd.camera.position
         # A runtime switch (one branch per sample): scenes with and without a lens share a variant.
-        if sd.aperture > 0.0:
+        if sd.camera.aperture > 0.0:
             lens = square_to_disk(get2d(seed, pix, idx, wp.uint32(wp.static(dims.LENS)),
-                                        spp)) * sd.aperture
-            o = o + sd.cam_right * lens[0] + sd.cam_up * lens[1]
+                                        spp)) * sd.camera.aperture
+            o = o + sd.camera.right * lens[0] + sd.camera.up * lens[1]
         ray = CameraRay()
         ray.o = o
         ray.d = camera_ray_dir(sd, px, py, u, lens)
         ray.dt = float(0.0)
         if sd.moving == 1:
-            ray.dt = (sd.shutter_close - sd.shutter_open) * get1d(
+            ray.dt = (sd.camera.shutter_close - sd.camera.shutter_open) * get1d(
                 seed, pix, idx, wp.uint32(wp.static(dims.TIME)), spp)
         return ray
 

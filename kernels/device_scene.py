@@ -26,95 +26,134 @@ from drtlab.kernels.material_kinds import MATERIAL_CODE
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
-# Shape kinds (Hit.kind, SceneData.light_shape_kind).
+# Shape kinds (Hit.kind, LightData.shape_kind).
 SPHERE = wp.constant(0)
 QUAD = wp.constant(1)
 MESH = wp.constant(2)           # Hit.index: the face's index in the per-face arrays (tri_*)
 
 
 @wp.struct
-class SceneData:
-    sph_center: wp.array(dtype=wp.vec3)
-    sph_radius: wp.array(dtype=float)
-    sph_velocity: wp.array(dtype=wp.vec3)
-    sph_material: wp.array(dtype=int)
-    sph_light: wp.array(dtype=int)
-    n_spheres: int
-    quad_origin: wp.array(dtype=wp.vec3)
-    quad_u: wp.array(dtype=wp.vec3)
-    quad_v: wp.array(dtype=wp.vec3)
-    quad_normal: wp.array(dtype=wp.vec3)
-    quad_geom: wp.array(dtype=QuadGeom)        # what the ray tests read (accel.quad_geometry)
-    quad_area: wp.array(dtype=float)
-    quad_velocity: wp.array(dtype=wp.vec3)
-    quad_material: wp.array(dtype=int)
-    quad_light: wp.array(dtype=int)
-    n_quads: int
-    # The quads as groups in index order (accel.quad_groups): single quads and boxes.
-    qgroup_quad: wp.array(dtype=int)           # a single quad's index, -1 for a box
-    qgroup_corner: wp.array(dtype=wp.vec3)
-    qgroup_inverse: wp.array(dtype=wp.mat33)
-    qgroup_aligned: wp.array(dtype=int)        # box: 1 if axis-aligned (inverse diagonal)
-    qgroup_ball: wp.array(dtype=wp.vec4)       # closed box: a ball around it; radius < 0: none
-    qgroup_velocity: wp.array(dtype=wp.vec3)
-    qgroup_rank: wp.array(dtype=int)
-    qgroup_faces: wp.array(dtype=int)          # 6 per group: quad index by face slot, -1 none
-    quad_group: wp.array(dtype=int)
-    n_qgroups: int
-    # Triangle meshes (kernels/intersection/bvh_build.py), vertices at shutter open: per mesh a wp.Bvh of its
-    # triangles' boxes (item k: the mesh's face k).
-    mesh_bvh: wp.array(dtype=wp.uint64)
-    mesh_face0: wp.array(dtype=int)            # n_meshes + 1 offsets into the per-face arrays
-    mesh_velocity: wp.array(dtype=wp.vec3)
-    mesh_material: wp.array(dtype=int)
-    mesh_light: wp.array(dtype=int)
-    mesh_smooth: wp.array(dtype=int)           # 1: shading normals interpolated from vert_normal
-    mesh_area: wp.array(dtype=float)
-    mesh_centroid: wp.array(dtype=wp.vec3)     # Whitted's point-light stand-in
-    mesh_normal_area: wp.array(dtype=wp.vec3)  # sum over faces of area * unit normal
-    n_meshes: int
-    tri_index: wp.array(dtype=wp.vec3i)        # per face: its vertices in mesh_points
+class SphereData:
+    center: wp.array(dtype=wp.vec3)            # at shutter open
+    radius: wp.array(dtype=float)
+    velocity: wp.array(dtype=wp.vec3)
+    material: wp.array(dtype=int)
+    light: wp.array(dtype=int)                 # its area light, -1 none
+    count: int
+    bvh: wp.uint64                             # wp.Bvh over the spheres' swept boxes; 0: none
+
+
+@wp.struct
+class QuadData:
+    origin: wp.array(dtype=wp.vec3)            # at shutter open
+    u: wp.array(dtype=wp.vec3)
+    v: wp.array(dtype=wp.vec3)
+    normal: wp.array(dtype=wp.vec3)
+    geom: wp.array(dtype=QuadGeom)             # what the ray tests read (quad_records.quad_geometry)
+    area: wp.array(dtype=float)
+    velocity: wp.array(dtype=wp.vec3)
+    material: wp.array(dtype=int)
+    light: wp.array(dtype=int)
+    group: wp.array(dtype=int)                 # its group in QuadGroupData
+    count: int
+
+
+@wp.struct
+class QuadGroupData:
+    """The quads as groups in index order (quad_records.quad_groups): single quads and boxes."""
+    quad: wp.array(dtype=int)                  # a single quad's index, -1 for a box
+    corner: wp.array(dtype=wp.vec3)
+    inverse: wp.array(dtype=wp.mat33)
+    aligned: wp.array(dtype=int)               # box: 1 if axis-aligned (inverse diagonal)
+    ball: wp.array(dtype=wp.vec4)              # closed box: a ball around it; radius < 0: none
+    velocity: wp.array(dtype=wp.vec3)
+    rank: wp.array(dtype=int)
+    faces: wp.array(dtype=int)                 # 6 per group: quad index by face slot, -1 none
+    count: int
+
+
+@wp.struct
+class MeshData:
+    """Triangle meshes (kernels/intersection/bvh_build.py), vertices at shutter open: per mesh a
+    wp.Bvh of its triangles' boxes (item k: the mesh's face k), per face and per vertex tables."""
+    bvh: wp.array(dtype=wp.uint64)
+    face0: wp.array(dtype=int)                 # count + 1 offsets into the per-face arrays
+    velocity: wp.array(dtype=wp.vec3)
+    material: wp.array(dtype=int)
+    light: wp.array(dtype=int)
+    smooth: wp.array(dtype=int)                # 1: shading normals interpolated from vert_normal
+    area: wp.array(dtype=float)
+    centroid: wp.array(dtype=wp.vec3)          # Whitted's point-light stand-in
+    normal_area: wp.array(dtype=wp.vec3)       # sum over faces of area * unit normal
+    count: int
+    tri_index: wp.array(dtype=wp.vec3i)        # per face: its vertices in points
     tri_cdf: wp.array(dtype=float)             # per face: area cdf within its mesh
     tri_mesh: wp.array(dtype=int)              # per face: its mesh
-    mesh_points: wp.array(dtype=wp.vec3)       # every mesh's vertices
+    points: wp.array(dtype=wp.vec3)            # every mesh's vertices
     vert_normal: wp.array(dtype=wp.vec3)       # per vertex (zeros in flat meshes)
-    sph_bvh: wp.uint64                         # wp.Bvh over the spheres' swept boxes; 0: none
-    mat_kind: wp.array(dtype=int)
-    mat_albedo: wp.array(dtype=wp.vec3)
-    mat_albedo2: wp.array(dtype=wp.vec3)
-    mat_checker: wp.array(dtype=wp.vec2)
-    mat_exponent: wp.array(dtype=float)
-    mat_ior: wp.array(dtype=float)
-    mat_emission: wp.array(dtype=wp.vec3)
-    light_shape_kind: wp.array(dtype=int)
-    light_shape: wp.array(dtype=int)
-    light_pmf: wp.array(dtype=float)
-    light_cdf: wp.array(dtype=float)
-    n_lights: int
-    pl_position: wp.array(dtype=wp.vec3)
-    pl_intensity: wp.array(dtype=wp.vec3)
-    n_point_lights: int
-    dl_direction: wp.array(dtype=wp.vec3)
-    dl_irradiance: wp.array(dtype=wp.vec3)
-    n_dir_lights: int
-    background: wp.vec3
-    eps: float
-    cam_position: wp.vec3
-    cam_right: wp.vec3
-    cam_up: wp.vec3
-    cam_forward: wp.vec3
+
+
+@wp.struct
+class MaterialData:
+    kind: wp.array(dtype=int)                  # material_kinds.MATERIAL_CODE
+    albedo: wp.array(dtype=wp.vec3)
+    albedo2: wp.array(dtype=wp.vec3)
+    checker: wp.array(dtype=wp.vec2)
+    exponent: wp.array(dtype=float)
+    ior: wp.array(dtype=float)
+    emission: wp.array(dtype=wp.vec3)
+
+
+@wp.struct
+class LightData:
+    # Area lights (emitting shapes), li < n_area.
+    shape_kind: wp.array(dtype=int)            # SPHERE, QUAD or MESH
+    shape: wp.array(dtype=int)                 # its index among the shapes of its kind
+    pmf: wp.array(dtype=float)                 # by power
+    cdf: wp.array(dtype=float)
+    n_area: int
+    point_position: wp.array(dtype=wp.vec3)
+    point_intensity: wp.array(dtype=wp.vec3)
+    n_point: int
+    dir_direction: wp.array(dtype=wp.vec3)     # the way the light travels
+    dir_irradiance: wp.array(dtype=wp.vec3)
+    n_dir: int
+
+
+@wp.struct
+class CameraData:
+    position: wp.vec3
+    right: wp.vec3
+    up: wp.vec3
+    forward: wp.vec3
     half_width: float
     half_height: float
     aperture: float
     focus_distance: float
     shutter_open: float
     shutter_close: float
+
+
+@wp.struct
+class SceneData:
+    """The scene as the kernels read it, in parts: its shapes by kind, materials, lights, camera,
+    then the render settings. Nesting costs nothing: sd.camera.position is one load at a fixed
+    offset, as a flat field was (the compiled kernels have the same instructions)."""
+    spheres: SphereData
+    quads: QuadData
+    quad_groups: QuadGroupData
+    meshes: MeshData
+    materials: MaterialData
+    lights: LightData
+    camera: CameraData
+    background: wp.vec3
+    eps: float                                 # ray-origin offset at the scene's scale
     width: int
     height: int
     max_depth: int
     rr_depth: int
     whitted_codes: int
-    moving: int                 # 1: shapes move within the shutter (intersect.make_motion)
+    moving: int                 # 1: shapes move within the shutter (intersection/motion.py)
 
 
 def _f3(v) -> tuple:
@@ -185,54 +224,58 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     # Shapes move as c + v t in absolute shutter time; the kernels add v (t - open), so the uploaded
     # positions are those at shutter open (also what a static render, whitted or a closed shutter, shows).
     t_open = float(scene.camera.shutter[0])
-    sd.sph_center = arr([_at_time(s.center, s.velocity, t_open) for s in spheres], wp.vec3, (1, 3))
-    sd.sph_radius = arr([s.radius for s in spheres], float, (1,))
-    sd.sph_velocity = arr([s.velocity for s in spheres], wp.vec3, (1, 3))
-    sd.sph_material = arr([s.material for s in spheres], int, (1,))
-    sd.sph_light = arr([light_of.get(id(s), -1) for s in spheres], int, (1,))
-    sd.n_spheres = len(spheres)
-    sd.quad_origin = arr([_at_time(s.origin, s.velocity, t_open) for s in quads], wp.vec3, (1, 3))
-    sd.quad_u = arr([s.edge_u for s in quads], wp.vec3, (1, 3))
-    sd.quad_v = arr([s.edge_v for s in quads], wp.vec3, (1, 3))
+    sp = sd.spheres
+    sp.center = arr([_at_time(s.center, s.velocity, t_open) for s in spheres], wp.vec3, (1, 3))
+    sp.radius = arr([s.radius for s in spheres], float, (1,))
+    sp.velocity = arr([s.velocity for s in spheres], wp.vec3, (1, 3))
+    sp.material = arr([s.material for s in spheres], int, (1,))
+    sp.light = arr([light_of.get(id(s), -1) for s in spheres], int, (1,))
+    sp.count = len(spheres)
+    q = sd.quads
+    q.origin = arr([_at_time(s.origin, s.velocity, t_open) for s in quads], wp.vec3, (1, 3))
+    q.u = arr([s.edge_u for s in quads], wp.vec3, (1, 3))
+    q.v = arr([s.edge_v for s in quads], wp.vec3, (1, 3))
     normals = np.cross(np.array([s.edge_u for s in quads], dtype=np.float64).reshape(-1, 3),
                        np.array([s.edge_v for s in quads], dtype=np.float64).reshape(-1, 3))
     areas = np.linalg.norm(normals, axis=1)
-    sd.quad_normal = arr(normals / areas[:, None] if quads else [], wp.vec3, (1, 3))
-    sd.quad_area = arr(areas, float, (1,))
-    sd.quad_velocity = arr([s.velocity for s in quads], wp.vec3, (1, 3))
-    sd.quad_material = arr([s.material for s in quads], int, (1,))
-    sd.quad_light = arr([light_of.get(id(s), -1) for s in quads], int, (1,))
-    sd.n_quads = len(quads)
+    q.normal = arr(normals / areas[:, None] if quads else [], wp.vec3, (1, 3))
+    q.area = arr(areas, float, (1,))
+    q.velocity = arr([s.velocity for s in quads], wp.vec3, (1, 3))
+    q.material = arr([s.material for s in quads], int, (1,))
+    q.light = arr([light_of.get(id(s), -1) for s in quads], int, (1,))
+    q.count = len(quads)
     # Keyed by the (cached, so alive and unique) input arrays themselves.
-    inputs = (sd.quad_origin, sd.quad_u, sd.quad_v)
-    sd.quad_geom = _cached(("geom", *map(id, inputs)),
-                           lambda: (quad_geometry(*inputs, device), inputs))[0]
+    inputs = (q.origin, q.u, q.v)
+    q.geom = _cached(("geom", *map(id, inputs)),
+                     lambda: (quad_geometry(*inputs, device), inputs))[0]
     groups = _cached(("groups", t_open, np.array([[s.origin, s.edge_u, s.edge_v, s.velocity]
                                                   for s in quads], dtype=np.float64).tobytes()),
                      lambda: quad_groups(quads, t_open))
-    sd.qgroup_quad = arr(groups.quad, int, (1,))
-    sd.qgroup_corner = arr(groups.corner, wp.vec3, (1, 3))
-    sd.qgroup_inverse = arr(groups.inverse, wp.mat33, (1, 3, 3))
-    sd.qgroup_ball = arr(groups.ball, wp.vec4, (1, 4))
-    sd.qgroup_aligned = arr([int(np.count_nonzero(m - np.diag(np.diag(m))) == 0)
-                             for m in groups.inverse], int, (1,))
-    sd.qgroup_velocity = arr(groups.velocity, wp.vec3, (1, 3))
-    sd.qgroup_rank = arr(groups.rank, int, (1,))
-    sd.qgroup_faces = arr(groups.faces, int, (1,))
-    sd.quad_group = arr(groups.group_of, int, (1,))
-    sd.n_qgroups = len(groups.quad)
+    g = sd.quad_groups
+    g.quad = arr(groups.quad, int, (1,))
+    g.corner = arr(groups.corner, wp.vec3, (1, 3))
+    g.inverse = arr(groups.inverse, wp.mat33, (1, 3, 3))
+    g.ball = arr(groups.ball, wp.vec4, (1, 4))
+    g.aligned = arr([int(np.count_nonzero(m - np.diag(np.diag(m))) == 0) for m in groups.inverse],
+                    int, (1,))
+    g.velocity = arr(groups.velocity, wp.vec3, (1, 3))
+    g.rank = arr(groups.rank, int, (1,))
+    g.faces = arr(groups.faces, int, (1,))
+    g.count = len(groups.quad)
+    q.group = arr(groups.group_of, int, (1,))
 
 
 def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
-    sd.mat_kind = arr([MATERIAL_CODE[m.kind] for m in materials], int, (1,))
-    sd.mat_albedo = arr([m.albedo for m in materials], wp.vec3, (1, 3))
-    sd.mat_albedo2 = arr([m.albedo2 if m.albedo2 is not None else m.albedo for m in materials],
-                         wp.vec3, (1, 3))
-    sd.mat_checker = arr([m.checker if m.checker is not None else (0, 0) for m in materials],
-                         wp.vec2, (1, 2))
-    sd.mat_exponent = arr([m.exponent for m in materials], float, (1,))
-    sd.mat_ior = arr([m.ior for m in materials], float, (1,))
-    sd.mat_emission = arr([m.emission for m in materials], wp.vec3, (1, 3))
+    m = sd.materials
+    m.kind = arr([MATERIAL_CODE[x.kind] for x in materials], int, (1,))
+    m.albedo = arr([x.albedo for x in materials], wp.vec3, (1, 3))
+    m.albedo2 = arr([x.albedo2 if x.albedo2 is not None else x.albedo for x in materials],
+                    wp.vec3, (1, 3))
+    m.checker = arr([x.checker if x.checker is not None else (0, 0) for x in materials],
+                    wp.vec2, (1, 2))
+    m.exponent = arr([x.exponent for x in materials], float, (1,))
+    m.ior = arr([x.ior for x in materials], float, (1,))
+    m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
 
 
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
@@ -245,18 +288,19 @@ def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes:
              for s in emitters]
     pmf = np.array(power) / np.sum(power) if power else np.zeros(0)
     cdf = np.cumsum(pmf) if power else np.zeros(0)
-    sd.light_shape_kind = arr([code[s.kind] for s in emitters], int, (1,))
-    sd.light_shape = arr([index[id(s)] for s in emitters], int, (1,))
-    sd.light_pmf = arr(pmf, float, (1,))
-    sd.light_cdf = arr(cdf, float, (1,))
-    sd.n_lights = len(emitters)
+    lights = sd.lights
+    lights.shape_kind = arr([code[s.kind] for s in emitters], int, (1,))
+    lights.shape = arr([index[id(s)] for s in emitters], int, (1,))
+    lights.pmf = arr(pmf, float, (1,))
+    lights.cdf = arr(cdf, float, (1,))
+    lights.n_area = len(emitters)
     points, dirs = scene.point_lights, scene.directional_lights
-    sd.pl_position = arr([pl.position for pl in points], wp.vec3, (1, 3))
-    sd.pl_intensity = arr([pl.intensity for pl in points], wp.vec3, (1, 3))
-    sd.n_point_lights = len(points)
-    sd.dl_direction = arr([dl.direction for dl in dirs], wp.vec3, (1, 3))
-    sd.dl_irradiance = arr([dl.irradiance for dl in dirs], wp.vec3, (1, 3))
-    sd.n_dir_lights = len(dirs)
+    lights.point_position = arr([pl.position for pl in points], wp.vec3, (1, 3))
+    lights.point_intensity = arr([pl.intensity for pl in points], wp.vec3, (1, 3))
+    lights.n_point = len(points)
+    lights.dir_direction = arr([dl.direction for dl in dirs], wp.vec3, (1, 3))
+    lights.dir_irradiance = arr([dl.irradiance for dl in dirs], wp.vec3, (1, 3))
+    lights.n_dir = len(dirs)
 
 
 def camera_basis(cam) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -273,17 +317,18 @@ def camera_basis(cam) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 def _put_camera(sd: SceneData, scene: Scene) -> None:
     cam = scene.camera
     pos, fwd, right, up = camera_basis(cam)
-    sd.cam_position = wp.vec3(*_f3(pos))
-    sd.cam_right = wp.vec3(*_f3(right))
-    sd.cam_up = wp.vec3(*_f3(up))
-    sd.cam_forward = wp.vec3(*_f3(fwd))
+    c = sd.camera
+    c.position = wp.vec3(*_f3(pos))
+    c.right = wp.vec3(*_f3(right))
+    c.up = wp.vec3(*_f3(up))
+    c.forward = wp.vec3(*_f3(fwd))
     half_h = math.tan(math.radians(cam.vfov_deg) / 2)
-    sd.half_height = float(half_h)
-    sd.half_width = float(half_h * scene.width / scene.height)
-    sd.aperture = float(cam.aperture_radius)
-    sd.focus_distance = float(cam.focus_distance if cam.focus_distance > 0 else 1.0)
-    sd.shutter_open = float(cam.shutter[0])
-    sd.shutter_close = float(cam.shutter[1])
+    c.half_height = float(half_h)
+    c.half_width = float(half_h * scene.width / scene.height)
+    c.aperture = float(cam.aperture_radius)
+    c.focus_distance = float(cam.focus_distance if cam.focus_distance > 0 else 1.0)
+    c.shutter_open = float(cam.shutter[0])
+    c.shutter_close = float(cam.shutter[1])
 
 
 def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device: str,
@@ -295,35 +340,36 @@ def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device
     built = [_cached(("bvh", device, lo.tobytes(), hi.tobytes()),
                      lambda lo=lo, hi=hi: build_bvh(lo, hi, device))
              for lo, hi in tables.boxes]
-    sd.mesh_bvh = wp.array(np.array([b.id for b in built] or [0], dtype=np.uint64),
-                           dtype=wp.uint64, device=device)
-    sd.mesh_face0 = arr(tables.face0, int, (1,))
-    sd.tri_index = arr(tables.tri_index, wp.vec3i, (1, 3))
-    sd.mesh_points = arr(tables.points, wp.vec3, (1, 3))
-    sd.mesh_velocity = arr([s.velocity for s in meshes], wp.vec3, (1, 3))
-    sd.mesh_material = arr([s.material for s in meshes], int, (1,))
-    sd.mesh_light = arr([light_of.get(id(s), -1) for s in meshes], int, (1,))
-    sd.mesh_smooth = arr(tables.smooth, int, (1,))
-    sd.mesh_area = arr(tables.area, float, (1,))
-    sd.mesh_centroid = arr(tables.centroid, wp.vec3, (1, 3))
-    sd.mesh_normal_area = arr(tables.normal_area, wp.vec3, (1, 3))
-    sd.n_meshes = len(meshes)
-    sd.tri_cdf = arr(tables.cdf, float, (1,))
-    sd.tri_mesh = arr(tables.tri_mesh, int, (1,))
-    sd.vert_normal = arr(tables.vert_normal, wp.vec3, (1, 3))
+    m = sd.meshes
+    m.bvh = wp.array(np.array([b.id for b in built] or [0], dtype=np.uint64), dtype=wp.uint64,
+                     device=device)
+    m.face0 = arr(tables.face0, int, (1,))
+    m.tri_index = arr(tables.tri_index, wp.vec3i, (1, 3))
+    m.points = arr(tables.points, wp.vec3, (1, 3))
+    m.velocity = arr([s.velocity for s in meshes], wp.vec3, (1, 3))
+    m.material = arr([s.material for s in meshes], int, (1,))
+    m.light = arr([light_of.get(id(s), -1) for s in meshes], int, (1,))
+    m.smooth = arr(tables.smooth, int, (1,))
+    m.area = arr(tables.area, float, (1,))
+    m.centroid = arr(tables.centroid, wp.vec3, (1, 3))
+    m.normal_area = arr(tables.normal_area, wp.vec3, (1, 3))
+    m.count = len(meshes)
+    m.tri_cdf = arr(tables.cdf, float, (1,))
+    m.tri_mesh = arr(tables.tri_mesh, int, (1,))
+    m.vert_normal = arr(tables.vert_normal, wp.vec3, (1, 3))
     return built
 
 
 def _put_sphere_bvh(sd: SceneData, scene: Scene, spheres: list, device: str,
                     extent: float) -> list:
     """A wp.Bvh over the spheres when they are many (features.uses_sphere_bvh); returns it."""
-    sd.sph_bvh = wp.uint64(0)
+    sd.spheres.bvh = wp.uint64(0)
     if not uses_sphere_bvh(scene):
         return []
     lowers, uppers = sphere_boxes(spheres, *map(float, scene.camera.shutter), extent)
     bvh = _cached(("bvh", device, lowers.tobytes(), uppers.tobytes()),
                   lambda: build_bvh(lowers, uppers, device))
-    sd.sph_bvh = wp.uint64(bvh.id)
+    sd.spheres.bvh = wp.uint64(bvh.id)
     return [bvh]
 
 

@@ -50,8 +50,8 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
         L = wp.vec3(0.0)
         if wp.static(POINTS):
             i = int(0)
-            while i < sd.n_point_lights:
-                d = sd.pl_position[i] - p
+            while i < sd.lights.n_point:
+                d = sd.lights.point_position[i] - p
                 dist = wp.length(d)
                 wi = d / dist
                 fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
@@ -59,20 +59,20 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
-                    if visible(sd, o, wi, wp.length(sd.pl_position[i] - o), dt, -1, -1) == 1:
-                        L += wp.cw_mul(fc, sd.pl_intensity[i]) / (dist * dist)
+                    if visible(sd, o, wi, wp.length(sd.lights.point_position[i] - o), dt, -1, -1) == 1:
+                        L += wp.cw_mul(fc, sd.lights.point_intensity[i]) / (dist * dist)
                 i += 1
         if wp.static(DIRS):
             i = int(0)
-            while i < sd.n_dir_lights:
-                wi = -sd.dl_direction[i]
+            while i < sd.lights.n_dir:
+                wi = -sd.lights.dir_direction[i]
                 fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, 1.0e30, dt, -1, -1) == 1:
-                        L += wp.cw_mul(fc, sd.dl_irradiance[i])
+                        L += wp.cw_mul(fc, sd.lights.dir_irradiance[i])
                 i += 1
         return L
 
@@ -93,8 +93,8 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 fc = fc / wp.abs(wp.dot(h.n, ls.wi))
             if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                 so = offset_origin(h.p, h.n, ls.wi, sd.eps)
-                lk = sd.light_shape_kind[li]
-                target = sd.light_shape[li]
+                lk = sd.lights.shape_kind[li]
+                target = sd.lights.shape[li]
                 if wp.static(MESHES):
                     if lk == MESH:
                         target = ls.prim        # visible() needs the face, not just the mesh

@@ -10,7 +10,7 @@ AreaLights, Warp functions callable on their own:
 rectangles are always area-sampled. `strategy.power_pick` picks lights proportionally to emitted
 power. The fault features.LIGHT_JACOBIAN in `features.faults` drops the cosine at the light.
 `features.meshes` compiles in emitting triangle meshes, area-sampled like rectangles: a triangle
-picked with probability proportional to its area (SceneData.tri_cdf), a uniform point on it, so the
+picked with probability proportional to its area (MeshData.tri_cdf), a uniform point on it, so the
 density is 1 / (the mesh's area) everywhere on it; the fault features.MESH_PDF_HIGH_10PCT claims a
 density 10% too high.
 """
@@ -71,31 +71,31 @@ def _make_mesh_lights(meshes: bool, mesh_fault: bool, mesh_shift) -> tuple:
         """The area of a light that is not a sphere: a quad, or (meshes) a whole mesh."""
         if wp.static(MESHES):
             if k == MESH:
-                return sd.mesh_area[s] * wp.static(MESH_AREA_SCALE)
-        return sd.quad_area[s]
+                return sd.meshes.area[s] * wp.static(MESH_AREA_SCALE)
+        return sd.quads.area[s]
 
     @wp.func
     def sample_triangle(sd: SceneData, s: int, u: wp.vec2, dt: float) -> TrianglePoint:
         """A point on mesh s: the face whose cdf interval holds u[0] (binary search), then u[0]
         rescaled to that interval and u[1] make a uniform point on it (the square-root warp). The
         rescaled u[0] keeps 24 - log2(1 / the face's probability) bits of resolution."""
-        lo = sd.mesh_face0[s]
-        hi = sd.mesh_face0[s + 1] - 1
+        lo = sd.meshes.face0[s]
+        hi = sd.meshes.face0[s + 1] - 1
         while lo < hi:
             mid = (lo + hi) / 2
-            if u[0] < sd.tri_cdf[mid]:
+            if u[0] < sd.meshes.tri_cdf[mid]:
                 hi = mid
             else:
                 lo = mid + 1
         c0 = float(0.0)
-        if lo > sd.mesh_face0[s]:
-            c0 = sd.tri_cdf[lo - 1]
-        u0 = wp.clamp((u[0] - c0) / (sd.tri_cdf[lo] - c0), 0.0, 1.0)
-        idx = sd.tri_index[lo]
+        if lo > sd.meshes.face0[s]:
+            c0 = sd.meshes.tri_cdf[lo - 1]
+        u0 = wp.clamp((u[0] - c0) / (sd.meshes.tri_cdf[lo] - c0), 0.0, 1.0)
+        idx = sd.meshes.tri_index[lo]
         shift = mesh_shift(sd, s, dt)
-        a = sd.mesh_points[idx[0]] + shift
-        b = sd.mesh_points[idx[1]] + shift
-        c = sd.mesh_points[idx[2]] + shift
+        a = sd.meshes.points[idx[0]] + shift
+        b = sd.meshes.points[idx[1]] + shift
+        c = sd.meshes.points[idx[2]] + shift
         su = wp.sqrt(u0)
         b1 = (1.0 - u[1]) * su
         b2 = u[1] * su
@@ -121,32 +121,32 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
     @wp.func
     def light_pick_pmf(sd: SceneData, li: int) -> float:
         if wp.static(POWER_PICK):
-            return sd.light_pmf[li]
-        return 1.0 / float(sd.n_lights)
+            return sd.lights.pmf[li]
+        return 1.0 / float(sd.lights.n_area)
 
     @wp.func
     def pick_light(sd: SceneData, u: float) -> int:
         li = int(0)
         if wp.static(POWER_PICK):
             # Few lights: a linear scan of the cdf is cheaper than a search.
-            while li < sd.n_lights - 1 and u >= sd.light_cdf[li]:
+            while li < sd.lights.n_area - 1 and u >= sd.lights.cdf[li]:
                 li += 1
         else:
-            li = wp.min(int(u * float(sd.n_lights)), sd.n_lights - 1)
+            li = wp.min(int(u * float(sd.lights.n_area)), sd.lights.n_area - 1)
         return li
 
     @wp.func
     def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, dt: float) -> float:
         """Solid-angle density (light choice included) of light sampling producing point y from x."""
-        k = sd.light_shape_kind[li]
-        s = sd.light_shape[li]
+        k = sd.lights.shape_kind[li]
+        s = sd.lights.shape[li]
         d = y - x
         dist2 = wp.dot(d, d)
         cos_l = wp.abs(wp.dot(ny, d)) / wp.sqrt(dist2)
         pdf = float(0.0)
         if k == SPHERE:
             c = sphere_center(sd, s, dt)
-            r = sd.sph_radius[s]
+            r = sd.spheres.radius[s]
             cone = wp.vec2(-1.0, 0.0)
             if wp.static(SOLID_ANGLE):
                 cone = sphere_cone(sd, c, r, x)
@@ -163,16 +163,16 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
     def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, dt: float) -> LightSample:
         ls = LightSample()
         ls.valid = 0
-        k = sd.light_shape_kind[li]
-        s = sd.light_shape[li]
+        k = sd.lights.shape_kind[li]
+        s = sd.lights.shape[li]
         y = wp.vec3(0.0)
         ny = wp.vec3(0.0)
         m = int(0)
         pdf = float(0.0)
         if k == SPHERE:
             c = sphere_center(sd, s, dt)
-            r = sd.sph_radius[s]
-            m = sd.sph_material[s]
+            r = sd.spheres.radius[s]
+            m = sd.spheres.material[s]
             cone = wp.vec2(-1.0, 0.0)
             if wp.static(SOLID_ANGLE):
                 cone = sphere_cone(sd, c, r, x)
@@ -197,16 +197,16 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
             if wp.static(MESHES):
                 if k == MESH:
                     tp = sample_triangle(sd, s, u, dt)
-                    m = sd.mesh_material[s]
+                    m = sd.meshes.material[s]
                     y = tp.y
                     ny = tp.n
                     ls.prim = tp.face
                     is_quad = False
             if is_quad:
-                m = sd.quad_material[s]
+                m = sd.quads.material[s]
                 q0 = quad_origin(sd, s, dt)
-                y = q0 + sd.quad_u[s] * u[0] + sd.quad_v[s] * u[1]
-                ny = sd.quad_normal[s]
+                y = q0 + sd.quads.u[s] * u[0] + sd.quads.v[s] * u[1]
+                ny = sd.quads.normal[s]
         if pdf == 0.0:
             d = y - x
             dist = wp.length(d)
@@ -218,7 +218,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                 return ls
             area = float(0.0)
             if k == SPHERE:
-                area = 4.0 * PI * sd.sph_radius[s] * sd.sph_radius[s]
+                area = 4.0 * PI * sd.spheres.radius[s] * sd.spheres.radius[s]
             else:
                 area = flat_area(sd, k, s)
             pdf = dist * dist / (cos_l * area)
@@ -229,7 +229,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
         else:
             if wp.dot(ny, ls.wi) >= 0.0:
                 return ls
-        ls.radiance = sd.mat_emission[m]
+        ls.radiance = sd.materials.emission[m]
         ls.pdf = pdf * light_pick_pmf(sd, li)
         ls.valid = 1
         return ls

@@ -24,7 +24,7 @@ from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.primitives import Hit
 from drtlab.kernels.material_kinds import MATERIAL_CODE, kinds_where
 
-# Material kind codes (SceneData.mat_kind), defined by material_kinds.KINDS.
+# Material kind codes (MaterialData.kind), defined by material_kinds.KINDS.
 DIFFUSE = wp.constant(MATERIAL_CODE["diffuse"])
 GLOSSY = wp.constant(MATERIAL_CODE["glossy"])
 MIRROR = wp.constant(MATERIAL_CODE["mirror"])
@@ -366,7 +366,7 @@ def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf):
 @wp.func
 def checkered(sd: SceneData, m: int) -> int:
     """1 when material m is a checker texture (it reads the hit's uv)."""
-    if sd.mat_checker[m][0] > 0.0:
+    if sd.materials.checker[m][0] > 0.0:
         return 1
     return 0
 
@@ -376,13 +376,13 @@ def surface_albedo(sd: SceneData, m: int, uv: wp.vec2) -> wp.vec3:
     """Albedo at a surface point; checkered materials alternate albedo and albedo2. A runtime
     switch, not a compiled-out feature: one load and a branch per hit, and scenes with and without
     checker textures share a kernel variant."""
-    a = sd.mat_albedo[m]
+    a = sd.materials.albedo[m]
     if checkered(sd, m) == 1:
-        c = sd.mat_checker[m]
+        c = sd.materials.checker[m]
         iu = int(wp.floor(uv[0] * c[0]))
         iv = int(wp.floor(uv[1] * c[1]))
         if (iu + iv) % 2 != 0:
-            a = sd.mat_albedo2[m]
+            a = sd.materials.albedo2[m]
     return a
 
 
@@ -390,5 +390,5 @@ def surface_albedo(sd: SceneData, m: int, uv: wp.vec2) -> wp.vec3:
 def emitted(sd: SceneData, h: Hit, wo: wp.vec3) -> wp.vec3:
     # Emitters radiate on the side their normal faces (spheres outward, quads edge_u x edge_v).
     if wp.dot(h.n, wo) > 0.0:
-        return sd.mat_emission[h.material]
+        return sd.materials.emission[h.material]
     return wp.vec3(0.0)

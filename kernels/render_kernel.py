@@ -83,7 +83,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             idx = wp.uint32(index0 + k)
             if wp.static(WHITTED):
                 d = grid_ray_dir(sd, px, py, (index0 + k) % spp, nx, spp / nx)
-                Ls = trace_whitted(sd, sd.cam_position, d)
+                Ls = trace_whitted(sd, sd.camera.position, d)
             else:
                 ray = sample_ray(sd, seed, pix, idx, uspp, px, py)
                 Ls = trace(sd, seed, pix, idx, uspp, ray.o, ray.d, ray.dt)

@@ -84,7 +84,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                 break
             if depth >= wp.static(DEPTH_CAP):
                 break
-            kind = sd.mat_kind[m]
+            kind = sd.materials.kind[m]
             if kind == EMITTER:
                 break
             base = wp.uint32(wp.static(dims.BOUNCE_BASE)) + wp.uint32(
@@ -98,8 +98,8 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                     if wp.static(RR_REWEIGHT):
                         beta = beta / q
             albedo = surface_albedo(sd, m, h.uv)
-            exponent = sd.mat_exponent[m]
-            ior = sd.mat_ior[m]
+            exponent = sd.materials.exponent[m]
+            ior = sd.materials.ior[m]
             is_delta = kind == MIRROR or kind == DIELECTRIC
             # The BSDF sees the shading normal (a mesh's interpolated one); offsets and the side
             # test stay geometric (geometry.shading_consistent).
@@ -109,7 +109,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if not is_delta:
                 if wp.static(NEE):
                     ul = float(0.0)
-                    if sd.n_lights > 1:     # one light is picked whatever ul is
+                    if sd.lights.n_area > 1:     # one light is picked whatever ul is
                         ul = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_CHOICE)),
                                    spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),

@@ -39,33 +39,33 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
         # its one-sided flat part |N| cos plus its closed part (A - |N|) / 4, N = sum of area x
         # normal, exact for flat and for closed convex meshes).
         L = wp.vec3(0.0)
-        for li in range(sd.n_lights):
-            k = sd.light_shape_kind[li]
-            s = sd.light_shape[li]
+        for li in range(sd.lights.n_area):
+            k = sd.lights.shape_kind[li]
+            s = sd.lights.shape[li]
             c = wp.vec3(0.0)
             intensity = float(0.0)
             m = int(0)
             if k == SPHERE:
-                c = sd.sph_center[s]
-                intensity = PI * sd.sph_radius[s] * sd.sph_radius[s]
-                m = sd.sph_material[s]
+                c = sd.spheres.center[s]
+                intensity = PI * sd.spheres.radius[s] * sd.spheres.radius[s]
+                m = sd.spheres.material[s]
             elif k == QUAD:
-                c = sd.quad_origin[s] + 0.5 * (sd.quad_u[s] + sd.quad_v[s])
-                m = sd.quad_material[s]
+                c = sd.quads.origin[s] + 0.5 * (sd.quads.u[s] + sd.quads.v[s])
+                m = sd.quads.material[s]
             if wp.static(MESHES):
                 if k == MESH:
-                    c = sd.mesh_centroid[s]
-                    m = sd.mesh_material[s]
+                    c = sd.meshes.centroid[s]
+                    m = sd.meshes.material[s]
             d = c - p
             dist = wp.length(d)
             wi = d / dist
             if k == QUAD:
-                intensity = sd.quad_area[s] * wp.max(0.0, -wp.dot(sd.quad_normal[s], wi))
+                intensity = sd.quads.area[s] * wp.max(0.0, -wp.dot(sd.quads.normal[s], wi))
             if wp.static(MESHES):
                 if k == MESH:
-                    na = sd.mesh_normal_area[s]
+                    na = sd.meshes.normal_area[s]
                     intensity = (wp.max(0.0, -wp.dot(na, wi))
-                                 + 0.25 * wp.max(0.0, sd.mesh_area[s] - wp.length(na)))
+                                 + 0.25 * wp.max(0.0, sd.meshes.area[s] - wp.length(na)))
             if intensity > 0.0:
                 fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
                 if wp.static(MESHES):
@@ -81,7 +81,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     else:
                         seen = visible(sd, o, wi, wp.length(c - o), 0.0, k, s)
                     if seen == 1:
-                        L += wp.cw_mul(fc, sd.mat_emission[m]) * (intensity / (dist * dist))
+                        L += wp.cw_mul(fc, sd.materials.emission[m]) * (intensity / (dist * dist))
         return L
 
     # Called once per sample: inlined, so SceneData is not copied per call.
@@ -106,7 +106,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if sd.max_depth >= 0 and depth + 1 >= sd.max_depth:
                     break
                 m = h.material
-                kind = sd.mat_kind[m]
+                kind = sd.materials.kind[m]
                 if kind == EMITTER:
                     break
                 albedo = surface_albedo(sd, m, h.uv)
@@ -122,11 +122,11 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC:
                     direct = wp.vec3(0.0)
                     if wp.static(AREA_CENTRES):
-                        direct += light_centres(sd, kind, albedo, sd.mat_exponent[m],
-                                                sd.mat_ior[m], h.p, h.n, ns, wo)
+                        direct += light_centres(sd, kind, albedo, sd.materials.exponent[m],
+                                                sd.materials.ior[m], h.p, h.n, ns, wo)
                     if wp.static(DELTA_LIGHTS):
-                        direct += direct_delta_lights(sd, kind, albedo, sd.mat_exponent[m],
-                                                      sd.mat_ior[m], h.p, h.n, ns, wo, 0.0)
+                        direct += direct_delta_lights(sd, kind, albedo, sd.materials.exponent[m],
+                                                      sd.materials.ior[m], h.p, h.n, ns, wo, 0.0)
                     L += wp.cw_mul(beta, direct)
                     break
                 wi = 2.0 * co * nf - wo
@@ -134,7 +134,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     beta = wp.cw_mul(beta, albedo)
                 if wp.static(SPLITS > 0):
                     if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC:
-                        it = interface(ns, wo, sd.mat_ior[m])
+                        it = interface(ns, wo, sd.materials.ior[m])
                         eta = it.eta
                         F = it.F
                         if F < 1.0:

@@ -78,8 +78,8 @@ def _reference_kernel():
         best = float(1.0e30)
         kind = int(-1)
         index = int(-1)
-        for k in range(sd.n_spheres):
-            t = hit_sphere(o[i], d[i], sd.sph_center[k], sd.sph_radius[k], best)
+        for k in range(sd.spheres.count):
+            t = hit_sphere(o[i], d[i], sd.spheres.center[k], sd.spheres.radius[k], best)
             if t < best:
                 best = t
                 kind = 0

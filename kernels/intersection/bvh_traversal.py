@@ -136,10 +136,10 @@ def mesh_shading_normal(sd: SceneData, mh: MeshHit) -> wp.vec3:
     may wind their triangles against their normals), or the geometric normal of a flat mesh."""
     ns = mh.n
     k = mh.mesh
-    if sd.mesh_smooth[k] == 1:
-        idx = sd.tri_index[sd.mesh_face0[k] + mh.face]
-        s = (sd.vert_normal[idx[0]] * mh.u + sd.vert_normal[idx[1]] * mh.v
-             + sd.vert_normal[idx[2]] * (1.0 - mh.u - mh.v))
+    if sd.meshes.smooth[k] == 1:
+        idx = sd.meshes.tri_index[sd.meshes.face0[k] + mh.face]
+        s = (sd.meshes.vert_normal[idx[0]] * mh.u + sd.meshes.vert_normal[idx[1]] * mh.v
+             + sd.meshes.vert_normal[idx[2]] * (1.0 - mh.u - mh.v))
         length = wp.length(s)
         if length > 0.0:
             ns = s / length
@@ -169,13 +169,13 @@ def make_mesh_rays(*, motion: Motion) -> MeshRays:
         r.t = tmax
         r.mesh = -1
         ok = o - mesh_shift(sd, k, dt)
-        f0 = sd.mesh_face0[k]
-        query = wp.bvh_query_capsule(sd.mesh_bvh[k], ok, d, 0.0)
+        f0 = sd.meshes.face0[k]
+        query = wp.bvh_query_capsule(sd.meshes.bvh[k], ok, d, 0.0)
         f = int(0)
         while wp.bvh_query_next(query, f, r.t):
-            idx = sd.tri_index[f0 + f]
-            th = hit_triangle(ok, shear, sd.mesh_points[idx[0]], sd.mesh_points[idx[1]],
-                              sd.mesh_points[idx[2]], r.t)
+            idx = sd.meshes.tri_index[f0 + f]
+            th = hit_triangle(ok, shear, sd.meshes.points[idx[0]], sd.meshes.points[idx[1]],
+                              sd.meshes.points[idx[2]], r.t)
             if th.ok == 1:
                 r.t = th.t
                 r.mesh = k
@@ -183,9 +183,9 @@ def make_mesh_rays(*, motion: Motion) -> MeshRays:
                 r.u = th.u
                 r.v = th.v
         if r.mesh >= 0:
-            idx = sd.tri_index[f0 + r.face]
-            a = sd.mesh_points[idx[0]]
-            r.n = wp.normalize(wp.cross(sd.mesh_points[idx[1]] - a, sd.mesh_points[idx[2]] - a))
+            idx = sd.meshes.tri_index[f0 + r.face]
+            a = sd.meshes.points[idx[0]]
+            r.n = wp.normalize(wp.cross(sd.meshes.points[idx[1]] - a, sd.meshes.points[idx[2]] - a))
         return r
 
     @wp.func
@@ -195,7 +195,7 @@ def make_mesh_rays(*, motion: Motion) -> MeshRays:
         best.t = tmax
         best.mesh = -1
         k = int(0)
-        while k < sd.n_meshes:
+        while k < sd.meshes.count:
             mh = nearest_in_mesh(sd, k, o, shear, d, best.t, dt)
             if mh.mesh >= 0:
                 best = mh
@@ -207,16 +207,16 @@ def make_mesh_rays(*, motion: Motion) -> MeshRays:
                        skip: int) -> int:
         shear = ray_shear(d)
         k = int(0)
-        while k < sd.n_meshes:
+        while k < sd.meshes.count:
             if k != skip:
                 ok = o - mesh_shift(sd, k, dt)
-                f0 = sd.mesh_face0[k]
-                query = wp.bvh_query_capsule(sd.mesh_bvh[k], ok, d, 0.0)
+                f0 = sd.meshes.face0[k]
+                query = wp.bvh_query_capsule(sd.meshes.bvh[k], ok, d, 0.0)
                 f = int(0)
                 while wp.bvh_query_next(query, f, t_target):
-                    idx = sd.tri_index[f0 + f]
-                    if hit_triangle(ok, shear, sd.mesh_points[idx[0]], sd.mesh_points[idx[1]],
-                                    sd.mesh_points[idx[2]], t_target).ok == 1:
+                    idx = sd.meshes.tri_index[f0 + f]
+                    if hit_triangle(ok, shear, sd.meshes.points[idx[0]], sd.meshes.points[idx[1]],
+                                    sd.meshes.points[idx[2]], t_target).ok == 1:
                         return 1
             k += 1
         return 0
@@ -224,11 +224,11 @@ def make_mesh_rays(*, motion: Motion) -> MeshRays:
     @wp.func
     def mesh_target(sd: SceneData, o: wp.vec3, d: wp.vec3, dist: float, limit: float, dt: float,
                     face: int) -> float:
-        k = sd.tri_mesh[face]
+        k = sd.meshes.tri_mesh[face]
         mh = nearest_in_mesh(sd, k, o, ray_shear(d), d, limit, dt)
         t = limit
         if mh.mesh >= 0:
-            if sd.mesh_face0[k] + mh.face != face and mh.t < dist * (1.0 - SELF_OCCLUSION):
+            if sd.meshes.face0[k] + mh.face != face and mh.t < dist * (1.0 - SELF_OCCLUSION):
                 return -1.0
             t = mh.t
         return t
@@ -245,12 +245,12 @@ def make_sphere_bvh(*, motion: Motion) -> SphereBvh:
         r = SphereHit()
         r.t = tmax
         r.index = -1
-        query = wp.bvh_query_capsule(sd.sph_bvh, o, d, 0.0)
+        query = wp.bvh_query_capsule(sd.spheres.bvh, o, d, 0.0)
         i = int(0)
         while wp.bvh_query_next(query, i, r.t):
             # Against tmax, not r.t, so that an exact tie is seen and goes to the lower index, as
             # in the loop over spheres (which the BVH visits in another order).
-            t = hit_sphere(o, d, sphere_center(sd, i, dt), sd.sph_radius[i], tmax)
+            t = hit_sphere(o, d, sphere_center(sd, i, dt), sd.spheres.radius[i], tmax)
             if t < r.t or (t == r.t and t < tmax and i < r.index):
                 r.t = t
                 r.index = i
@@ -260,14 +260,14 @@ def make_sphere_bvh(*, motion: Motion) -> SphereBvh:
     def bvh_spheres_occlude(sd: SceneData, o: wp.vec3, d: wp.vec3, limit: float, dt: float,
                             target_kind: int, target_index: int, tie: bool,
                             t_target: float) -> int:
-        query = wp.bvh_query_capsule(sd.sph_bvh, o, d, 0.0)
+        query = wp.bvh_query_capsule(sd.spheres.bvh, o, d, 0.0)
         i = int(0)
         while wp.bvh_query_next(query, i, limit):
             if not (target_kind == SPHERE and i == target_index):
                 # Spheres come first in intersect()'s scan: before any other kind, and before a
                 # sphere target of higher index.
                 before = target_kind != SPHERE or i < target_index
-                t = hit_sphere(o, d, sphere_center(sd, i, dt), sd.sph_radius[i], limit)
+                t = hit_sphere(o, d, sphere_center(sd, i, dt), sd.spheres.radius[i], limit)
                 if t < t_target or (tie and before and t == t_target):
                     return 1
         return 0

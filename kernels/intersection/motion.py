@@ -24,18 +24,18 @@ def make_motion(moving: bool = True) -> Motion:
 
     @wp.func
     def sphere_center(sd: SceneData, i: int, dt: float) -> wp.vec3:
-        c = sd.sph_center[i]
+        c = sd.spheres.center[i]
         if wp.static(moving):
             if sd.moving == 1:
-                c = c + sd.sph_velocity[i] * dt
+                c = c + sd.spheres.velocity[i] * dt
         return c
 
     @wp.func
     def quad_origin(sd: SceneData, i: int, dt: float) -> wp.vec3:
-        q0 = sd.quad_origin[i]
+        q0 = sd.quads.origin[i]
         if wp.static(moving):
             if sd.moving == 1:
-                q0 = q0 + sd.quad_velocity[i] * dt
+                q0 = q0 + sd.quads.velocity[i] * dt
         return q0
 
     @wp.func
@@ -44,7 +44,7 @@ def make_motion(moving: bool = True) -> Motion:
         s = wp.vec3(0.0)
         if wp.static(moving):
             if sd.moving == 1:
-                s = sd.mesh_velocity[k] * dt
+                s = sd.meshes.velocity[k] * dt
         return s
 
     return Motion(sphere_center=sphere_center, quad_origin=quad_origin, mesh_shift=mesh_shift)

@@ -47,39 +47,39 @@ def group_hit(sd: SceneData, g: int, o: wp.vec3, d: wp.vec3, tmax: float,
     r = GroupHit()
     r.quad = -1
     r.t = tmax
-    q = sd.qgroup_quad[g]
+    q = sd.quad_groups.quad[g]
     if q >= 0:
-        rec = sd.quad_geom[q]
+        rec = sd.quads.geom[q]
         q0 = rec.origin
         if sd.moving == 1:
-            q0 = q0 + sd.quad_velocity[q] * dt
+            q0 = q0 + sd.quads.velocity[q] * dt
         r.t = hit_quad_nw(o, d, q0, rec.edge_u, rec.edge_v, rec.cross, rec.basis, tmax)
         if r.t < tmax:
             r.quad = q
     else:
-        c = sd.qgroup_corner[g]
-        ball = sd.qgroup_ball[g]
+        c = sd.quad_groups.corner[g]
+        ball = sd.quad_groups.ball[g]
         if sd.moving == 1:
-            shift = sd.qgroup_velocity[g] * dt
+            shift = sd.quad_groups.velocity[g] * dt
             c = c + shift
             ball = ball + wp.vec4(shift[0], shift[1], shift[2], 0.0)
         if ball[3] < 0.0 or may_hit_ball(o, d, ball, tmax) == 1:
             # The ray in the box's coordinates, where it is [0, 1]^3 (see geometry.hit_box):
             # an axis-aligned box's diagonal inverse in a third of the multiplications.
-            inv = sd.qgroup_inverse[g]
+            inv = sd.quad_groups.inverse[g]
             lo = o - c
             ld = d
-            if sd.qgroup_aligned[g] == 1:
+            if sd.quad_groups.aligned[g] == 1:
                 scale = wp.vec3(inv[0, 0], inv[1, 1], inv[2, 2])
                 lo = wp.cw_mul(lo, scale)
                 ld = wp.cw_mul(ld, scale)
             else:
                 lo = inv * lo
                 ld = inv * ld
-            b = slab_hit(lo, ld, sd.qgroup_rank[g], tmax)
+            b = slab_hit(lo, ld, sd.quad_groups.rank[g], tmax)
             if b.slot >= 0:
                 r.t = b.t
-                r.quad = sd.qgroup_faces[6 * g + b.slot]
+                r.quad = sd.quad_groups.faces[6 * g + b.slot]
     return r
 
 
@@ -120,9 +120,9 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     h.index = sh.index
             else:
                 i = int(0)
-                while i < sd.n_spheres:
+                while i < sd.spheres.count:
                     c = sphere_center(sd, i, dt)
-                    t = hit_sphere(o, d, c, sd.sph_radius[i], h.t)
+                    t = hit_sphere(o, d, c, sd.spheres.radius[i], h.t)
                     if t < h.t:
                         h.t = t
                         h.kind = SPHERE
@@ -130,7 +130,7 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     i += 1
         if wp.static(HAS_QUAD):
             g = int(0)
-            while g < sd.n_qgroups:
+            while g < sd.quad_groups.count:
                 gh = group_hit(sd, g, o, d, h.t, dt)
                 if gh.quad >= 0:
                     h.t = gh.t
@@ -142,11 +142,11 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
             if mh.mesh >= 0:
                 h.t = mh.t
                 h.kind = MESH
-                h.index = sd.mesh_face0[mh.mesh] + mh.face
+                h.index = sd.meshes.face0[mh.mesh] + mh.face
                 h.n = mh.n
                 h.ns = mesh_shading_normal(sd, mh)
-                h.material = sd.mesh_material[mh.mesh]
-                h.light = sd.mesh_light[mh.mesh]
+                h.material = sd.meshes.material[mh.mesh]
+                h.light = sd.meshes.light[mh.mesh]
                 h.uv = wp.vec2(mh.u, mh.v)      # a checker on a mesh: by barycentric coordinates
         if h.index >= 0:
             p = o + d * h.t
@@ -156,19 +156,19 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     c = sphere_center(sd, h.index, dt)
                     n = wp.normalize(p - c)
                     h.n = n
-                    h.material = sd.sph_material[h.index]
-                    h.light = sd.sph_light[h.index]
+                    h.material = sd.spheres.material[h.index]
+                    h.light = sd.spheres.light[h.index]
                     # texture coordinates only where a material reads them
                     if checkered(sd, h.material) == 1:
                         h.uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
                                        wp.acos(wp.clamp(n[1], -1.0, 1.0)) * INV_PI)
             if wp.static(HAS_QUAD):
                 if h.kind == QUAD:
-                    h.n = sd.quad_normal[h.index]
-                    h.material = sd.quad_material[h.index]
-                    h.light = sd.quad_light[h.index]
+                    h.n = sd.quads.normal[h.index]
+                    h.material = sd.quads.material[h.index]
+                    h.light = sd.quads.light[h.index]
                     if checkered(sd, h.material) == 1:
-                        q = sd.quad_geom[h.index]
+                        q = sd.quads.geom[h.index]
                         h.uv = quad_params_w(p - quad_origin(sd, h.index, dt), q.edge_u, q.edge_v,
                                              q.basis)
             if wp.static(HAS_MESH):
@@ -204,18 +204,18 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
                     return 1
             else:
                 i = int(0)
-                while i < sd.n_spheres:
+                while i < sd.spheres.count:
                     if not (target_kind == SPHERE and i == target_index):
                         before = target_kind == QUAD or i < target_index
                         if wp.static(HAS_MESH):
                             before = before or target_kind == MESH
-                        t = hit_sphere(o, d, sphere_center(sd, i, dt), sd.sph_radius[i], limit)
+                        t = hit_sphere(o, d, sphere_center(sd, i, dt), sd.spheres.radius[i], limit)
                         if t < t_target or (tie and before and t == t_target):
                             return 1
                     i += 1
         if wp.static(HAS_QUAD):
             g = int(0)
-            while g < sd.n_qgroups:
+            while g < sd.quad_groups.count:
                 if g != target_group:
                     gh = group_hit(sd, g, o, d, limit, dt)
                     if gh.quad >= 0:
@@ -228,7 +228,7 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
         if wp.static(HAS_MESH):
             skip = int(-1)
             if target_kind == MESH:
-                skip = sd.tri_mesh[target_index]
+                skip = sd.meshes.tri_mesh[target_index]
             if meshes_occlude(sd, o, d, t_target, dt, skip) == 1:
                 return 1
         return 0
@@ -259,10 +259,10 @@ def _make_visible(f: Features, motion: Motion, mesh_rays: MeshRays, occluded) ->
         if wp.static(HAS_SPH):
             if target_kind == SPHERE:
                 t_target = hit_sphere(o, d, sphere_center(sd, target_index, dt),
-                                      sd.sph_radius[target_index], limit)
+                                      sd.spheres.radius[target_index], limit)
         if wp.static(HAS_QUAD):
             if target_kind == QUAD:
-                target_group = sd.quad_group[target_index]
+                target_group = sd.quads.group[target_index]
                 gh = group_hit(sd, target_group, o, d, limit, dt)
                 if gh.quad >= 0:
                     if gh.quad != target_index:
@@ -287,6 +287,6 @@ def _make_visible(f: Features, motion: Motion, mesh_rays: MeshRays, occluded) ->
             mh = nearest_in_mesh(sd, k, o, ray_shear(d), d, limit, dt)
             if mh.mesh >= 0:
                 t_target = mh.t
-        return 1 - occluded(sd, o, d, limit, dt, MESH, sd.mesh_face0[k], -1, t_target)
+        return 1 - occluded(sd, o, d, limit, dt, MESH, sd.meshes.face0[k], -1, t_target)
 
     return visible, visible_mesh

@@ -239,7 +239,7 @@ def check_samples(s, scene, sd, name):
     v = s.valid
     err = C.relative_error(s.pdf[v], s.pdf_eval[v])
     assert err.max() < 1e-4, f"{name}: pdf vs light_pdf: worst rel err {err.max():.3g}"
-    is_mesh = sd.light_shape_kind.numpy()[s.light] == MESH
+    is_mesh = sd.lights.shape_kind.numpy()[s.light] == MESH
     emission = np.array([scene.materials[scene.shapes[i].material].emission
                          for i in scene.emitter_shapes()])[s.light]
     np.testing.assert_array_equal(s.radiance[v], emission[v].astype(np.float32))

@@ -350,9 +350,9 @@ class LightAdapter:
 
 @wp.func
 def face_normal(sd: SceneData, face: int) -> wp.vec3:
-    idx = sd.tri_index[face]
-    a = sd.mesh_points[idx[0]]
-    return wp.normalize(wp.cross(sd.mesh_points[idx[1]] - a, sd.mesh_points[idx[2]] - a))
+    idx = sd.meshes.tri_index[face]
+    a = sd.meshes.points[idx[0]]
+    return wp.normalize(wp.cross(sd.meshes.points[idx[1]] - a, sd.meshes.points[idx[2]] - a))
 
 
 def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
@@ -381,19 +381,19 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
     def direction_pdf(sd: SceneData, x: wp.vec3, w: wp.vec3) -> float:
         """The claimed density of direction w: every light met facing x, at its nearest point."""
         total = float(0.0)
-        for li in range(sd.n_lights):
-            k = sd.light_shape_kind[li]
-            s = sd.light_shape[li]
+        for li in range(sd.lights.n_area):
+            k = sd.lights.shape_kind[li]
+            s = sd.lights.shape[li]
             t = float(1.0e30)
             ny = wp.vec3(0.0)
             if k == SPHERE:
-                c = sd.sph_center[s]
-                t = hit_sphere(x, w, c, sd.sph_radius[s], 1.0e30)
+                c = sd.spheres.center[s]
+                t = hit_sphere(x, w, c, sd.spheres.radius[s], 1.0e30)
                 if t < 1.0e30:
                     ny = wp.normalize(x + w * t - c)
             elif k == QUAD:
-                t = hit_quad(x, w, sd.quad_origin[s], sd.quad_u[s], sd.quad_v[s], 1.0e30)
-                ny = sd.quad_normal[s]
+                t = hit_quad(x, w, sd.quads.origin[s], sd.quads.u[s], sd.quads.v[s], 1.0e30)
+                ny = sd.quads.normal[s]
             elif wp.static(meshes):
                 if k == MESH:
                     mh = nearest_in_mesh(sd, s, x, ray_shear(w), w, 1.0e30, 0.0)
@@ -426,13 +426,13 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
                 out_pdf[tid] = ls.pdf
                 out_rad[tid] = ls.radiance
                 y = x + ls.wi * ls.dist
-                s = sd.light_shape[li]
-                k = sd.light_shape_kind[li]
+                s = sd.lights.shape[li]
+                k = sd.lights.shape_kind[li]
                 ny = wp.vec3(0.0)
                 if k == SPHERE:
-                    ny = wp.normalize(y - sd.sph_center[s])
+                    ny = wp.normalize(y - sd.spheres.center[s])
                 elif k == QUAD:
-                    ny = sd.quad_normal[s]
+                    ny = sd.quads.normal[s]
                 elif wp.static(meshes):
                     ny = face_normal(sd, ls.prim)
                     out_face[tid] = ls.prim
