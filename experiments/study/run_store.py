@@ -7,8 +7,8 @@
   deviations from it (the bias and its noise), the first repetition's image (the strips), the ids of
   the batches merged in, and with `keep_images` every repetition's image.
 
-Commit protocol (a `kill -9` at any moment leaves a consistent folder): a batch writes the table
-first, then its cell file. A run counts as done when its row is in the table AND its batch is listed
+Commit protocol (a `kill -9` at any moment leaves a consistent folder): the table is written first,
+then the cell files of the batches it added. A run counts as done when its row is in the table AND its batch is listed
 in its cell file, so rows of a batch whose cell file was not replaced are dropped on load and that
 batch renders again (same seeds, same images). `runs.csv` is an export of the table.
 """
@@ -175,10 +175,12 @@ def write_table(out_dir: Path, records: dict, order: list) -> None:
     atomic_write_bytes(Path(out_dir) / RUNS_FILE, buf.getvalue())
 
 
-def commit_batch(out_dir: Path, records: dict, order: list, cell: str, cf: CellFile) -> None:
-    """A batch's rows (already in `records`) and then its cell file: the commit protocol."""
+def commit(out_dir: Path, records: dict, order: list, cells: dict) -> None:
+    """Batches' rows (already in `records`) and then their cells' files (cell -> CellFile): the
+    commit protocol."""
     write_table(out_dir, records, order)
-    save_cell(out_dir, cell, cf)
+    for cell, cf in cells.items():
+        save_cell(out_dir, cell, cf)
 
 
 def _record_row(rec: dict, studies: tuple[str, ...]) -> dict:

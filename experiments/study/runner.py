@@ -5,9 +5,10 @@ then the analysis, summary.json, the report and the manifest.
 A batch is one `render_batch` call: consecutive repetitions of one cell, rendered together so that
 short renders stop paying per-call overhead and every call is long enough to time (`BATCH_SAMPLES`).
 Batch boundaries follow from the cell's work alone (never from timings), so the tables are the same
-whatever the machine, the thread count or a Dask cluster. Each batch is committed by `run_store`
-(the table of runs, then the cell file: see its docstring), so a `kill -9` anywhere loses at most
-the batch in flight and can never leave a torn file or a duplicate row.
+whatever the machine, the thread count or a Dask cluster. Finished batches are committed by
+`run_store` (the table of runs, then the changed cell files: see its docstring) every
+`FLUSH_SECONDS`, at each group's end and when a sweep is interrupted, so a `kill -9` anywhere loses
+at most the last seconds of batches and can never leave a torn file or a duplicate row.
 """
 from __future__ import annotations
 
@@ -39,6 +40,9 @@ OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "r
 # enough for the process clock to time it to a few percent, short enough for a kill to lose little.
 BATCH_SAMPLES = 1 << 20
 MAX_BATCH_PIXELS = 1 << 24       # pixels x repetitions of one batch: bounds its buffers (~1 GiB)
+# Seconds between commits of the table and the changed cell files (and at each group's end and an
+# interrupted sweep's): rewriting a 10,000-row table after every batch was a tenth of the sweep.
+FLUSH_SECONDS = 2.0
 
 
 @dataclass(frozen=True)
@@ -291,6 +295,8 @@ class _Sweep:
     studies: dict = field(default_factory=dict)   # study name -> Study (settings, seed)
     keep_images: bool | None = None
     targets: dict = field(default_factory=dict)   # cell -> precision-target outcome
+    cell_files: dict = field(default_factory=dict)   # cell -> run_store.CellFile, of this group
+    dirty: set = field(default_factory=set)          # cells changed since the last commit
 
     def run(self, gt_req: dict, progress: bool) -> None:
         # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
@@ -302,6 +308,7 @@ class _Sweep:
         self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0,
                       "runs_added_for_precision": 0, "batches": 0}
         self._seconds = {"render_total": 0.0, "ground_truth_total": 0.0}
+        self._flushed_at = time.monotonic()
         self._precompile()
         try:
             groups: dict = {}
@@ -310,6 +317,7 @@ class _Sweep:
             for g, runs in groups.items():
                 self._group(g, runs, *gt_req[g])
         finally:
+            self._flush()                         # what finished before an interruption, kept
             self.bar.close()
             self.stats.update({k: round(v, 3) for k, v in self._seconds.items()})
 
@@ -369,6 +377,8 @@ class _Sweep:
             if not grown:
                 break
             self._render_batches([b for bs in grown for b in bs], ctx)
+        self._flush()
+        self.cell_files.clear()                   # one group's cell files in memory at a time
 
     def _targeted(self, cells: dict) -> bool:
         return any(getattr(self._settings(cruns[0]), "target_rel_ci", None) for cruns in cells.values())
@@ -382,6 +392,7 @@ class _Sweep:
             for rid in [rid for rid, rec in self.records.items() if rec.get("cell") == cell]:
                 del self.records[rid]
             store.cell_path(self.out_dir, cell).unlink(missing_ok=True)
+            self.cell_files.pop(cell, None)
         pixels = cruns[0].resolution[0] * cruns[0].resolution[1]
         return self._batches(cell, cruns, gt, batch_ranges(len(cruns), pixels, cruns[0].spp))
 
@@ -467,15 +478,28 @@ class _Sweep:
         for r, fp, m in zip(b.runs, b.fingerprints, metrics):
             self.records[r.run_id] = _run_record(r, fp, b, result, wall, ctx.gt, m,
                                                  self.backend.code_version, worker)
-        cf = store.load_cell(self.out_dir, b.cell).with_batch(
+        if b.cell not in self.cell_files:
+            self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
+        self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(
             b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]))
-        store.commit_batch(self.out_dir, self.records, [r.run_id for r in self.plan], b.cell, cf)
+        self.dirty.add(b.cell)
+        if time.monotonic() - self._flushed_at >= FLUSH_SECONDS:
+            self._flush()
         self._seconds["render_total"] += float(result.render_seconds)
         self.stats["runs_new"] += len(b.runs)
         self.stats["batches"] += 1
         r0 = b.runs[0]
         self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
                         f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
+
+    def _flush(self) -> None:
+        """Commit the batches rendered since the last flush (run_store's protocol: table, then the
+        changed cell files)."""
+        if self.dirty:
+            store.commit(self.out_dir, self.records, [r.run_id for r in self.plan],
+                         {c: self.cell_files[c] for c in self.dirty})
+            self.dirty.clear()
+        self._flushed_at = time.monotonic()
 
     def calibrate(self) -> None:
         """Timing-only batches for the cells whose own batches took under store.MIN_TIMED_SECONDS in all

@@ -13,7 +13,7 @@ import pytest
 
 import drtlab.experiments.pointsets.error_spectrum as ES
 from drtlab.errors import InputError
-from drtlab.experiments.study.run_store import CellFile, commit_batch
+from drtlab.experiments.study.run_store import CellFile, commit
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -121,7 +121,7 @@ def _fake_experiment(tmp_path):
             # Repetitions committed out of order (as a cluster's batches may be): read back in order.
             order = [2, 0, 1]
             cf = CellFile(None).with_batch("b0", np.stack([images[i] for i in order]), order, True)
-            commit_batch(out, records, list(records), cell, cf)
+            commit(out, records, list(records), {cell: cf})
     return out, gt_root
 
 
