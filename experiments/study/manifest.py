@@ -68,6 +68,27 @@ def machine_info() -> dict:
             "cpu": cpu, "cpu_count": os.cpu_count(), "usable_cpus": affinity, "memory_gib": mem}
 
 
+def _wall_seconds(stats: dict, wall: float, recs: list, gts: dict) -> dict:
+    """Where this invocation's time went. `render_share_of_sweep`: the batches' render calls over
+    the sweep excluding its ground truth (and the kernel compiles, which precede it)."""
+    sweep = stats.get("sweep_seconds")
+    gt = stats.get("ground_truth_total", sum((i.get("wall_seconds") or 0.0) for i in gts.values()))
+    render = stats.get("render_total", sum(r["render_seconds"] for r in recs))
+    out = {
+        "this_invocation": wall,
+        "render_total": render,
+        "compile_total": sum(r["compile_seconds"] for r in recs),
+        "kernel_precompile": (stats.get("kernel_precompile") or {}).get("wall_seconds", 0.0),
+        "ground_truth_total": gt,
+        "sweep": sweep,
+        "calibration": stats.get("calibration_seconds"),
+        "analysis": stats.get("analysis_seconds"),
+    }
+    if sweep is not None and sweep - gt > 0:
+        out["render_share_of_sweep"] = render / (sweep - gt)
+    return out
+
+
 def peak_rss_mib() -> float | None:
     try:
         import resource
@@ -94,14 +115,7 @@ def write_manifest(out_dir: Path, exp, backend, plan, records: dict, gts: dict, 
             "ground_truth": {info["dir"]: info.get("seeds") for info in gts.values()},
         },
         "runs": stats,
-        "wall_seconds": {
-            "this_invocation": wall_seconds,
-            "render_total": sum(r["render_seconds"] for r in recs),
-            # kernel compiles inside runs, and the sweep's side-by-side compile before its first run
-            "compile_total": sum(r["compile_seconds"] for r in recs),
-            "kernel_precompile": (stats.get("kernel_precompile") or {}).get("wall_seconds", 0.0),
-            "ground_truth_total": sum((info.get("wall_seconds") or 0.0) for info in gts.values()),
-        },
+        "wall_seconds": _wall_seconds(stats, wall_seconds, recs, gts),
         "peak_rss_mib": peak_rss_mib(),
         "environment": {k: os.environ.get(k) for k in ("WARP_CACHE_PATH", "OMP_NUM_THREADS")},
     }

@@ -122,7 +122,7 @@ def _fingerprint(r: RunSpec, gt, code_version: str) -> str:
     return short_hash({"run": r.run_id, "gt_key": gt.manifest.get("key"), "code": code_version}, 16)
 
 
-def _lock(out_dir: Path):
+def lock_output(out_dir: Path):
     """An exclusive lock on `<out>/.lock`, released when the returned file is closed (or the process
     dies): a second sweep into the same folder stops with one line instead of racing the first."""
     f = open(out_dir / ".lock", "a+")
@@ -208,7 +208,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     gt_req = gt_requirements(exp, plan)
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    lock = _lock(out_dir)                     # one sweep at a time per output folder
+    lock = lock_output(out_dir)               # one sweep at a time per output folder
     try:
         if fresh:
             _clean_outputs(out_dir)
@@ -266,7 +266,7 @@ def _run_record(r: RunSpec, fingerprint: str, batch: _Batch, result, wall: float
         # A batch's timings, shared out over its repetitions (each row carries its share).
         "render_seconds": render_s,
         "cpu_seconds": float(getattr(result, "cpu_seconds", result.render_seconds)) / n,
-        "compile_seconds": float(getattr(result, "compile_seconds", 0.0)),
+        "compile_seconds": float(getattr(result, "compile_seconds", 0.0)) / n,
         "wall_seconds": float(wall) / n,
         "samples_per_second": r.spp * r.resolution[0] * r.resolution[1] / max(render_s, 1e-12),
         "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
@@ -310,6 +310,7 @@ class _Sweep:
         self._seconds = {"render_total": 0.0, "ground_truth_total": 0.0}
         self._flushed_at = time.monotonic()
         self._precompile()
+        t0 = time.perf_counter()
         try:
             groups: dict = {}
             for r in self.plan:
@@ -319,6 +320,7 @@ class _Sweep:
         finally:
             self._flush()                         # what finished before an interruption, kept
             self.bar.close()
+            self._seconds["sweep_seconds"] = time.perf_counter() - t0
             self.stats.update({k: round(v, 3) for k, v in self._seconds.items()})
 
     def _precompile(self) -> None:

@@ -283,12 +283,12 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
 
 
 def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
-    from drtlab.experiments.study.runner import _lock
+    from drtlab.experiments.study.runner import lock_output
     from drtlab.errors import InputError
     exp = tiny_experiment(tmp_path)
     out = tmp_path / "out"
     out.mkdir()
-    held = _lock(out)
+    held = lock_output(out)
     try:
         with pytest.raises(InputError) as e:
             run(exp, out, tmp_path / "gt")
