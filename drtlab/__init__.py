@@ -18,18 +18,22 @@ The top-level folders are mapped under this package: `drtlab.estimators`, `drtla
 __version__ = "0.1.0"
 
 
-def render(scene, *args, stats: bool = False, variance: bool = False, **kwargs):
+def render(scene, *args, stats: bool = False, variance: bool = False, seconds: float | None = None,
+           **kwargs):
     """`drtlab.kernels.render.render`: (H, W, 3) float64 linear radiance of a scene. With
     `stats=True`, a `RenderResult` instead (the same image, its standard error when `variance`,
     seconds, samples per second, metadata); `scene` may then also be a dict shaped like a scene
-    file. The default sampler is `drtlab.DEFAULT_SAMPLER`, the command line's."""
-    if stats:
-        from drtlab.render_result import render_result
-        return render_result(scene, *args, variance=variance, **kwargs)
-    if variance:
+    file. `seconds=T` instead of `spp`: as many whole passes of 64 spp as fit in T seconds (the
+    RenderResult's spp says how many). The default sampler is `drtlab.DEFAULT_SAMPLER`, the command
+    line's."""
+    if variance and not stats:
         from drtlab.errors import InputError
         raise InputError("variance", "the standard error comes with the RenderResult: pass "
                                      "stats=True as well")
+    if stats or seconds is not None:
+        from drtlab.render_result import render_result
+        result = render_result(scene, *args, variance=variance, seconds=seconds, **kwargs)
+        return result if stats else result.image
     from drtlab.kernels.render import render as _render
     return _render(scene, *args, **kwargs)
 

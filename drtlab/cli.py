@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, Parser, int_flag, resolution_flag, run_main
+from drtlab.cli_args import Help, Parser, flag, int_flag, resolution_flag, run_main
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 DEFAULT_GT_SPP = 16384
@@ -96,7 +96,8 @@ def _default_out(scene, args) -> Path:
     parts.append(integ)
     if integ != "whitted":
         parts.append(parse_sampler(args.sampler).name.replace("+", "_"))
-    parts += [f"{width}x{height}", f"{args.spp or scene.spp}spp"]
+    parts += [f"{width}x{height}",
+              f"{args.seconds:g}s" if args.seconds is not None else f"{args.spp or scene.spp}spp"]
     if integ != "whitted":
         parts.append(f"s{args.seed}")
     return results_root() / "renders" / ("-".join(parts) + ".exr")
@@ -112,9 +113,48 @@ def _sampler_notes(sampler: str, spp: int) -> list[str]:
     return []
 
 
+# Renders of more samples than this measure their speed first, to say how long they will take when
+# that is more than LONG_RENDER_SECONDS (a probe costs ~0.2 s; below this a render takes seconds).
+PROBE_ABOVE_SAMPLES = 5e6
+LONG_RENDER_SECONDS = 120.0
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 3600:
+        return f"{seconds / 60:.0f} min"
+    if seconds < 86400 * 3:
+        return f"{seconds // 3600:.0f} h {seconds % 3600 / 60:.0f} min"
+    return f"{seconds / 86400:.0f} days"
+
+
+def _expected_time_notes(scene, args) -> list[str]:
+    """One line before a render that will take more than a few minutes: how long, and why."""
+    from drtlab.kernels import render as R
+    width, height = (scene.width, scene.height) if args.res is None else \
+        fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+    spp = args.spp or scene.spp
+    samples = width * height * spp
+    if args.seconds is not None or samples <= PROBE_ABOVE_SAMPLES:
+        return []
+    speed = R.measured_speed(scene, args.sampler, args.integrator, args.res, args.threads,
+                             args.tile, args.device)
+    seconds = samples / speed
+    if seconds <= LONG_RENDER_SECONDS:
+        return []
+    return [f"this render takes about {_duration(seconds)}: {width}x{height} x {spp} spp = "
+            f"{samples:.3g} samples at {speed / 1e6:.2f} M samples/s (measured here); Ctrl-C stops "
+            "it, --seconds T renders as many passes as fit in T seconds"]
+
+
+def _note(lines: list[str]) -> None:
+    for line in lines:
+        print(f"drtlab: note: {line}", file=sys.stderr, flush=True)
+
+
 def cmd_render(args) -> int:
     from drtlab.kernels.imageio import write_png
-    from drtlab.kernels.render import check_image_size, render_with_stats
+    from drtlab.kernels import render as R
+    from drtlab.kernels.render import check_image_size
     from drtlab.kernels.scene_checks import image_warnings, scene_warnings
     from drtlab.kernels.scene_file import load_scene
     from drtlab.render_result import result_of
@@ -127,13 +167,18 @@ def cmd_render(args) -> int:
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")
-    _warn(scene_warnings(scene) + _sampler_notes(args.sampler, args.spp or scene.spp))
+    notes = [] if args.seconds is not None else _sampler_notes(args.sampler, args.spp or scene.spp)
+    _warn(scene_warnings(scene) + notes)
+    _note(_expected_time_notes(scene, args))
     t0 = time.perf_counter()
-    stats = render_with_stats(scene, spp=args.spp, sampler=args.sampler, integrator=args.integrator,
-                              seed=args.seed, res=args.res, threads=args.threads, tile=args.tile,
-                              device=args.device, progress=_show_progress(args),
-                              variance=args.variance)
-    result = result_of(scene, stats, time.perf_counter() - t0)
+    common = dict(sampler=args.sampler, integrator=args.integrator, seed=args.seed, res=args.res,
+                  threads=args.threads, tile=args.tile, device=args.device,
+                  progress=_show_progress(args), variance=args.variance)
+    if args.seconds is not None:
+        stats = R.render_for_seconds(scene, args.seconds, **common)
+    else:
+        stats = R.render_with_stats(scene, spp=args.spp, **common)
+    result = result_of(scene, stats, time.perf_counter() - t0, seconds_budget=args.seconds)
     exr, *stderr = result.write_exr(out)
     png = out.with_suffix(".png")
     write_png(png, result.image, result.metadata)
@@ -312,8 +357,13 @@ def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
                        formatter_class=Help)
     r.add_argument("scene", help="built-in scene name or path to a .toml scene")
-    r.add_argument("--spp", type=int_flag(1, fields.MAX_COUNT), default=None,
-                   help="samples per pixel (default: the scene's)")
+    count = r.add_mutually_exclusive_group()
+    count.add_argument("--spp", type=int_flag(1, fields.MAX_COUNT), default=None,
+                       help="samples per pixel (default: the scene's)")
+    count.add_argument("--seconds", type=flag(fields.budget_seconds), default=None, metavar="T",
+                       help="a time budget instead of --spp: as many whole passes of 64 spp as fit "
+                            "in T seconds (at least one), measured first; the EXR's drtlab:spp says "
+                            "how many, and the image is that spp's, bit for bit")
     r.add_argument("--sampler", default=DEFAULT_SAMPLER,
                    help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
                         f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them")
@@ -360,7 +410,6 @@ def _add_experiment(sub) -> None:
                    help="keep every repetition's image in its cell file (default: the file's "
                         "keep_images; otherwise per cell only the first image and per-pixel moments)")
     _add_progress_flag(p)
-    from drtlab.cli_args import flag
     from drtlab.experiments.study.cluster import scheduler_address
     cluster = p.add_mutually_exclusive_group()
     cluster.add_argument("--scheduler", type=flag(scheduler_address), default=None, metavar="ADDRESS",

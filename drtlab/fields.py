@@ -18,6 +18,7 @@ REQUIRED = object()         # sentinel default: the key must be present
 # The kernels take a seed (and a pixel key) as a uint32 and a sample count as an int32.
 MAX_SEED = 2**32 - 1
 MAX_COUNT = 2**31 - 1
+MAX_BUDGET_SECONDS = 1e7    # a time-budget render's longest budget (`drtlab render --seconds`)
 
 def show(v: Any) -> str:
     """A value as the user wrote it (TOML spelling for booleans), shortened for messages."""
@@ -149,6 +150,18 @@ def int_text(text: str, field: str, low: int, high: int | None = None) -> int:
         rule = f">= {low}" if high is None else f"in [{low}, {high}]"
         raise InputError(field, f"must be an integer {rule}, got {show(text)}") from None
     return integer_in(value, field, low, high)
+
+
+def budget_seconds(v: Any, field: str) -> float:
+    """A time budget in seconds, > 0 and at most MAX_BUDGET_SECONDS; text (a flag) is read as a
+    number first."""
+    if isinstance(v, str):
+        try:
+            v = float(v)
+        except ValueError:
+            pass
+    return number(v, field, f"of seconds in (0, {MAX_BUDGET_SECONDS:g}]",
+                  lambda x: 0.0 < x <= MAX_BUDGET_SECONDS)
 
 
 def resolution(v: Any, field: str, aspect: float | None = None,

@@ -27,7 +27,8 @@ class RenderResult:
     None. `seconds` is the time of the kernel launches alone, `compile_seconds` the kernel's compile
     (0 when cached), `wall_seconds` the whole call. `metadata` holds what `drtlab render` writes
     into the EXR: scene, scene_hash, spp, sampler, integrator, seed, resolution, version,
-    code_version, variant, device and the three times. `stats` is the renderer's own record
+    code_version, variant, device and the three times (and seconds_budget for a time-budget
+    render). `stats` is the renderer's own record
     (`drtlab.kernels.render.RenderStats`: variance, variant, threads)."""
     image: np.ndarray
     stderr: np.ndarray | None
@@ -70,21 +71,30 @@ def sampler_label(sampler: str, integrator: str) -> str:
 
 def render_result(scene, spp=None, sampler: str = DEFAULT_SAMPLER, integrator=None, seed=0, res=None,
                   threads=None, tile=None, device="cpu", progress=None, *, variance: bool = False,
-                  overrides: dict | None = None) -> RenderResult:
+                  overrides: dict | None = None, seconds: float | None = None) -> RenderResult:
     """Render `scene` (a Scene, a built-in name, a .toml path or a dict shaped like a scene file,
     with dotted-key `overrides`) and return a RenderResult; the image is bit-identical to
-    `drtlab.render` with the same arguments (`kernels.render.render`'s, in its order)."""
-    from drtlab.kernels.render import render_with_stats
+    `drtlab.render` with the same arguments (`kernels.render.render`'s, in its order). With
+    `seconds` instead of `spp`: as many whole passes as fit in that time
+    (`kernels.render.render_for_seconds`); `spp` and the metadata say how many."""
+    from drtlab.errors import InputError
+    from drtlab.kernels import render as R
     t0 = time.perf_counter()
     scene = _scene(scene, overrides)
-    stats = render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
-                              res=res, threads=threads, tile=tile, device=device, progress=progress,
-                              variance=variance)
-    return result_of(scene, stats, time.perf_counter() - t0)
+    common = dict(sampler=sampler, integrator=integrator, seed=seed, res=res, threads=threads,
+                  tile=tile, device=device, progress=progress, variance=variance)
+    if seconds is None:
+        stats = R.render_with_stats(scene, spp=spp, **common)
+    elif spp is not None:
+        raise InputError("seconds", "give spp or seconds, not both")
+    else:
+        stats = R.render_for_seconds(scene, seconds, **common)
+    return result_of(scene, stats, time.perf_counter() - t0, seconds_budget=seconds)
 
 
-def result_of(scene, stats, wall_seconds: float) -> RenderResult:
-    """The RenderResult of `stats` (a kernels.render.RenderStats) rendered from `scene`."""
+def result_of(scene, stats, wall_seconds: float, seconds_budget: float | None = None) -> RenderResult:
+    """The RenderResult of `stats` (a kernels.render.RenderStats) rendered from `scene`, within
+    `seconds_budget` when it was a time-budget render."""
     from drtlab import __version__
     from drtlab.kernels import CODE_VERSION
     meta = {"scene": scene.name, "scene_hash": scene.content_hash(), "spp": stats.spp,
@@ -94,6 +104,8 @@ def result_of(scene, stats, wall_seconds: float) -> RenderResult:
             "code_version": CODE_VERSION, "variant": stats.variant, "device": stats.device,
             "wall_seconds": round(wall_seconds, 4), "render_seconds": round(stats.render_seconds, 4),
             "compile_seconds": round(stats.compile_seconds, 4)}
+    if seconds_budget is not None:
+        meta["seconds_budget"] = seconds_budget
     return RenderResult(image=stats.image, stderr=stats.stderr, seconds=stats.render_seconds,
                         compile_seconds=stats.compile_seconds, wall_seconds=wall_seconds,
                         spp=stats.spp, metadata=meta, stats=stats)

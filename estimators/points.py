@@ -48,7 +48,7 @@ def _kernel(name: str):
     wp = _warp()
     if name not in _kernels:
         ps = POINTSETS[name]
-        get1d, get2d = ps.get1d, ps.get2d
+        get1d, get2d, count_word = ps.get1d, ps.get2d, ps.count_word
 
         @wp.kernel(enable_backward=False, module="unique")
         def evaluate(seed: wp.uint32, pixel: wp.uint32, spp: wp.uint32,
@@ -56,10 +56,11 @@ def _kernel(name: str):
                      comps: wp.array(dtype=int), out: wp.array2d(dtype=float)):
             i, c = wp.tid()
             idx = wp.uint32(i)
+            word = count_word(spp)          # as a render passes spp
             if kinds[c] == 1:
-                out[i, c] = get1d(seed, pixel, idx, starts[c], spp)
+                out[i, c] = get1d(seed, pixel, idx, starts[c], word)
             else:
-                out[i, c] = get2d(seed, pixel, idx, starts[c], spp)[comps[c]]
+                out[i, c] = get2d(seed, pixel, idx, starts[c], word)[comps[c]]
 
         _kernels[name] = evaluate
     return wp, _kernels[name]

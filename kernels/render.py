@@ -352,3 +352,50 @@ def render_batch(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, integrator=Non
     return render_batch_with_stats(scene, seeds, spp=spp, sampler=sampler, integrator=integrator,
                                    res=res, threads=threads, tile=tile, device=device,
                                    progress=progress).images
+
+
+# ---------------------------------------------------------------------------------------------------
+# Time: this machine's speed on a scene, and renders to a time budget
+# ---------------------------------------------------------------------------------------------------
+
+PROBE_WIDTH = 48            # a speed probe renders the scene this wide (or narrower), same aspect
+PROBE_SECONDS = 0.2         # ... at a spp raised until one probe takes about this long
+
+
+def measured_speed(scene, sampler=DEFAULT_SAMPLER, integrator=None, res=None, threads=None,
+                   tile=None, device="cpu", probe_seconds: float = PROBE_SECONDS) -> float:
+    """Samples per second of `scene` (at `res`) rendered here: short renders at PROBE_WIDTH pixels
+    wide, spp raised until one takes `probe_seconds`; they compile the kernel the render needs. A
+    smaller image pays more per-launch overhead per sample, so the speed errs low."""
+    spec, scene, integ = _resolve_job(scene, sampler, integrator, res)
+    width = min(scene.width, PROBE_WIDTH)
+    probe = (width, max(1, round(width * scene.height / scene.width)))
+    spp = 1
+    while True:
+        st = render_with_stats(scene, spp=spp, sampler=sampler, integrator=integ, res=probe,
+                               threads=threads, tile=tile, device=device, progress=False)
+        if st.render_seconds >= probe_seconds or spp >= 1 << 16:
+            return st.samples_per_second
+        spp *= int(min(64, max(2, probe_seconds / max(st.render_seconds, 1e-4))))
+
+
+def render_for_seconds(scene, seconds: float, sampler=DEFAULT_SAMPLER, integrator=None, seed=0,
+                       res=None, threads=None, tile=None, device="cpu", progress=None,
+                       variance=False) -> RenderStats:
+    """As many whole passes (PASS_SAMPLES samples per pixel each, at least one) as fit in `seconds`
+    of this call, Mitsuba's `timeout` for equal-time comparisons: the speed is measured first
+    (measured_speed), then the render is render_with_stats(..., spp=passes * PASS_SAMPLES), bit for
+    bit; `stats.spp` is the spp reached. Every point set stratifies for the spp it gets, which a
+    render stopped mid-way could not give it."""
+    seconds = fields.budget_seconds(seconds, "seconds")
+    t0 = time.perf_counter()
+    _, resolved, integ = _resolve_job(scene, sampler, integrator, res)
+    # The probe's share of the budget stays small: 5% (at most PROBE_SECONDS).
+    speed = measured_speed(resolved, sampler, integ, None, threads, tile, device,
+                           probe_seconds=min(PROBE_SECONDS, 0.05 * seconds))
+    left = seconds - (time.perf_counter() - t0)
+    per_pass = resolved.width * resolved.height * PASS_SAMPLES
+    passes = max(1, min(int(left * speed / per_pass), fields.MAX_COUNT // PASS_SAMPLES))
+    return render_with_stats(resolved, spp=passes * PASS_SAMPLES, sampler=sampler,
+                             integrator=integ, seed=seed, threads=threads, tile=tile, device=device,
+                             progress=progress, variance=variance)

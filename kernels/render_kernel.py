@@ -56,6 +56,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
     trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting)
     pixel_key = pointset.pixel_key
+    count_word = pointset.count_word
 
     @wp.kernel(enable_backward=False, module="unique")
     def render_tile(sd: SceneData, index0: int, count: int, spp: int,
@@ -73,6 +74,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         pixel = rep * sd.width * sd.height + py * sd.width + px
         pix = pixel_key(px, py, sd.width)
         uspp = wp.uint32(spp)
+        # What the point set derives from spp alone (the stratified grid), once per pixel and pass.
+        word = count_word(uspp)
         total = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
         total2 = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
         nx = int(1)
@@ -85,8 +88,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                 d = grid_ray_dir(sd, px, py, (index0 + k) % spp, nx, spp / nx)
                 Ls = trace_whitted(sd, sd.camera.position, d)
             else:
-                ray = sample_ray(sd, seed, pix, idx, uspp, px, py)
-                Ls = trace(sd, seed, pix, idx, uspp, ray.o, ray.d, ray.dt)
+                ray = sample_ray(sd, seed, pix, idx, word, px, py)
+                Ls = trace(sd, seed, pix, idx, word, ray.o, ray.d, ray.dt)
             x = wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
             total += x
             if wp.static(f.moments):

@@ -5,7 +5,8 @@ A point set provides two Warp functions compiled into the render kernel:
     get2d(seed, pixel, index, dim, spp) -> wp.vec2   (uses dimensions dim and dim + 1 jointly)
 `pixel` is the set's `pixel_key(px, py, width)` (the scanline index unless the set says otherwise).
 `spp` is the number of samples the pixel will take, so a stratified set can lay its strata out;
-indices past `spp` start a new, independently permuted block of `spp` samples.
+indices past `spp` start a new, independently permuted block of `spp` samples. A render passes it
+as the set's `count_word(spp)` (the bare count unless the set packs more into it).
 """
 from dataclasses import dataclass
 
@@ -16,6 +17,12 @@ import warp as wp
 def linear_pixel_key(px: int, py: int, width: int) -> wp.uint32:
     """The pixel key most sets see: the scanline index (any bijection of pixels would do)."""
     return wp.uint32(py * width + px)
+
+
+@wp.func
+def bare_count(spp: wp.uint32) -> wp.uint32:
+    """The count word of a set that needs nothing but spp: spp itself."""
+    return spp
 
 
 @dataclass(frozen=True)
@@ -37,3 +44,7 @@ class PointSet:
     # The set whose values this one returns in every dimension but the bounce directions (Cook's
     # tables: "stratified"); None for a set of its own. Studies of the pixel dimensions skip such sets.
     same_as_outside_directions: str | None = None
+    # What a render passes as `spp`, from the sample count, once per pixel and pass: a set that
+    # derives something costly from spp alone (the stratified grid) packs it in; get1d and get2d
+    # must give the same values for the word as for the bare count.
+    count_word: wp.Function = bare_count

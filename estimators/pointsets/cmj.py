@@ -22,7 +22,7 @@ import warp as wp
 
 from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import grid_columns, place
+from drtlab.estimators.pointsets.stratified import count_word, place, word_count, word_grid
 
 # Kensler's per-pattern multipliers (the shuffle, sx, sy, jx, jy), masked below 2^31.
 _SHUFFLE = wp.constant(wp.uint32(0x51633E2D))
@@ -36,7 +36,7 @@ _ONE_D = wp.constant(wp.uint32(0x0CD1D1D1))
 @wp.func
 def cmj_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
            spp: wp.uint32) -> float:
-    n = wp.max(spp, wp.uint32(1))
+    n = word_count(spp)
     p = hash_key(seed ^ _ONE_D, pixel, index / n, dim)
     s = permute(index % n, n, mix32(p ^ _SHUFFLE))
     return place(s, unit_float(mix32(p ^ _JX ^ mix32(s))), n)
@@ -45,8 +45,8 @@ def cmj_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
 @wp.func
 def cmj_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
            spp: wp.uint32) -> wp.vec2:
-    N = wp.max(spp, wp.uint32(1))
-    m = grid_columns(N)
+    N = word_count(spp)
+    m = word_grid(spp)[0]
     n = N / m
     p = hash_key(seed, pixel, index / N, dim)
     s = permute(index % N, N, mix32(p ^ _SHUFFLE))
@@ -61,4 +61,5 @@ def cmj_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
 
 
 POINTSET = PointSet("cmj", "correlated multi-jittered (Kensler 2013): m x n = spp cells, Latin in "
-                           "x and y; any spp (m the largest divisor <= sqrt(spp))", cmj_1d, cmj_2d)
+                           "x and y; any spp (m the largest divisor <= sqrt(spp))", cmj_1d, cmj_2d,
+                    count_word=count_word)

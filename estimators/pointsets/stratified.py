@@ -6,6 +6,13 @@ grid (8 -> 2 x 4, a prime p -> 1 x p), so every count stays fully stratified and
 strata's aspect changes. Which sample lands in which stratum is a keyed permutation per (pixel,
 dimension), so dimensions are not correlated with each other. Indices past spp start a new block of
 spp samples with its own permutation.
+
+The grid costs a search: nx is found counting down from sqrt(spp), up to sqrt(spp) divisibility
+tests (a prime spp: all of them), which a 2D draw would repeat every time. A render therefore hands
+the set a *count word* (PointSet.count_word, computed once per pixel and pass) instead of the bare
+spp: the count with its grid packed in (spp < 2^20), or marked prime (nx = 1, spp < 2^30); any
+other count, and every bare spp a caller passes, is its own word and searched per draw. The values
+are the same whichever word carries the count.
 """
 import warp as wp
 
@@ -15,14 +22,122 @@ from drtlab.estimators.pointsets.base import PointSet
 JITTER = wp.constant(wp.uint32(0x68E31DA4))
 
 
+# A count word's top two bits: 0x: a bare count (spp < 2^31); 10: nx in bits 20..29 and spp < 2^20
+# in bits 0..19; 11: a prime spp < 2^30 in bits 0..29.
+_MARKED = wp.constant(wp.uint32(0x80000000))
+_PRIME = wp.constant(wp.uint32(0x40000000))
+_PACKED_BITS = wp.constant(wp.uint32(20))
+_PACKED_COUNT = wp.constant(wp.uint32(0xFFFFF))
+_PRIME_COUNT = wp.constant(wp.uint32(0x3FFFFFFF))
+_COLUMNS_MASK = wp.constant(wp.uint32(0x3FF))
+# Tests a count word makes first, from sqrt(spp) down: a square or near-square count needs no more.
+_NEAR_SQUARE = wp.constant(wp.uint32(32))
+
+
 @wp.func
-def grid_columns(spp: wp.uint32) -> wp.uint32:
+def grid_search(spp: wp.uint32) -> wp.vec2ui:
+    """(nx, divisibility tests made): nx the largest divisor of spp not above sqrt(spp)."""
     nx = wp.uint32(wp.floor(wp.sqrt(float(spp)) + 0.5))
     while nx * nx > spp:
         nx = nx - wp.uint32(1)
+    tests = wp.uint32(1)
     while spp % nx != wp.uint32(0):
         nx = nx - wp.uint32(1)
-    return nx
+        tests = tests + wp.uint32(1)
+    return wp.vec2ui(nx, tests)
+
+
+@wp.func
+def grid_columns(spp: wp.uint32) -> wp.uint32:
+    return grid_search(spp)[0]
+
+
+@wp.func
+def _mulmod(a: wp.uint64, b: wp.uint64, m: wp.uint64) -> wp.uint64:
+    return (a * b) % m
+
+
+@wp.func
+def _strong_probable_prime(n: wp.uint32, base: wp.uint32) -> bool:
+    """Miller-Rabin with one base; n odd, > base."""
+    m = wp.uint64(n)
+    d = n - wp.uint32(1)
+    r = int(0)
+    while d % wp.uint32(2) == wp.uint32(0):
+        d = d / wp.uint32(2)
+        r += 1
+    x = wp.uint64(1)
+    b = wp.uint64(base) % m
+    e = d
+    while e > wp.uint32(0):
+        if e % wp.uint32(2) == wp.uint32(1):
+            x = _mulmod(x, b, m)
+        b = _mulmod(b, b, m)
+        e = e / wp.uint32(2)
+    if x == wp.uint64(1) or x == m - wp.uint64(1):
+        return True
+    for _ in range(r - 1):
+        x = _mulmod(x, x, m)
+        if x == m - wp.uint64(1):
+            return True
+    return False
+
+
+@wp.func
+def is_prime(n: wp.uint32) -> bool:
+    """Deterministic for every 32-bit n: Miller-Rabin with bases 2, 7 and 61 (Jaeschke 1993) decides
+    primality below 4,759,123,141; about a hundred multiplications instead of sqrt(n) divisions."""
+    if n < wp.uint32(2):
+        return False
+    if n % wp.uint32(2) == wp.uint32(0) or n % wp.uint32(7) == wp.uint32(0) or \
+            n % wp.uint32(61) == wp.uint32(0):
+        return n == wp.uint32(2) or n == wp.uint32(7) or n == wp.uint32(61)
+    return (_strong_probable_prime(n, wp.uint32(2)) and _strong_probable_prime(n, wp.uint32(7))
+            and _strong_probable_prime(n, wp.uint32(61)))
+
+
+@wp.func
+def count_word(spp: wp.uint32) -> wp.uint32:
+    """The word a render passes as `spp` (module docstring): once per pixel and pass."""
+    n = wp.max(spp, wp.uint32(1))
+    nx = wp.uint32(0)
+    s = wp.uint32(wp.floor(wp.sqrt(float(n)) + 0.5))
+    while s * s > n:
+        s = s - wp.uint32(1)
+    c = s
+    while nx == wp.uint32(0) and c > wp.uint32(0) and s - c < _NEAR_SQUARE:
+        if n % c == wp.uint32(0):
+            nx = c
+        c = c - wp.uint32(1)
+    if nx == wp.uint32(0) and n <= _PRIME_COUNT and is_prime(n):
+        nx = wp.uint32(1)
+        if n > _PACKED_COUNT:
+            return _MARKED | _PRIME | n
+    if n > _PACKED_COUNT:
+        return n
+    if nx == wp.uint32(0):
+        nx = grid_columns(n)
+    return _MARKED | (nx << _PACKED_BITS) | n
+
+
+@wp.func
+def word_count(word: wp.uint32) -> wp.uint32:
+    """The sample count a count word (or a bare count) carries, at least 1."""
+    if word & _MARKED == wp.uint32(0):
+        return wp.max(word, wp.uint32(1))
+    if word & _PRIME == wp.uint32(0):
+        return word & _PACKED_COUNT
+    return word & _PRIME_COUNT
+
+
+@wp.func
+def word_grid(word: wp.uint32) -> wp.vec2ui:
+    """(nx, divisibility tests a draw makes to find it) of a count word: none when packed or prime."""
+    if word & _MARKED == wp.uint32(0):
+        return grid_search(wp.max(word, wp.uint32(1)))
+    if word & _PRIME == wp.uint32(0):
+        return wp.vec2ui((word >> _PACKED_BITS) & _COLUMNS_MASK, wp.uint32(0))
+    return wp.vec2ui(wp.uint32(1), wp.uint32(0))
 
 
 @wp.func
@@ -51,7 +166,7 @@ def stratum(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
 @wp.func
 def stratified_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
                   spp: wp.uint32) -> float:
-    n = wp.max(spp, wp.uint32(1))
+    n = word_count(spp)
     s = stratum(seed, pixel, index, dim, n)
     jitter = unit_float(hash_key(seed, pixel, index, dim ^ JITTER))
     return place(s, jitter, n)
@@ -60,8 +175,8 @@ def stratified_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
 @wp.func
 def stratified_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
                   spp: wp.uint32) -> wp.vec2:
-    n = wp.max(spp, wp.uint32(1))
-    nx = grid_columns(n)
+    n = word_count(spp)
+    nx = word_grid(spp)[0]
     ny = n / nx
     s = stratum(seed, pixel, index, dim, n)
     h = hash_key(seed, pixel, index, dim ^ JITTER)
@@ -71,4 +186,4 @@ def stratified_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
 
 
 POINTSET = PointSet("stratified", "jittered strata: n x n per 2D dimension, spp per 1D dimension, "
-                    "permuted per dimension", stratified_1d, stratified_2d)
+                    "permuted per dimension", stratified_1d, stratified_2d, count_word=count_word)

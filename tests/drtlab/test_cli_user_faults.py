@@ -259,3 +259,60 @@ def test_pointset_table_marks_the_squared_discrepancies(tmp_path, capsys):
     labels = [line.split()[1] for line in capsys.readouterr().out.splitlines()
               if line.startswith("  discrepancy")]
     assert labels == ["L2-star", "CD^2", "WD^2", "MD^2"]
+
+
+# ---------------------------------------------------------------------------------------------------
+# How long a render takes: said before a long one; a time-budget render
+# ---------------------------------------------------------------------------------------------------
+
+def test_a_long_render_says_how_long_before_it_starts(good, tmp_path, capsys, monkeypatch):
+    import drtlab.cli as cli
+    import drtlab.kernels.render as R
+    monkeypatch.setattr(cli, "PROBE_ABOVE_SAMPLES", 0)
+    monkeypatch.setattr(R, "measured_speed", lambda *a, **k: 0.5)      # samples per second
+    seen_before_render = []
+    real = R.render_with_stats
+
+    def render_and_look(*a, **k):
+        seen_before_render.append(capsys.readouterr().err)
+        return real(*a, **k)
+    monkeypatch.setattr(R, "render_with_stats", render_and_look)
+    assert main(["render", str(good), "--spp", "2", "--res", "8", "--out", str(tmp_path / "x.exr")]) == 0
+    (note,) = [x for x in seen_before_render[0].splitlines() if x.startswith("drtlab: note:")]
+    assert "about 3 min" in note and "8x6 x 2 spp = 96 samples" in note and "--seconds" in note
+    # A quick render says nothing.
+    monkeypatch.setattr(R, "measured_speed", lambda *a, **k: 1e6)
+    assert main(["render", str(good), "--spp", "2", "--res", "8", "--out", str(tmp_path / "y.exr")]) == 0
+    assert "note" not in capsys.readouterr().err
+
+
+def test_time_budget_renders_whole_passes_and_says_how_many(good, tmp_path, capsys):
+    from drtlab.kernels.imageio import read_exr
+    out = tmp_path / "t.exr"
+    assert main(["render", str(good), "--seconds", "0.5", "--res", "8", "--out", str(out)]) == 0
+    capsys.readouterr()
+    pixels, meta = read_exr(out)
+    spp = meta["spp"]
+    assert spp >= 64 and spp % 64 == 0 and meta["seconds_budget"] == 0.5
+    # The image is exactly that spp's.
+    again = tmp_path / "n.exr"
+    assert main(["render", str(good), "--spp", str(spp), "--res", "8", "--out", str(again)]) == 0
+    assert np.array_equal(read_exr(again)[0], pixels)
+
+
+@pytest.mark.parametrize("argv,field", [(["--seconds", "0"], "--seconds"),
+                                        (["--seconds", "-3"], "--seconds"),
+                                        (["--seconds", "soon"], "--seconds"),
+                                        (["--seconds", "1e9"], "--seconds"),
+                                        (["--seconds", "2", "--spp", "4"], "--spp")])
+def test_bad_time_budget_is_one_line(argv, field, good, tmp_path, capsys):
+    from cli_util import run_bad
+    out = tmp_path / "out"
+    out.mkdir()
+    run_bad(["render", str(good), *argv, "--out", str(out / "x.exr")], field, out, capsys)
+
+
+def test_python_time_budget_result():
+    import drtlab
+    r = drtlab.render("aa-edges", res=8, seconds=0.3, stats=True)
+    assert r.spp % 64 == 0 and r.metadata["seconds_budget"] == 0.3 and r.metadata["spp"] == r.spp
