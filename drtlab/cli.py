@@ -80,6 +80,13 @@ def _warn(lines: list[str]) -> None:
         print(f"drtlab: warning: {line}", file=sys.stderr)
 
 
+def _render_size(scene, args) -> tuple[int, int]:
+    """(width, height) the render will have: --res, or the scene's."""
+    if args.res is None:
+        return scene.width, scene.height
+    return fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+
+
 def _default_out(scene, args) -> Path:
     """results/renders/NAME.exr, NAME made of everything that changes the image: scene (and a hash of
     its --set overrides or its file), integrator, sampler, resolution, spp, seed; renders that
@@ -88,8 +95,7 @@ def _default_out(scene, args) -> Path:
     from drtlab.experiments.paths import results_root
     from drtlab.kernels.scene_file import builtin_names
     integ = parse_integrator(args.integrator or scene.integrator).name
-    width, height = (scene.width, scene.height) if args.res is None else \
-        fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+    width, height = _render_size(scene, args)
     parts = [scene.name]
     if args.set or args.scene not in builtin_names():
         parts.append(scene.content_hash()[:8])
@@ -130,8 +136,7 @@ def _duration(seconds: float) -> str:
 def _expected_time_notes(scene, args) -> list[str]:
     """One line before a render that will take more than a few minutes: how long, and why."""
     from drtlab.kernels import render as R
-    width, height = (scene.width, scene.height) if args.res is None else \
-        fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+    width, height = _render_size(scene, args)
     spp = args.spp or scene.spp
     samples = width * height * spp
     if args.seconds is not None or samples <= PROBE_ABOVE_SAMPLES:

@@ -35,11 +35,18 @@ _NEAR_SQUARE = wp.constant(wp.uint32(32))
 
 
 @wp.func
+def isqrt(n: wp.uint32) -> wp.uint32:
+    """floor(sqrt(n)): float32's square root is within one of it."""
+    s = wp.uint32(wp.floor(wp.sqrt(float(n)) + 0.5))
+    while s * s > n:
+        s = s - wp.uint32(1)
+    return s
+
+
+@wp.func
 def grid_search(spp: wp.uint32) -> wp.vec2ui:
     """(nx, divisibility tests made): nx the largest divisor of spp not above sqrt(spp)."""
-    nx = wp.uint32(wp.floor(wp.sqrt(float(spp)) + 0.5))
-    while nx * nx > spp:
-        nx = nx - wp.uint32(1)
+    nx = isqrt(spp)
     tests = wp.uint32(1)
     while spp % nx != wp.uint32(0):
         nx = nx - wp.uint32(1)
@@ -101,9 +108,7 @@ def count_word(spp: wp.uint32) -> wp.uint32:
     """The word a render passes as `spp` (module docstring): once per pixel and pass."""
     n = wp.max(spp, wp.uint32(1))
     nx = wp.uint32(0)
-    s = wp.uint32(wp.floor(wp.sqrt(float(n)) + 0.5))
-    while s * s > n:
-        s = s - wp.uint32(1)
+    s = isqrt(n)
     c = s
     while nx == wp.uint32(0) and c > wp.uint32(0) and s - c < _NEAR_SQUARE:
         if n % c == wp.uint32(0):
