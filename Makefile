@@ -3,6 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+RUNTIME := $(VENV)/.installed-runtime
 DRT    := $(VENV)/bin/drtlab
 # Kernel cache inside the checkout's ignored results folder keeps compiles warm across runs.
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
@@ -12,8 +13,14 @@ export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 venv: $(STAMP)
 
-$(STAMP): pyproject.toml
+# Experiments need the package alone; the test tools (pytest, nbclient, a Jupyter kernel) come with
+# `make test`: a fresh clone's `make experiment-stratified` then installs half as much.
+$(RUNTIME): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q -e .
+	@touch $(RUNTIME)
+
+$(STAMP): $(RUNTIME)
 	$(PY) -m pip install -q -e '.[dev]'
 	@touch $(STAMP)
 
@@ -29,28 +36,28 @@ test-full: venv
 bench: venv
 	$(PY) -m drtlab.experiments.bench
 
-experiment-stratified: venv
+experiment-stratified: $(RUNTIME)
 	$(DRT) experiment stratified
 
-experiment-importance: venv
+experiment-importance: $(RUNTIME)
 	$(DRT) experiment importance
 
-experiment-uniform: venv
+experiment-uniform: $(RUNTIME)
 	$(DRT) experiment uniform
 
-experiment-presampled: venv
+experiment-presampled: $(RUNTIME)
 	$(DRT) experiment presampled
 
-experiment-all: venv
+experiment-all: $(RUNTIME)
 	$(DRT) experiment all
 
-experiment-integrands: venv
+experiment-integrands: $(RUNTIME)
 	$(PY) -m drtlab.experiments.integrands
 
-experiment-pointsets: venv
+experiment-pointsets: $(RUNTIME)
 	$(DRT) experiment pointsets
 
-ground-truth: venv
+ground-truth: $(RUNTIME)
 	$(DRT) ground-truth --experiment stratified
 
 clean:

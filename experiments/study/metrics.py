@@ -11,16 +11,22 @@ import math
 import numpy as np
 
 from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
-from drtlab.kernels.colour import to_lab
 
 REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
 
 
+def reference_lab(ref: np.ndarray) -> np.ndarray:
+    """The reference's CIELAB as the CIEDE2000 kernel computes the images' (so an image equal to
+    its reference differs by exactly 0): pass it to `ciede2000` / `batch_metrics` as `ref_lab`."""
+    from drtlab.kernels.colour_difference import lab_of
+    return lab_of(ref)
+
+
 def ciede2000(img: np.ndarray, ref: np.ndarray, ref_lab: np.ndarray | None = None) -> float:
     """Mean CIEDE2000 difference of the displayed (clipped to [0, 1]) sRGB images; `ref_lab` is
-    `to_lab(ref)` when the caller compares many images with one reference."""
+    `reference_lab(ref)` when the caller compares many images with one reference."""
     from drtlab.kernels.colour_difference import delta_e_2000
-    lab_ref = to_lab(ref) if ref_lab is None else ref_lab
+    lab_ref = reference_lab(ref) if ref_lab is None else ref_lab
     return float(np.mean(delta_e_2000(np.asarray(img)[None], lab_ref).reshape(-1)))
 
 
@@ -123,7 +129,7 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     mae = np.mean(np.abs(d), axis=1)
     mean_error = np.mean(d, axis=1)
     finite = np.all(np.isfinite(x.reshape(R, -1)), axis=1)
-    lab_ref = to_lab(gt) if gt_lab is None else gt_lab
+    lab_ref = reference_lab(gt) if gt_lab is None else gt_lab
     de = delta_e_2000(x, lab_ref).reshape(R, -1)
     ciede = np.mean(de, axis=1)
     return [{"mse": float(mse[r]), "rmse": math.sqrt(float(mse[r])), "gt_var": gvar,

@@ -27,12 +27,11 @@ from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.config import Experiment, SceneRef
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
-from drtlab.experiments.study.metrics import batch_metrics
+from drtlab.experiments.study.metrics import batch_metrics, reference_lab
 from drtlab.experiments.study.results import METRICS, ExperimentResult
 from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
 from drtlab.experiments.stats.intervals import repetitions_for_precision
-from drtlab.kernels.colour import to_lab
 
 OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "report.md", "plots",
                 "images", "manifest.json", store.CALIBRATION_FILE)
@@ -446,7 +445,7 @@ class _Sweep:
         if not batches:
             return
         if ctx.gt_lab is None:
-            ctx.gt_lab = to_lab(ctx.gt.mean)
+            ctx.gt_lab = reference_lab(ctx.gt.mean)
         if self.executor is None:
             for b in batches:
                 r0 = b.runs[0]
