@@ -49,7 +49,7 @@ def _two_and_five_labels():
     return TwoAndFive(labelOnlyBase=False)
 
 
-def _panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xlabel: str, ylabel: str,
+def scene_panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xlabel: str, ylabel: str,
             xscale: dict, extra: Callable[..., None] | None = None):
     """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`;
     saved to `path` (returned), or without a path the matplotlib Figure itself (for a notebook)."""
@@ -100,7 +100,7 @@ def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
             ax.fill_between(fit.line.n, fit.line.lo, fit.line.hi, color=style["color"], alpha=0.15, lw=0)
         _errbar(ax, [c.spp for c in cells], [c.error(study.metric) for c in cells], style, label)
 
-    return _panels(study, path, draw, xscale={"base": 2}, xlabel="samples per pixel N",
+    return scene_panels(study, path, draw, xscale={"base": 2}, xlabel="samples per pixel N",
                    ylabel=f"{study.metric_label} (GT noise removed)",
                    title=f"{study.name}: {study.metric_label} vs samples (points: mean ± 95% CI; "
                          f"lines: likelihood fit ± 95% CrI, where resolved)")
@@ -121,7 +121,7 @@ def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
             ax.annotate("target", (1.0, tgt), xycoords=("axes fraction", "data"), ha="right",
                         va="bottom", fontsize=6, color="0.3")
 
-    return _panels(study, path, draw, extra=target, xscale={},
+    return scene_panels(study, path, draw, extra=target, xscale={},
                    xlabel="render seconds (calibrated cost, compile excluded)",
                    ylabel=study.metric_label, title=f"{study.name}: {study.metric_label} vs time")
 

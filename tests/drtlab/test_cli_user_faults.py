@@ -239,7 +239,7 @@ def test_one_panel_figure_keeps_its_title_inside():
     from drtlab.experiments.study import figures as F
     study = NS(scenes=[NS(scene="aa-edges", cells=[])], samplers=[])
     with pytest.warns(UserWarning):                 # an empty panel's legend
-        fig = F._panels(study, None, lambda *a: None, title="stratification: RMSE vs samples "
+        fig = F.scene_panels(study, None, lambda *a: None, title="stratification: RMSE vs samples "
                         "(points: mean ± 95% CI; lines: likelihood fit ± 95% CrI, where resolved)",
                         xlabel="x", ylabel="y", xscale={"base": 2})
     fig.canvas.draw()
