@@ -42,7 +42,7 @@ BATCH_SAMPLES = 1 << 20
 MAX_BATCH_PIXELS = 1 << 24       # pixels x repetitions of one batch: bounds its buffers (~1 GiB)
 # Seconds between commits of the table and the changed cell files (and at each group's end and an
 # interrupted sweep's): rewriting a 10,000-row table after every batch was a tenth of the sweep.
-FLUSH_SECONDS = 2.0
+FLUSH_SECONDS = 5.0
 
 
 @dataclass(frozen=True)
