@@ -18,10 +18,10 @@ DEFAULT_GT_SPP = 16384
 # ---------------------------------------------------------------------------------------------------
 
 def cmd_scenes(args) -> int:
-    from drtlab.kernels.scene_file import builtin_names, load_scene
-    scenes = [(name, load_scene(name)) for name in builtin_names()]
-    rows = [(name, f"{s.width}x{s.height}", f"{s.spp} spp", s.integrator, s.description)
-            for name, s in scenes]
+    from drtlab.kernels.scene_file import builtin_names, scene_settings
+    scenes = [(name, scene_settings(name)) for name in builtin_names()]
+    rows = [(name, f"{s['width']}x{s['height']}", f"{s['spp']} spp", s["integrator"],
+             s["description"]) for name, s in scenes]
     _print_columns(rows)
     return 0
 
