@@ -1,26 +1,74 @@
 """Registry of point sets, strategies and presets; `parse_sampler` accepts a preset, POINTS+STRATEGY
 or a point set's name alone.
 
-Adding a point set: one file in `pointsets/` defining POINTSET, and one entry in `_POINTSET_MODULES`.
+Adding a point set: one file in `pointsets/` defining POINTSET, named after it, and its name in
+`_POINTSET_MODULES`.
 """
+import importlib
+from collections.abc import MutableMapping
 from dataclasses import dataclass
 
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY  # noqa: F401 (re-exported)
 from drtlab.estimators.integrators import INTEGRATORS, Integrator
-from drtlab.estimators.pointsets import (cmj, halton, independent, lhs, pmj02, presampled,
-                                         presampled_random, sobol, stratified, zsobol)
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
 from drtlab.errors import InputError
 
-_POINTSET_MODULES = (independent, stratified, lhs, cmj, halton, sobol, zsobol, pmj02, presampled,
-                     presampled_random)
-POINTSETS: dict[str, PointSet] = {m.POINTSET.name: m.POINTSET for m in _POINTSET_MODULES}
+# The modules of pointsets/, each named after the POINTSET it defines, in the order listings show.
+_POINTSET_MODULES = ("independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
+                     "presampled", "presampled_random")
 
 
-# Sets that differ from another only in the bounce directions (PointSet.same_as_outside_directions:
-# Cook's tables): studies of the pixel dimensions alone (the integrand testbed) skip them.
-DIRECTION_ONLY_POINTSETS = tuple(n for n, ps in POINTSETS.items() if ps.same_as_outside_directions)
+class _PointSets(MutableMapping):
+    """Point-set name -> PointSet, each module imported when its set is first looked up: a render
+    needs one set, and importing all of them (their Warp functions, halton's primes) is ~0.1 s of a
+    small render's start-up. Iterating over the values imports every one."""
+
+    def __init__(self, modules: tuple[str, ...]):
+        self._names = list(modules)
+        self._loaded: dict[str, PointSet] = {}
+
+    def __getitem__(self, name: str) -> PointSet:
+        ps = self._loaded.get(name)
+        if ps is None:
+            if name not in self._names:
+                raise KeyError(name)
+            ps = importlib.import_module(f"drtlab.estimators.pointsets.{name}").POINTSET
+            if ps.name != name:
+                raise RuntimeError(f"estimators/pointsets/{name}.py defines the point set "
+                                   f"{ps.name!r}: a point set's module is named after it")
+            self._loaded[name] = ps
+        return ps
+
+    def __setitem__(self, name: str, ps: PointSet) -> None:       # tests register fakes
+        if name not in self._names:
+            self._names.append(name)
+        self._loaded[name] = ps
+
+    def __delitem__(self, name: str) -> None:
+        self._names.remove(name)
+        self._loaded.pop(name, None)
+
+    def __contains__(self, name) -> bool:
+        return name in self._names
+
+    def __iter__(self):
+        return iter(list(self._names))
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+
+POINTSETS: MutableMapping[str, PointSet] = _PointSets(_POINTSET_MODULES)
+
+
+def __getattr__(name: str):
+    # Sets that differ from another only in the bounce directions (PointSet.same_as_outside_directions:
+    # Cook's tables): studies of the pixel dimensions alone (the integrand testbed) skip them.
+    # Computed when asked for: it reads every point set.
+    if name == "DIRECTION_ONLY_POINTSETS":
+        return tuple(n for n, ps in POINTSETS.items() if ps.same_as_outside_directions)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def biased_pointsets() -> list[str]:

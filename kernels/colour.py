@@ -1,7 +1,9 @@
 """Colour of linear sRGB / Rec. 709 radiance: luminance (ITU-R BT.709 Y weights, for light power), the
 sRGB encoding of what a display shows (previews, image strips) and its inverse (8-bit files read
 back), and the displayed image in CIELAB (colour differences). colour-science is imported only by
-to_srgb and to_lab: it is slow to load."""
+to_lab: `import colour` takes ~2 s (its `__init__` loads colour.plotting, matplotlib and scipy), more
+than a small render, so the sRGB transfer every PNG needs is written out here, and
+tests/kernels/test_colour.py checks it bit for bit against colour-science's on a dense grid."""
 import numpy as np
 
 REC709_Y = (0.2126, 0.7152, 0.0722)
@@ -20,15 +22,27 @@ def displayed(image: np.ndarray) -> np.ndarray:
 
 
 def to_srgb(image: np.ndarray) -> np.ndarray:
-    """Linear radiance -> display sRGB in [0, 1] (`displayed`, then the IEC 61966-2-1 transfer)."""
-    import colour
-    return colour.cctf_encoding(displayed(image), function="sRGB")
+    """Linear radiance -> display sRGB in [0, 1] (`displayed`, then the IEC 61966-2-1 transfer):
+    colour.cctf_encoding(..., function="sRGB"), the same operations in the same order."""
+    return _encode(displayed(image))
+
+
+# Where IEC 61966-2-1's linear segment ends, in linear values and (as colour-science takes it) in
+# display values.
+_KNEE = 0.0031308
+
+
+def _encode(linear: np.ndarray) -> np.ndarray:
+    return np.where(linear <= _KNEE, linear * 12.92, 1.055 * linear ** (1 / 2.4) - 0.055)
+
+
+_KNEE_DISPLAYED = float(_encode(_KNEE))
 
 
 def srgb_to_linear(codes: np.ndarray) -> np.ndarray:
     """sRGB display values in [0, 1] (an 8-bit file's codes / 255) -> linear values, by the inverse
     IEC 61966-2-1 transfer; the dtype is kept (float32 pixels stay float32)."""
-    return np.where(codes <= 0.04045, codes / 12.92, ((codes + 0.055) / 1.055) ** 2.4)
+    return np.where(codes <= _KNEE_DISPLAYED, codes / 12.92, ((codes + 0.055) / 1.055) ** 2.4)
 
 
 def to_lab(image: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Image output: float32 EXR with metadata (OpenImageIO) and an sRGB PNG preview (colour-science)."""
+"""Image output: float32 EXR with metadata (OpenImageIO) and an sRGB PNG preview (kernels/colour.py)."""
 from __future__ import annotations
 
 import os

@@ -76,7 +76,7 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     for key in data:
         if key not in TOP_LEVEL_KEYS:
             raise InputError(key, f"unknown top-level table '{key}'; allowed: {', '.join(TOP_LEVEL_KEYS)}")
-    settings = _parse_settings(data.get("scene", REQUIRED))
+    settings = parse_settings(data.get("scene", REQUIRED))
     camera = _parse_camera(data.get("camera", REQUIRED))
     materials = _parse_materials(data.get("materials", {}))
     shapes = _parse_shapes(data.get("shapes", []), materials)
@@ -86,7 +86,8 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
                  source=source, text=text, **settings)
 
 
-def _parse_settings(value: Any) -> dict:
+def parse_settings(value: Any) -> dict:
+    """The [scene] table validated: the Scene's settings (description, width, height, spp, ...)."""
     if value is REQUIRED:
         raise InputError("scene", "the [scene] table is required (description, resolution, spp, ...)")
     t = Table(value, "scene", "[scene]")

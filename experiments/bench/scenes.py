@@ -1,6 +1,7 @@
-"""`make bench`: render speed and compile time of every built-in scene, and how speed scales with
-resolution, spp, path depth, threads and primitive count -> results/bench/render.json (and the
-primitive-count figure results/bench/primitives.png, experiments/bench/primitives.py).
+"""`make bench`: render speed and compile time of every built-in scene, the `drtlab` program's
+start-up (experiments/bench/startup.py), and how speed scales with resolution, spp, path depth,
+threads and primitive count -> results/bench/render.json (and the primitive-count figure
+results/bench/primitives.png, experiments/bench/primitives.py).
 
 Compile times are cold: Warp's kernel cache is pointed at an empty temporary folder, so each scene's
 variant is built from source (the first one also builds Warp's precompiled header, reported apart);
@@ -26,6 +27,7 @@ from drtlab import fields
 from drtlab.cli_args import Help, Parser, int_flag, run_main
 from drtlab.estimators.defaults import DEFAULT_SAMPLER
 from drtlab.experiments.bench.primitives import plot_primitives, primitives
+from drtlab.experiments.bench.startup import print_startup, startup
 from drtlab.experiments.paths import default_out_dir, results_root
 from drtlab.experiments.study.manifest import peak_rss_mib as _peak_rss_mib
 
@@ -144,7 +146,10 @@ def build_parser() -> Parser:
     ap.add_argument("--scaling-scene", default="cornell-box")
     ap.add_argument("--scaling-repeats", type=int_flag(1, 1000), default=2,
                     help="renders per point of the scaling sweeps")
-    ap.add_argument("--no-scaling", action="store_true", help="only the per-scene table")
+    ap.add_argument("--startup-repeats", type=int_flag(1, 1000), default=5,
+                    help="runs of each command timed for the start-up entry (the best is kept)")
+    ap.add_argument("--no-scaling", action="store_true",
+                    help="only the per-scene table and the start-up entry")
     ap.add_argument("--scaling-primitives", action="store_true",
                     help="only the primitive-count sweep (spheres: loop vs BVH; triangles), merged "
                          "into --out; the default run includes it")
@@ -174,6 +179,10 @@ def _command(args) -> int:
     if args.scaling_primitives:
         return _primitives_only(args, wp)
     rows = scene_rows(args.spp, args.sampler, args.repeats, threads_all)
+    # The start-up commands run in processes of their own, with the caller's kernel cache (warm
+    # after their first render), not this process's cold one.
+    start = startup(args.startup_repeats)
+    print_startup(start)
     sc = None
     if not args.no_scaling:
         sc = scaling(args.scaling_scene, args.sampler, args.scaling_repeats, threads_all)
@@ -195,6 +204,7 @@ def _command(args) -> int:
         "warp_init_seconds": round(init_s, 3),
         "note": "compile_seconds_cold of the first scene includes building Warp's precompiled header",
         "scenes": rows,
+        "startup": start,
         "scaling": sc,
         "primitives": None if args.no_scaling else _primitives(args),
         "peak_rss_mib_bench": _peak_rss_mib(),

@@ -520,3 +520,13 @@ def test_fuzzed_scenes_raise_only_input_errors(changes):
         assert err.field and err.message
         return
     assert isinstance(scene, Scene) and scene.shapes
+
+
+def test_scene_settings_are_the_loaded_scenes_settings():
+    # `drtlab scenes` lists from scene_settings, which builds no shapes: its values must be the scene's.
+    from drtlab.kernels.scene_file import builtin_names, load_scene, scene_settings
+    for name in builtin_names():
+        settings, scene = scene_settings(name), load_scene(name)
+        assert settings.keys() >= {"description", "width", "height", "spp", "integrator"}
+        for key, value in settings.items():
+            assert np.array_equal(getattr(scene, key), value), (name, key)

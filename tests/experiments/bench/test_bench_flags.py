@@ -11,6 +11,7 @@ from drtlab.experiments.bench.mitsuba import compare
     (scenes.main, ["--spp", "-3"], "--spp"),
     (scenes.main, ["--repeats", "0"], "--repeats"),
     (scenes.main, ["--scaling-repeats", "two"], "--scaling-repeats"),
+    (scenes.main, ["--startup-repeats", "0"], "--startup-repeats"),
     (scenes.main, ["--bogus"], "--bogus"),
     (compare.main, ["--spp", "-3"], "--spp"),
     (compare.main, ["--seeds", "1"], "--seeds"),
