@@ -18,6 +18,7 @@ import sys
 import time
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from itertools import zip_longest
 from pathlib import Path
 from typing import Callable
 
@@ -367,7 +368,10 @@ class _Sweep:
         cells: dict = {}
         for r in runs:
             cells.setdefault(r.cell, []).append(r)
-        batches = [b for cell, cruns in cells.items() for b in self._cell_batches(cell, cruns, gt)]
+        # Cells take turns batch by batch, so that load from other jobs and drifts of the clock over
+        # the group's minutes fall on every cell alike: their costs (and speed-ups) are compared.
+        per_cell = [self._cell_batches(cell, cruns, gt) for cell, cruns in cells.items()]
+        batches = [b for turn in zip_longest(*per_cell) for b in turn if b is not None]
         ctx = _GroupContext(self.backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
                             if batches or self._targeted(cells) else None, gt, None)
         self._render_batches(batches, ctx)
