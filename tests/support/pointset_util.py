@@ -68,24 +68,41 @@ def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
     return py_mix32((h + GOLDEN) & M32)
 
 
+def _py_round(v: int, k: int, out_bits: int) -> int:
+    h = ((v ^ k) * 0x5851F42D) & M32
+    h ^= h >> 15
+    h = (h * M2) & M32
+    return h >> (32 - out_bits)
+
+
 def py_permute(i: int, n: int, key: int) -> int:
-    """Python reference of hashing.permute (uint32 arithmetic): Feistel + cycle-walk + rotation."""
+    """Python reference of hashing.permute (uint32 arithmetic): a 4-round alternating Feistel on
+    ceil(log2 n) bits (table rounds up to 8 bits, hashed rounds beyond), cycle-walking, and a
+    multiply-shift rotation."""
     if n <= 1:
         return 0
-    bits = 0
-    while (1 << bits) < n:
-        bits += 1
-    half = (bits + 1) // 2
-    hmask = (1 << half) - 1
-    keys = [py_mix32(key ^ ((M1 + r) & M32)) for r in range(4)]
+    bits = (n - 1).bit_length()
+    a = bits // 2
+    b = bits - a
+    if bits <= 8:
+        words = [py_mix32(key ^ ((M1 + w) & M32)) for w in range(8)]
+        tables = [words[2 * r] | (words[2 * r + 1] << 32 if bits > 6 else 0) for r in range(4)]
+        rounds = [lambda v, o, t=t: (t >> (v * o)) & ((1 << o) - 1) for t in tables]
+    else:
+        keys = [key] + [(key * c) & M32 for c in (0x1E3779B9, 0x4C957F2D, 0x2545F491)]
+        rounds = [lambda v, o, k=k: _py_round(v, k, o) for k in keys]
     x = i
     while True:
-        left, right = x >> half, x & hmask
-        for k in keys:
-            left, right = right, left ^ (py_mix32(right ^ k) & hmask)
-        x = (left << half) | right
+        high, low = x >> a, x & ((1 << a) - 1)
+        high ^= rounds[0](low, b)
+        low ^= rounds[1](high, a)
+        high ^= rounds[2](low, b)
+        low ^= rounds[3](high, a)
+        x = (high << a) | low
         if x < n:
-            return (x + py_mix32((key + GOLDEN) & M32) % n) % n
+            break
+    r = (py_mix32((key + GOLDEN) & M32) * n) >> 32
+    return (x + r) % n
 
 
 @wp.func
@@ -131,10 +148,10 @@ KNOWN_DEFECTS: dict = {
     # permutation instead and pass (estimators/pointsets/zsobol.py, sobol.py).
     ("per_pixel_correlation", "zsobol"): "pbrt-v4 ZSobol's nested digit permutations pair the "
                                          "samples of two dimensions hierarchically",
-    # Cook's randomised table: the bounce directions come in blocks of 16 (one 4 x 4 jittered table
-    # per block), each randomised on its own. Their block means are all ~ 1/2 (stratified), so at
-    # spp = 64 the 4 blocks' within-block products dominate and (spp - 1) E[r^2] ~ 63/60 = 1.05
-    # for two direction dimensions (unbiased all the same: pooled and joint tests pass).
-    ("per_pixel_correlation", "presampled_random"): "the randomised 16-point tables of two "
-                                                    "bounces are randomised per block of 16 samples",
 }
+# Not listed: Cook's randomised table (presampled_random). Its bounce directions come in blocks of 16
+# (one 4 x 4 jittered table per block), each randomised on its own; their block means are all ~ 1/2
+# (stratified), so at spp = 64 the 4 blocks' within-block products dominate and (spp - 1) E[r^2]
+# ~ 63/60 = 1.05 for two direction dimensions (unbiased all the same). The per-pixel test's bound at
+# 2^14 pixels is 1 + 4.5 SE = 1.054: the defect sits at its edge (1.045 measured with hashing.permute's
+# table rounds, just above the bound with the earlier Feistel), so no test asserts it either way.
