@@ -16,12 +16,11 @@ are the same whichever word carries the count.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
+from drtlab.estimators.hashing import div_mod, hash_prefix, mix32, permute_wide, unit_float, wide_key
 from drtlab.estimators.pointsets.base import PointSet
 
 JITTER = wp.constant(wp.uint32(0x68E31DA4))
-JITTER_Y = wp.constant(wp.uint32(0x3B1F0E95))
-_GOLDEN = wp.constant(wp.uint32(0x1E3779B9))
+_JITTER_MUL = wp.constant(wp.uint32(0x3B1F0E95))
 
 
 # A count word's top two bits: 0x: a bare count (spp < 2^31); 10: nx in bits 20..29 and spp < 2^20
@@ -164,21 +163,17 @@ def place(s: wp.uint32, jitter: float, n: wp.uint32) -> float:
 
 
 @wp.func
-def div_mod(a: wp.uint32, n: wp.uint32) -> wp.vec2ui:
-    """(a div n, a mod n), n >= 1, by a float64 multiply: (a + 1/2) / n lies at least 1 / (2 n)
-    from an integer, and the product's rounding error, below (a / n) 2^-52 <= 2^-20 / n, cannot
-    cross it. 1 / n is the same for every sample of a pixel (the compiler hoists it); an integer
-    division costs ~25 cycles, and a branch around it (a < n) kept the compiler from hoisting the
-    hash of (seed, pixel, block) out of a render's bounce loop (2.9x an independent draw, not 1.5x)."""
-    q = wp.uint32((wp.float64(a) + wp.float64(0.5)) * (wp.float64(1.0) / wp.float64(n)))
-    return wp.vec2ui(q, a - q * n)
+def jitter_bits(sample: wp.uint32, dim: wp.uint32) -> wp.uint32:
+    # One mix32 of the sample's hash_prefix (seed, pixel, index: the same for all its dimensions,
+    # computed once per sample) and the dimension; the strata come from the block's prefix.
+    return mix32(sample ^ (dim * _JITTER_MUL + JITTER))
 
 
 @wp.func
-def jitter_bits(key: wp.uint32, i: wp.uint32, salt: wp.uint32) -> wp.uint32:
-    # One hash of the stratum key (already per seed, pixel, dimension and block) and the index in
-    # the block: distinct inputs for distinct samples, one mix32 instead of a second hash_key.
-    return mix32((key ^ salt) + i * _GOLDEN)
+def strata_key(seed: wp.uint32, pixel: wp.uint32, block: wp.uint32, dim: wp.uint32) -> wp.vec2ul:
+    """The permutation key of (seed, pixel, block, dimension): hash_prefix (once per sample in a
+    render) and one wide_key of the dimension."""
+    return wide_key(hash_prefix(seed, pixel, block), dim)
 
 
 @wp.func
@@ -186,9 +181,8 @@ def stratified_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
                   spp: wp.uint32) -> float:
     n = word_count(spp)
     bi = div_mod(index, n)
-    key = hash_key(seed, pixel, bi[0], dim)
-    s = permute(bi[1], n, key)
-    return place(s, unit_float(jitter_bits(key, bi[1], JITTER)), n)
+    s = permute_wide(bi[1], n, strata_key(seed, pixel, bi[0], dim))
+    return place(s, unit_float(jitter_bits(hash_prefix(seed, pixel, index), dim)), n)
 
 
 @wp.func
@@ -198,11 +192,11 @@ def stratified_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
     nx = word_grid(spp)[0]
     ny = n / nx
     bi = div_mod(index, n)
-    key = hash_key(seed, pixel, bi[0], dim)
-    s = permute(bi[1], n, key)
+    s = permute_wide(bi[1], n, strata_key(seed, pixel, bi[0], dim))
     rc = div_mod(s, nx)
-    jx = unit_float(jitter_bits(key, bi[1], JITTER))
-    jy = unit_float(jitter_bits(key, bi[1], JITTER_Y))
+    sample = hash_prefix(seed, pixel, index)
+    jx = unit_float(jitter_bits(sample, dim))
+    jy = unit_float(jitter_bits(sample, dim + wp.uint32(1)))
     return wp.vec2(place(rc[1], jx, nx), place(rc[0], jy, ny))
 
 

@@ -22,7 +22,7 @@ with each of its integrators and a range of samplers at a small size and saves t
 with saved ones (bit for bit, and the largest difference relative to the image's mean): the check
 that a speed change left the images alone. `pointsets` times each point set's draws as a render makes
 them (count word once per pixel, then per sample and bounce one get2d and one get1d at the tracer's
-dimensions): ns per draw pair (one 2D + one 1D draw) and the ratio to `independent`'s, the sets
+dimensions): CPU ns per draw pair (one 2D + one 1D draw) and the ratio to `independent`'s, the sets
 taking turns within each of --repeats rounds (best round each) so that load from other jobs falls on
 all alike.
 """
@@ -337,8 +337,11 @@ def draw_costs(names, spp: int = 64, pixels: int = 4096, bounces: int = 4,
     pairs = pixels * spp * bounces
     for _ in range(repeats):
         for n, k in kernels.items():
-            best[n] = min(best[n], _time(lambda: wp.launch(k, dim=pixels, inputs=args(),
-                                                           device="cpu"), 1) * 1e9 / pairs)
+            # The launch runs on this thread: its CPU time leaves out the time other jobs hold the
+            # core (wall time on this shared machine varied by 30% between runs).
+            t0 = time.thread_time()
+            wp.launch(k, dim=pixels, inputs=args(), device="cpu")
+            best[n] = min(best[n], (time.thread_time() - t0) * 1e9 / pairs)
     return best
 
 

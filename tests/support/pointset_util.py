@@ -60,12 +60,29 @@ def py_mix32(x: int) -> int:
     return h
 
 
-def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
+def py_hash_prefix(seed: int, pixel: int, index: int) -> int:
     h = py_mix32((seed + GOLDEN) & M32)
     h = py_mix32(h ^ ((pixel + M3) & M32))
-    h = py_mix32(h ^ ((index + GOLDEN) & M32))
-    h = py_mix32(h ^ ((dim + M1) & M32))
+    return py_mix32(h ^ ((index + GOLDEN) & M32))
+
+
+def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
+    h = py_mix32(py_hash_prefix(seed, pixel, index) ^ ((dim + M1) & M32))
     return py_mix32((h + GOLDEN) & M32)
+
+
+M64 = (1 << 64) - 1
+
+
+def py_mix64(z: int) -> int:
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & M64
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & M64
+    return z ^ (z >> 31)
+
+
+def py_wide_key(h: int, dim: int) -> tuple[int, int]:
+    z = (h << 32) | dim
+    return py_mix64(z ^ 0x9E3779B97F4A7C15), py_mix64(z ^ 0xD1B54A32D192ED03)
 
 
 def _py_round(v: int, k: int, out_bits: int) -> int:
@@ -75,22 +92,24 @@ def _py_round(v: int, k: int, out_bits: int) -> int:
     return h >> (32 - out_bits)
 
 
-def py_permute(i: int, n: int, key: int) -> int:
-    """Python reference of hashing.permute (uint32 arithmetic): a 4-round alternating Feistel on
-    ceil(log2 n) bits (table rounds up to 8 bits, hashed rounds beyond), cycle-walking, and a
-    multiply-shift rotation."""
+def py_permute_wide(i: int, n: int, key: tuple[int, int]) -> int:
+    """Python reference of hashing.permute_wide: a 4-round alternating Feistel on ceil(log2 n) bits
+    (24-bit table rounds up to 6 bits, hashed rounds beyond), cycle-walking, and a multiply-shift
+    rotation."""
     if n <= 1:
         return 0
     bits = (n - 1).bit_length()
     a = bits // 2
     b = bits - a
-    if bits <= 8:
-        words = [py_mix32(key ^ ((M1 + w) & M32)) for w in range(8)]
-        tables = [words[2 * r] | (words[2 * r + 1] << 32 if bits > 6 else 0) for r in range(4)]
+    k0, k1 = key
+    if bits <= 6:
+        tables = [k0, k0 >> 24, k1, k1 >> 24]
         rounds = [lambda v, o, t=t: (t >> (v * o)) & ((1 << o) - 1) for t in tables]
+        spin = (k0 >> 48) | ((k1 >> 48) << 16)
     else:
-        keys = [key] + [(key * c) & M32 for c in (0x1E3779B9, 0x4C957F2D, 0x2545F491)]
+        keys = [k0 & M32, k0 >> 32, k1 & M32, k1 >> 32]
         rounds = [lambda v, o, k=k: _py_round(v, k, o) for k in keys]
+        spin = py_mix32(keys[0] ^ keys[3] ^ GOLDEN)
     x = i
     while True:
         high, low = x >> a, x & ((1 << a) - 1)
@@ -101,8 +120,12 @@ def py_permute(i: int, n: int, key: int) -> int:
         x = (high << a) | low
         if x < n:
             break
-    r = (py_mix32((key + GOLDEN) & M32) * n) >> 32
-    return (x + r) % n
+    return (x + ((spin * n) >> 32)) % n
+
+
+def py_permute(i: int, n: int, key: int) -> int:
+    """Python reference of hashing.permute."""
+    return py_permute_wide(i, n, py_wide_key(key, 0))
 
 
 @wp.func
