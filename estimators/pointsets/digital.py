@@ -26,6 +26,8 @@ Every multiplier and mask stays below 2^31 so the generated C++ holds it as a pl
 """
 import warp as wp
 
+from drtlab.estimators.hashing import bit_length
+
 _M55 = wp.constant(wp.uint32(0x55555555))
 _M33 = wp.constant(wp.uint32(0x33333333))
 _M0F = wp.constant(wp.uint32(0x0F0F0F0F))
@@ -112,8 +114,8 @@ def morton2(x: wp.uint32, y: wp.uint32) -> wp.uint32:
 
 @wp.func
 def ceil_log2(n: wp.uint32) -> int:
-    k = int(0)
-    while k < 32 and (wp.uint64(1) << wp.uint64(k)) < wp.uint64(n):
-        k += 1
-    return k
+    # No loop: a draw that counted up to log2(spp) paid for it in every dimension.
+    if n <= wp.uint32(1):
+        return 0
+    return bit_length(n - wp.uint32(1))
 

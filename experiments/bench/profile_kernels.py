@@ -24,9 +24,10 @@ that a speed change left the images alone. `pointsets` times each point set's dr
 them (count word once per pixel, then per sample and bounce one get2d and one get1d at the tracer's
 dimensions): CPU ns per draw pair (one 2D + one 1D draw) and the ratio to `independent`'s, the sets
 taking turns within each of --repeats rounds (best round each) so that load from other jobs falls on
-all alike.
+all alike; --write stores them where `drtlab samplers` reads them (`estimators/draw_costs.py`).
 """
 
+import os
 import sys
 import time
 
@@ -345,6 +346,18 @@ def draw_costs(names, spp: int = 64, pixels: int = 4096, bounces: int = 4,
     return best
 
 
+def _cpu_name() -> str:
+    import platform
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
 def cmd_pointsets(args) -> int:
     from drtlab.estimators.registry import POINTSETS
     names = args.sets or [n for n in POINTSETS]
@@ -355,6 +368,13 @@ def cmd_pointsets(args) -> int:
     for n in names:
         print(f"{n:20s} {best[n]:7.1f} ns per draw pair  {best[n] / base:5.2f}x independent",
               flush=True)
+    if args.write:
+        from drtlab.estimators import draw_costs as DC
+        if set(names) != set(POINTSETS):
+            print("--write needs every point set (no --sets)", file=sys.stderr)
+            return 2
+        DC.write(best, args.spp, f"{_cpu_name()}, {os.cpu_count()} cores")
+        print(f"wrote {DC.PATH}")
     return 0
 
 
@@ -409,6 +429,8 @@ def _parser():
     ap.add_argument("--threads", type=int_flag(1, 1024), default=1)
     ap.add_argument("--tile", type=int_flag(1, 1 << 16), default=None)
     ap.add_argument("--sets", nargs="+", default=None)
+    ap.add_argument("--write", action="store_true",
+                    help="pointsets: store the ratios for `drtlab samplers` (estimators/draw_costs.py)")
     ap.add_argument("--pixels", type=int_flag(1, 1 << 24), default=4096)
     ap.add_argument("--repeats", type=int_flag(1, 1000), default=5)
     commands = {"rays": cmd_rays, "render": cmd_render, "check": cmd_check, "compile": cmd_compile,
