@@ -1,8 +1,13 @@
 """Integer hashing shared by every point set: a sample value is a pure function of its key.
 
-`hash_key(seed, pixel, index, dim)` decorrelates all four coordinates; `permute` is a keyed
-pseudo-random bijection of [0, n) (a Feistel network with cycle-walking, then a keyed rotation),
-used to decorrelate strata between dimensions the way pbrt-v4 permutes per dimension.
+`hash_key(seed, pixel, index, dim)` decorrelates all four coordinates; its first rounds,
+`hash_prefix(seed, pixel, index)`, are the same for every dimension of a sample, so a set that keys
+by them pays for them once per sample in a render (the compiler hoists them out of the bounce loop),
+not once per draw. `permute_wide(i, n, key)` is a keyed pseudo-random bijection of [0, n) (a Feistel
+network on ceil(log2 n) bits with cycle-walking, then a keyed rotation) of 128 key bits
+(`wide_key(hash, dim)`: two splitmix64 finalizers), used to decorrelate strata between dimensions
+the way pbrt-v4 permutes per dimension; `permute(i, n, key)` spreads a 32-bit key to them.
+`div_mod` divides without an integer division.
 """
 import warp as wp
 
@@ -70,7 +75,8 @@ def bit_length(x: wp.uint32) -> int:
     return b + int(x)
 
 
-# splitmix64's finalizer (Stafford's mix 13): 64 well-mixed bits for the cost of one mix32.
+# splitmix64's finalizer (Stafford's mix 13): 64 well-mixed bits for the cost of one mix32. (uint64
+# constants are emitted as unsigned 64-bit literals: no need to stay below 2**31.)
 _S1 = wp.constant(wp.uint64(0xBF58476D1CE4E5B9))
 _S2 = wp.constant(wp.uint64(0x94D049BB133111EB))
 # Salts of the two words of a wide key.

@@ -176,5 +176,5 @@ KNOWN_DEFECTS: dict = {
 # (one 4 x 4 jittered table per block), each randomised on its own; their block means are all ~ 1/2
 # (stratified), so at spp = 64 the 4 blocks' within-block products dominate and (spp - 1) E[r^2]
 # ~ 63/60 = 1.05 for two direction dimensions (unbiased all the same). The per-pixel test's bound at
-# 2^14 pixels is 1 + 4.5 SE = 1.054: the defect sits at its edge (1.045 measured with hashing.permute's
-# table rounds, just above the bound with the earlier Feistel), so no test asserts it either way.
+# 2^14 pixels is 1 + 4.5 SE = 1.054: the defect sits at its edge (1.045 and 1.051 measured as
+# hashing.permute's rounds changed, above the bound with the first Feistel), so no test asserts it.
