@@ -37,9 +37,13 @@ def cmd_samplers(args) -> int:
     from drtlab.estimators.integrators import INTEGRATORS
     from drtlab.estimators.registry import POINTSETS, PRESETS
     from drtlab.estimators.strategies import STRATEGIES
+    from drtlab.estimators import draw_costs
+    costs = draw_costs.load()
     sections = [
-        (f"point sets: a name alone means POINTS+{POINTSET_STRATEGY}",
-         [(p.name, p.description) for p in POINTSETS.values()]),
+        (f"point sets: a name alone means POINTS+{POINTSET_STRATEGY}; a draw's cost against an "
+         f"independent draw's ({costs['machine']}, spp {costs['spp']}: profile_kernels pointsets)",
+         [(p.name, "; ".join(filter(None, (p.description, draw_costs.ratio_note(p.name, costs)))))
+          for p in POINTSETS.values()]),
         ("strategies:", [(s.name, s.description) for s in STRATEGIES.values()]),
         (f"presets: any POINTS+STRATEGY is accepted too; the default is {DEFAULT_SAMPLER}",
          [(name, f"{p}+{s}") for name, (p, s) in PRESETS.items()]),

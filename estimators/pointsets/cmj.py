@@ -9,22 +9,24 @@ name), then jittered uniformly inside its 1/spp x 1/spp sub-cell:
     x = (s mod m + (sy + jx) / n) / m,    y = (s div m + (sx + jy) / m) / n.
 So every count is exactly multi-jittered: one point per cell of the m x n grid (the 2D jitter
 strata) and one per 1/spp stratum in x and in y (Latin). Kensler's hash permutation is
-`hashing.permute` here (a keyed Feistel bijection with cycle-walking, like his). Kensler picks
+`hashing.permute_wide` here (a keyed Feistel bijection with cycle-walking, like his). Kensler picks
 m = round(sqrt(spp * aspect)) and n = ceil(spp / m), leaving cells empty when m n > spp; m n = spp
 keeps every count fully stratified, at the cost of thin grids for counts with no divisor near
 sqrt(spp) (a prime p: 1 x p cells, still Latin in both axes).
 
 1D: the jittered Latin points of the same construction (one point per 1/spp stratum, permuted).
-Permutations and jitter are keyed per (seed, pixel, dimension, block); indices past spp start a
-new block of spp samples.
+Permutations are keyed per (seed, pixel, dimension, block), jitter per (seed, pixel, sample index,
+dimension); indices past spp start a new block of spp samples.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
+from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide, unit_float, wide_key
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import count_word, place, word_count, word_grid
+from drtlab.estimators.pointsets.stratified import (count_word, jitter_bits, place, strata_key,
+                                                    word_count, word_grid)
 
-# Kensler's per-pattern multipliers (the shuffle, sx, sy, jx, jy), masked below 2^31.
+# Salts of the shuffle (the jitter's seed), sx, sy, jx, jy (Kensler's per-pattern multipliers, masked
+# below 2^31), and of the 1D points.
 _SHUFFLE = wp.constant(wp.uint32(0x51633E2D))
 _KX = wp.constant(wp.uint32(0x2511E9B3))
 _KY = wp.constant(wp.uint32(0x63D83595))
@@ -37,9 +39,9 @@ _ONE_D = wp.constant(wp.uint32(0x0CD1D1D1))
 def cmj_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
            spp: wp.uint32) -> float:
     n = word_count(spp)
-    p = hash_key(seed ^ _ONE_D, pixel, index / n, dim)
-    s = permute(index % n, n, mix32(p ^ _SHUFFLE))
-    return place(s, unit_float(mix32(p ^ _JX ^ mix32(s))), n)
+    bi = div_mod(index, n)
+    s = permute_wide(bi[1], n, strata_key(seed ^ _ONE_D, pixel, bi[0], dim))
+    return place(s, unit_float(jitter_bits(hash_prefix(seed ^ _ONE_D, pixel, index), dim)), n)
 
 
 @wp.func
@@ -48,14 +50,18 @@ def cmj_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
     N = word_count(spp)
     m = word_grid(spp)[0]
     n = N / m
-    p = hash_key(seed, pixel, index / N, dim)
-    s = permute(index % N, N, mix32(p ^ _SHUFFLE))
-    col = s % m
-    row = s / m
-    sx = permute(col, m, mix32(p ^ _KX))
-    sy = permute(row, n, mix32(p ^ _KY))
-    jx = unit_float(mix32(p ^ _JX ^ mix32(s)))
-    jy = unit_float(mix32(p ^ _JY ^ mix32(s)))
+    bi = div_mod(index, N)
+    # The block's hash_prefix once per sample in a render; one wide_key per permutation.
+    p = hash_prefix(seed, pixel, bi[0])
+    s = permute_wide(bi[1], N, wide_key(p, dim))
+    rc = div_mod(s, m)
+    col = rc[1]
+    row = rc[0]
+    sx = permute_wide(col, m, wide_key(p, dim ^ _KX))
+    sy = permute_wide(row, n, wide_key(p, dim ^ _KY))
+    sample = hash_prefix(seed ^ _SHUFFLE, pixel, index)
+    jx = unit_float(jitter_bits(sample, dim ^ _JX))
+    jy = unit_float(jitter_bits(sample, dim ^ _JY))
     # x = (col + (sy + jx) / n) / m = (col * n + sy + jx) / N, placed so floor(x * N) is exact.
     return wp.vec2(place(col * n + sy, jx, N), place(row * m + sx, jy, N))
 

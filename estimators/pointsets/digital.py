@@ -18,11 +18,15 @@ A 32-bit unsigned integer v stands for the binary fraction v / 2^32 (bit 31 is t
   (direction numbers 1, 3, 5, 15, 17, 51, ...: column j has row i set iff C(j, i) is odd, i.e.
   i & j == i by Lucas' theorem), evaluated as a superset-XOR transform in 5 shift/mask steps.
   Together they are a (0,2)-sequence in base 2: every aligned block of 2^m indices is a (0,m,2)-net.
+* `owen_sobol(index, dim, seed)`: owen_scramble(sobol_bits(index, dim), seed), bit for bit, with
+  one bit reversal instead of three.
 * `morton2(x, y)`: the Morton (Z-curve) code of 16-bit coordinates (bits of x at even positions).
 
 Every multiplier and mask stays below 2^31 so the generated C++ holds it as a plain int32 literal.
 """
 import warp as wp
+
+from drtlab.estimators.hashing import bit_length
 
 _M55 = wp.constant(wp.uint32(0x55555555))
 _M33 = wp.constant(wp.uint32(0x33333333))
@@ -56,17 +60,40 @@ def owen_scramble(v: wp.uint32, seed: wp.uint32) -> wp.uint32:
 
 
 @wp.func
-def sobol_bits(index: wp.uint32, dim: int) -> wp.uint32:
-    if dim == 0:
-        return reverse_bits(index)
-    # y_i = XOR of the index bits j with i & j == i (Pascal mod 2); then digit i -> bit 31 - i.
+def _pascal(index: wp.uint32) -> wp.uint32:
+    # y_i = XOR of the index bits j with i & j == i (Pascal mod 2), digit i at bit i.
     y = index
     y = y ^ ((y >> wp.uint32(1)) & _M55)
     y = y ^ ((y >> wp.uint32(2)) & _M33)
     y = y ^ ((y >> wp.uint32(4)) & _M0F)
     y = y ^ ((y >> wp.uint32(8)) & _M00FF)
     y = y ^ ((y >> wp.uint32(16)) & _M0000FFFF)
-    return reverse_bits(y)
+    return y
+
+
+@wp.func
+def owen_sobol(index: wp.uint32, dim: int, seed: wp.uint32) -> wp.uint32:
+    """owen_scramble(sobol_bits(index, dim), seed) without its two bit reversals: sobol_bits ends
+    in one and owen_scramble starts with another (pbrt-v4's FastOwenScrambler likewise works on
+    the bit-reversed digits), so the hash runs on the index (dim 0) or the Pascal transform of it
+    (dim 1) directly; one reversal at the end instead of three."""
+    x = index
+    if dim != 0:
+        x = _pascal(index)
+    x = x ^ (x * _LK1)
+    x = x + seed
+    x = x * ((seed >> wp.uint32(16)) | wp.uint32(1))
+    x = x ^ (x * _LK2)
+    x = x ^ (x * _LK3)
+    return reverse_bits(x)
+
+
+@wp.func
+def sobol_bits(index: wp.uint32, dim: int) -> wp.uint32:
+    if dim == 0:
+        return reverse_bits(index)
+    # Digit i of the Pascal transform -> bit 31 - i.
+    return reverse_bits(_pascal(index))
 
 
 @wp.func
@@ -87,8 +114,8 @@ def morton2(x: wp.uint32, y: wp.uint32) -> wp.uint32:
 
 @wp.func
 def ceil_log2(n: wp.uint32) -> int:
-    k = int(0)
-    while k < 32 and (wp.uint64(1) << wp.uint64(k)) < wp.uint64(n):
-        k += 1
-    return k
+    # No loop: a draw that counted up to log2(spp) paid for it in every dimension.
+    if n <= wp.uint32(1):
+        return 0
+    return bit_length(n - wp.uint32(1))
 

@@ -2,7 +2,7 @@
 
 Dimension d of the spp samples of a pixel: sample i lands in stratum permute(i, spp, key(pixel, d))
 of spp equal strata of [0, 1), uniformly jittered inside it, with an independent keyed permutation
-(`hashing.permute`) per (seed, pixel, dimension, block): McKay, Beckman & Conover's Latin
+(`hashing.permute_wide`) per (seed, pixel, dimension, block): McKay, Beckman & Conover's Latin
 hypercube, as `scipy.stats.qmc.LatinHypercube` (scramble=True). A 2D dimension pair is the two 1D
 dimensions dim and dim + 1 (get2d(dim) == (get1d(dim), get1d(dim + 1))): Latin in x and in y, with
 no 2D strata (the N-rooks pattern; `stratified` and `cmj` add 2D strata).
@@ -12,9 +12,9 @@ block of spp samples with its own permutations.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import hash_key, permute, unit_float
+from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide, unit_float
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import place
+from drtlab.estimators.pointsets.stratified import jitter_bits, place, strata_key
 
 _STRATA = wp.constant(wp.uint32(0x1A75C3E1))
 _JITTER = wp.constant(wp.uint32(0x6C8E9CF5))
@@ -24,9 +24,9 @@ _JITTER = wp.constant(wp.uint32(0x6C8E9CF5))
 def lhs_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
            spp: wp.uint32) -> float:
     n = wp.max(spp, wp.uint32(1))
-    key = hash_key(seed ^ _STRATA, pixel, index / n, dim)
-    s = permute(index % n, n, key)
-    return place(s, unit_float(hash_key(seed ^ _JITTER, pixel, index, dim)), n)
+    bi = div_mod(index, n)
+    s = permute_wide(bi[1], n, strata_key(seed ^ _STRATA, pixel, bi[0], dim))
+    return place(s, unit_float(jitter_bits(hash_prefix(seed ^ _JITTER, pixel, index), dim)), n)
 
 
 @wp.func

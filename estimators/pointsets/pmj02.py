@@ -33,7 +33,7 @@ the strata, random positions inside the finest strata, a digital shift instead o
 """
 import warp as wp
 
-from drtlab.estimators.hashing import hash_key, mix32, unit_float
+from drtlab.estimators.hashing import hash_prefix, mix32, mix64, unit_float
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.sobol import padded_index
 
@@ -87,35 +87,42 @@ _PACKED = [(x >> 16) << 16 | (y >> 16) for x, y in TABLE]
 _TABLE = wp.constant(wp.types.vector(length=TABLE_SIZE, dtype=wp.uint32)(*_PACKED))
 _SALT_1D = wp.constant(wp.uint32(0x3A1D5C01))
 _SALT_2D = wp.constant(wp.uint32(0x3A2D5C02))
-_SX = wp.constant(wp.uint32(0x2545F491))
-_SY = wp.constant(wp.uint32(0x4F6CDD1D))
 _LOW = wp.constant(wp.uint32(0x0000FFFF))
+_GOLDEN = wp.constant(wp.uint32(0x1E3779B9))
+# The index slot of the digital shifts' hash_prefix, and the odd multiplier of the table block.
+_SHIFT = wp.constant(wp.uint32(0x5D1F7A3B))
+_BLOCK = wp.constant(wp.uint64(0x9E3779B97F4A7C15))
 
 
 @wp.func
-def pmj02_coordinate(high16: wp.uint32, key: wp.uint32, salt: wp.uint32, a: wp.uint32) -> float:
-    # 16 digits from the table, the finer ones hashed per point; then the digital shift.
-    low = mix32(key ^ salt ^ mix32(a)) & _LOW
-    return unit_float(((high16 << wp.uint32(16)) | low) ^ mix32(key + salt))
+def pmj02_bits(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
+               spp: wp.uint32) -> wp.vec2ui:
+    """The two coordinates' 32 digits: 16 from the table, the finer 16 hashed per point, then the
+    digital shift keyed by (seed, pixel, dim, table block): one mix64 for both shifts, one mix32
+    for both coordinates' fine digits (the pixel's hash_prefix once per pixel)."""
+    a = padded_index(seed, pixel, index, dim, spp)
+    w = mix64((wp.uint64(hash_prefix(seed, pixel, _SHIFT)) << wp.uint64(32) | wp.uint64(dim)) ^
+              (wp.uint64(a >> wp.uint32(12)) * _BLOCK))
+    sx = wp.uint32(w)
+    sy = wp.uint32(w >> wp.uint64(32))
+    fine = mix32((sx ^ sy) + a * _GOLDEN)
+    e = _TABLE[int(a & wp.uint32(4095))]
+    x = ((e >> wp.uint32(16)) << wp.uint32(16)) | (fine & _LOW)
+    y = (e << wp.uint32(16)) | (fine >> wp.uint32(16))
+    return wp.vec2ui(x ^ sx, y ^ sy)
 
 
 @wp.func
 def pmj02_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
              spp: wp.uint32) -> float:
-    a = padded_index(index, spp, hash_key(seed, pixel, _SALT_1D, dim))
-    key = hash_key(seed, pixel, a >> wp.uint32(12), dim ^ _SALT_1D)
-    e = _TABLE[int(a & wp.uint32(4095))]
-    return pmj02_coordinate(e >> wp.uint32(16), key, _SX, a)
+    return unit_float(pmj02_bits(seed ^ _SALT_1D, pixel, index, dim, spp)[0])
 
 
 @wp.func
 def pmj02_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
              spp: wp.uint32) -> wp.vec2:
-    a = padded_index(index, spp, hash_key(seed, pixel, _SALT_2D, dim))
-    key = hash_key(seed, pixel, a >> wp.uint32(12), dim ^ _SALT_2D)
-    e = _TABLE[int(a & wp.uint32(4095))]
-    return wp.vec2(pmj02_coordinate(e >> wp.uint32(16), key, _SX, a),
-                   pmj02_coordinate(e & _LOW, key, _SY, a))
+    b = pmj02_bits(seed ^ _SALT_2D, pixel, index, dim, spp)
+    return wp.vec2(unit_float(b[0]), unit_float(b[1]))
 
 
 POINTSET = PointSet(

@@ -16,10 +16,11 @@ are the same whichever word carries the count.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
+from drtlab.estimators.hashing import div_mod, hash_prefix, mix32, permute_wide, unit_float, wide_key
 from drtlab.estimators.pointsets.base import PointSet
 
 JITTER = wp.constant(wp.uint32(0x68E31DA4))
+_JITTER_MUL = wp.constant(wp.uint32(0x3B1F0E95))
 
 
 # A count word's top two bits: 0x: a bare count (spp < 2^31); 10: nx in bits 20..29 and spp < 2^20
@@ -36,11 +37,9 @@ _NEAR_SQUARE = wp.constant(wp.uint32(32))
 
 @wp.func
 def isqrt(n: wp.uint32) -> wp.uint32:
-    """floor(sqrt(n)): float32's square root is within one of it."""
-    s = wp.uint32(wp.floor(wp.sqrt(float(n)) + 0.5))
-    while s * s > n:
-        s = s - wp.uint32(1)
-    return s
+    """floor(sqrt(n)), exactly and without a loop: float64 holds n exactly and its square root is
+    correctly rounded, and a non-square's root lies at least 2^-17 below the next integer."""
+    return wp.uint32(wp.sqrt(wp.float64(n)))
 
 
 @wp.func
@@ -137,19 +136,30 @@ def word_count(word: wp.uint32) -> wp.uint32:
 
 @wp.func
 def word_grid(word: wp.uint32) -> wp.vec2ui:
-    """(nx, divisibility tests a draw makes to find it) of a count word: none when packed or prime."""
-    if word & _MARKED == wp.uint32(0):
-        return grid_search(wp.max(word, wp.uint32(1)))
-    if word & _PRIME == wp.uint32(0):
-        return wp.vec2ui((word >> _PACKED_BITS) & _COLUMNS_MASK, wp.uint32(0))
-    return wp.vec2ui(wp.uint32(1), wp.uint32(0))
+    """(nx, divisibility tests a draw makes to find it) of a count word: none when packed or prime.
+    One loop, which a packed or prime word leaves at once: grid_search's own loop in a separate
+    branch cost a render's 2D draw 7 ns of its 30 (the compiler kept the branch in the bounce loop)."""
+    n = word_count(word)
+    nx = isqrt(n)
+    tests = wp.uint32(1)
+    if word & _MARKED != wp.uint32(0):
+        tests = wp.uint32(0)
+        nx = wp.uint32(1)
+        if word & _PRIME == wp.uint32(0):
+            nx = (word >> _PACKED_BITS) & _COLUMNS_MASK
+    while n % nx != wp.uint32(0):
+        nx = nx - wp.uint32(1)
+        tests = tests + wp.uint32(1)
+    return wp.vec2ui(nx, tests)
 
 
 @wp.func
 def place(s: wp.uint32, jitter: float, n: wp.uint32) -> float:
     # (s + jitter) / n rounded to float32 can land a hair outside stratum s; nudge it back by ulps so
-    # that floor(x * n) == s holds exactly (the property the stratification tests check).
-    x = (float(s) + jitter) / float(n)
+    # that floor(x * n) == s holds exactly (the property the stratification tests check). A multiply
+    # by 1 / n (hoisted out of a render's sample loop: n is fixed per pixel) instead of a division:
+    # its extra rounding is what the nudges are for anyway.
+    x = (float(s) + jitter) * (1.0 / float(n))
     lo = wp.float64(s)
     hi = wp.float64(s + wp.uint32(1))
     while wp.float64(x) * wp.float64(n) >= hi:
@@ -160,12 +170,26 @@ def place(s: wp.uint32, jitter: float, n: wp.uint32) -> float:
 
 
 @wp.func
+def jitter_bits(sample: wp.uint32, dim: wp.uint32) -> wp.uint32:
+    # One mix32 of the sample's hash_prefix (seed, pixel, index: the same for all its dimensions,
+    # computed once per sample) and the dimension; the strata come from the block's prefix.
+    return mix32(sample ^ (dim * _JITTER_MUL + JITTER))
+
+
+@wp.func
+def strata_key(seed: wp.uint32, pixel: wp.uint32, block: wp.uint32, dim: wp.uint32) -> wp.vec2ul:
+    """The permutation key of (seed, pixel, block, dimension): hash_prefix (once per sample in a
+    render) and one wide_key of the dimension."""
+    return wide_key(hash_prefix(seed, pixel, block), dim)
+
+
+@wp.func
 def stratum(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
             spp: wp.uint32) -> wp.uint32:
+    """The stratum of sample `index` in dimension dim: a permutation of each block of spp."""
     n = wp.max(spp, wp.uint32(1))
-    block = index / n
-    key = hash_key(seed, pixel, block, dim)
-    return permute(index % n, n, key)
+    bi = div_mod(index, n)
+    return permute_wide(bi[1], n, strata_key(seed, pixel, bi[0], dim))
 
 
 @wp.func
@@ -173,8 +197,7 @@ def stratified_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
                   spp: wp.uint32) -> float:
     n = word_count(spp)
     s = stratum(seed, pixel, index, dim, n)
-    jitter = unit_float(hash_key(seed, pixel, index, dim ^ JITTER))
-    return place(s, jitter, n)
+    return place(s, unit_float(jitter_bits(hash_prefix(seed, pixel, index), dim)), n)
 
 
 @wp.func
@@ -183,11 +206,11 @@ def stratified_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.u
     n = word_count(spp)
     nx = word_grid(spp)[0]
     ny = n / nx
-    s = stratum(seed, pixel, index, dim, n)
-    h = hash_key(seed, pixel, index, dim ^ JITTER)
-    jx = unit_float(h)
-    jy = unit_float(mix32(h))
-    return wp.vec2(place(s % nx, jx, nx), place(s / nx, jy, ny))
+    rc = div_mod(stratum(seed, pixel, index, dim, n), nx)
+    sample = hash_prefix(seed, pixel, index)
+    jx = unit_float(jitter_bits(sample, dim))
+    jy = unit_float(jitter_bits(sample, dim + wp.uint32(1)))
+    return wp.vec2(place(rc[1], jx, nx), place(rc[0], jy, ny))
 
 
 POINTSET = PointSet("stratified", "jittered strata: n x n per 2D dimension, spp per 1D dimension, "

@@ -26,9 +26,9 @@ an Owen seed keyed by b.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import bit_length, hash_key, mix32, unit_float
+from drtlab.estimators.hashing import bit_length, div_mod, hash_key, mix32, unit_float
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_scramble, sobol_bits
+from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_sobol
 
 
 def packed_permutations() -> list[int]:
@@ -97,30 +97,30 @@ def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
 
 
 @wp.func
-def zsobol_seed(seed: wp.uint32, index: wp.uint32, spp: wp.uint32, dim: wp.uint32,
-                g: wp.uint64) -> wp.uint32:
-    n = wp.max(spp, wp.uint32(1))
-    return hash_key(seed ^ _SALT_OWEN, wp.uint32(g >> wp.uint64(32)), index / n, dim)
+def zsobol_seed(seed: wp.uint32, block: wp.uint32, dim: wp.uint32, g: wp.uint64) -> wp.uint32:
+    return hash_key(seed ^ _SALT_OWEN, wp.uint32(g >> wp.uint64(32)), block, dim)
 
 
 @wp.func
 def zsobol_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
               spp: wp.uint32) -> float:
     n = wp.max(spp, wp.uint32(1))
-    g = zsobol_index(seed, pixel, index % n, ceil_log2(n), dim)
-    s = zsobol_seed(seed, index, n, dim, g)
-    return unit_float(owen_scramble(sobol_bits(wp.uint32(g), 0), s))
+    bi = div_mod(index, n)
+    g = zsobol_index(seed, pixel, bi[1], ceil_log2(n), dim)
+    s = zsobol_seed(seed, bi[0], dim, g)
+    return unit_float(owen_sobol(wp.uint32(g), 0, s))
 
 
 @wp.func
 def zsobol_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
               spp: wp.uint32) -> wp.vec2:
     n = wp.max(spp, wp.uint32(1))
-    g = zsobol_index(seed, pixel, index % n, ceil_log2(n), dim)
-    s = zsobol_seed(seed, index, n, dim, g)
+    bi = div_mod(index, n)
+    g = zsobol_index(seed, pixel, bi[1], ceil_log2(n), dim)
+    s = zsobol_seed(seed, bi[0], dim, g)
     low = wp.uint32(g)
-    return wp.vec2(unit_float(owen_scramble(sobol_bits(low, 0), s)),
-                   unit_float(owen_scramble(sobol_bits(low, 1), mix32(s ^ _SY))))
+    return wp.vec2(unit_float(owen_sobol(low, 0, s)),
+                   unit_float(owen_sobol(low, 1, mix32(s ^ _SY))))
 
 
 @wp.func

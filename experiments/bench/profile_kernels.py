@@ -5,6 +5,7 @@
     python -m drtlab.experiments.bench.profile_kernels check  [--scene ...]
     python -m drtlab.experiments.bench.profile_kernels compile [--experiment stratified] [--threads 2]
     python -m drtlab.experiments.bench.profile_kernels images (--save F.npz | --compare F.npz)
+    python -m drtlab.experiments.bench.profile_kernels pointsets [--sets stratified sobol ...] [--spp 64]
 
 `rays` times the scene's intersection alone, on three ray populations built from the scene: camera
 rays (closest hit), cosine-distributed bounce rays from the camera rays' hit points (closest hit),
@@ -19,9 +20,14 @@ it compiles them N at a time as an experiment does (`render.compile_variants`) a
 time. `images` renders every built-in scene
 with each of its integrators and a range of samplers at a small size and saves them, or compares them
 with saved ones (bit for bit, and the largest difference relative to the image's mean): the check
-that a speed change left the images alone.
+that a speed change left the images alone. `pointsets` times each point set's draws as a render makes
+them (count word once per pixel, then per sample and bounce one get2d and one get1d at the tracer's
+dimensions): CPU ns per draw pair (one 2D + one 1D draw) and the ratio to `independent`'s, the sets
+taking turns within each of --repeats rounds (best round each) so that load from other jobs falls on
+all alike; --write stores them where `drtlab samplers` reads them (`estimators/draw_costs.py`).
 """
 
+import os
 import sys
 import time
 
@@ -292,6 +298,86 @@ def cmd_compile(args) -> int:
     return 0
 
 
+def _draw_kernel(pointset):
+    import warp as wp
+    from drtlab.estimators import dimensions as D
+    get1d, get2d = pointset.get1d, pointset.get2d
+    pixel_key, count_word = pointset.pixel_key, pointset.count_word
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def draws(seed: wp.uint32, width: int, spp: int, bounces: int, out: wp.array(dtype=float)):
+        p = wp.tid()
+        pix = pixel_key(p % width, p / width, width)
+        word = count_word(wp.uint32(spp))
+        acc = float(0.0)
+        for i in range(spp):
+            idx = wp.uint32(i)
+            for b in range(bounces):
+                base = wp.uint32(wp.static(D.BOUNCE_BASE)) + wp.uint32(wp.static(D.PER_BOUNCE)) * \
+                    wp.uint32(b)
+                u = get2d(seed, pix, idx, base + wp.uint32(wp.static(D.DIRECTION)), word)
+                acc += u[0] + u[1] + get1d(seed, pix, idx, base + wp.uint32(wp.static(D.ROULETTE)),
+                                           word)
+        out[p] = acc
+
+    return draws
+
+
+def draw_costs(names, spp: int = 64, pixels: int = 4096, bounces: int = 4,
+               repeats: int = 5) -> dict:
+    """{name: best ns per draw pair}: the sets take turns in every round (load falls on all)."""
+    wp = _setup()
+    from drtlab.estimators.registry import POINTSETS
+    kernels = {n: _draw_kernel(POINTSETS[n]) for n in names}
+    out = wp.zeros(pixels, dtype=float, device="cpu")
+    width = max(1, int(np.sqrt(pixels)))
+    args = lambda: [wp.uint32(1), width, spp, bounces, out]
+    for k in kernels.values():
+        wp.launch(k, dim=pixels, inputs=args(), device="cpu")
+    best = {n: float("inf") for n in names}
+    pairs = pixels * spp * bounces
+    for _ in range(repeats):
+        for n, k in kernels.items():
+            # The launch runs on this thread: its CPU time leaves out the time other jobs hold the
+            # core (wall time on this shared machine varied by 30% between runs).
+            t0 = time.thread_time()
+            wp.launch(k, dim=pixels, inputs=args(), device="cpu")
+            best[n] = min(best[n], (time.thread_time() - t0) * 1e9 / pairs)
+    return best
+
+
+def _cpu_name() -> str:
+    import platform
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def cmd_pointsets(args) -> int:
+    from drtlab.estimators.registry import POINTSETS
+    names = args.sets or [n for n in POINTSETS]
+    if "independent" not in names:
+        names = ["independent", *names]
+    best = draw_costs(names, spp=args.spp, pixels=args.pixels, repeats=args.repeats)
+    base = best["independent"]
+    for n in names:
+        print(f"{n:20s} {best[n]:7.1f} ns per draw pair  {best[n] / base:5.2f}x independent",
+              flush=True)
+    if args.write:
+        from drtlab.estimators import draw_costs as DC
+        if set(names) != set(POINTSETS):
+            print("--write needs every point set (no --sets)", file=sys.stderr)
+            return 2
+        DC.write(best, args.spp, f"{_cpu_name()}, {os.cpu_count()} cores")
+        print(f"wrote {DC.PATH}")
+    return 0
+
+
 IMAGE_SAMPLERS = ("uniform", "stratified", "importance", "stratified+importance")
 
 
@@ -329,7 +415,7 @@ def cmd_images(args) -> int:
 def _parser():
     from drtlab.cli_args import Parser, int_flag
     ap = Parser(prog="python -m drtlab.experiments.bench.profile_kernels")
-    ap.add_argument("mode", choices=("rays", "render", "check", "compile", "images"))
+    ap.add_argument("mode", choices=("rays", "render", "check", "compile", "images", "pointsets"))
     ap.add_argument("--save", default=None)
     ap.add_argument("--compare", default=None)
     ap.add_argument("--experiment", default="stratified")
@@ -342,9 +428,13 @@ def _parser():
     ap.add_argument("--integrator", default=None)
     ap.add_argument("--threads", type=int_flag(1, 1024), default=1)
     ap.add_argument("--tile", type=int_flag(1, 1 << 16), default=None)
+    ap.add_argument("--sets", nargs="+", default=None)
+    ap.add_argument("--write", action="store_true",
+                    help="pointsets: store the ratios for `drtlab samplers` (estimators/draw_costs.py)")
+    ap.add_argument("--pixels", type=int_flag(1, 1 << 24), default=4096)
     ap.add_argument("--repeats", type=int_flag(1, 1000), default=5)
     commands = {"rays": cmd_rays, "render": cmd_render, "check": cmd_check, "compile": cmd_compile,
-                "images": cmd_images}
+                "images": cmd_images, "pointsets": cmd_pointsets}
     ap.set_defaults(func=lambda args: commands[args.mode](args))
     return ap
 

@@ -106,7 +106,10 @@ def test_good_input_writes_the_files(folders, capsys):
     # The control for the cases above: the same command line without the mistake succeeds.
     scenes, out_dir = folders
     out = out_dir / "frame.exr"
-    assert main(["render", str(scenes / "good.toml"), "--out", str(out), "--res", "8x6"]) == 0
+    # 16 samples: at the scene's 1, some seeds' 8 x 6 images of its small light are zero everywhere,
+    # which the render rightly warns about (no warning is the point here).
+    assert main(["render", str(scenes / "good.toml"), "--out", str(out), "--res", "8x6",
+                 "--spp", "16"]) == 0
     assert capsys.readouterr().err == ""
     assert sorted(p.name for p in out_dir.iterdir()) == ["frame.exr", "frame.png"]
 
@@ -167,3 +170,18 @@ def test_samplers_lists_every_point_set_and_strategy(capsys):
     assert sections["point sets"] == list(POINTSETS)
     assert sections["strategies"] == list(STRATEGIES)
     assert sections["integrators"] == list(INTEGRATORS)
+
+
+def test_samplers_states_each_point_sets_measured_draw_cost(capsys):
+    # Every registered set has a measured cost (a new set needs `profile_kernels pointsets --write`),
+    # and the listing states it on the set's line, marking the ones above draw_costs.CHEAP.
+    from drtlab.estimators import draw_costs
+    ratio = draw_costs.load()["ratio"]
+    assert set(ratio) == set(POINTSETS) and ratio["independent"] == 1.0
+    assert main(["samplers"]) == 0
+    listing = capsys.readouterr().out.split("\nstrategies:")[0]
+    lines = {line.split()[0]: line for line in listing.splitlines() if line.startswith("  ")}
+    for name, r in ratio.items():
+        note = f"draw {r:.1f}x independent"
+        assert note in lines[name], (name, lines[name])
+        assert ("(above 3x)" in lines[name]) == (r > draw_costs.CHEAP), lines[name]

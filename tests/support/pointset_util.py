@@ -60,32 +60,72 @@ def py_mix32(x: int) -> int:
     return h
 
 
-def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
+def py_hash_prefix(seed: int, pixel: int, index: int) -> int:
     h = py_mix32((seed + GOLDEN) & M32)
     h = py_mix32(h ^ ((pixel + M3) & M32))
-    h = py_mix32(h ^ ((index + GOLDEN) & M32))
-    h = py_mix32(h ^ ((dim + M1) & M32))
+    return py_mix32(h ^ ((index + GOLDEN) & M32))
+
+
+def py_hash_key(seed: int, pixel: int, index: int, dim: int) -> int:
+    h = py_mix32(py_hash_prefix(seed, pixel, index) ^ ((dim + M1) & M32))
     return py_mix32((h + GOLDEN) & M32)
 
 
-def py_permute(i: int, n: int, key: int) -> int:
-    """Python reference of hashing.permute (uint32 arithmetic): Feistel + cycle-walk + rotation."""
+M64 = (1 << 64) - 1
+
+
+def py_mix64(z: int) -> int:
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & M64
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & M64
+    return z ^ (z >> 31)
+
+
+def py_wide_key(h: int, dim: int) -> tuple[int, int]:
+    z = (h << 32) | dim
+    return py_mix64(z ^ 0x9E3779B97F4A7C15), py_mix64(z ^ 0xD1B54A32D192ED03)
+
+
+def _py_round(v: int, k: int, out_bits: int) -> int:
+    h = ((v ^ k) * 0x5851F42D) & M32
+    h ^= h >> 15
+    h = (h * M2) & M32
+    return h >> (32 - out_bits)
+
+
+def py_permute_wide(i: int, n: int, key: tuple[int, int]) -> int:
+    """Python reference of hashing.permute_wide: a 4-round alternating Feistel on ceil(log2 n) bits
+    (24-bit table rounds up to 6 bits, hashed rounds beyond), cycle-walking, and a multiply-shift
+    rotation."""
     if n <= 1:
         return 0
-    bits = 0
-    while (1 << bits) < n:
-        bits += 1
-    half = (bits + 1) // 2
-    hmask = (1 << half) - 1
-    keys = [py_mix32(key ^ ((M1 + r) & M32)) for r in range(4)]
+    bits = (n - 1).bit_length()
+    a = bits // 2
+    b = bits - a
+    k0, k1 = key
+    if bits <= 6:
+        tables = [k0, k0 >> 24, k1, k1 >> 24]
+        rounds = [lambda v, o, t=t: (t >> (v * o)) & ((1 << o) - 1) for t in tables]
+        spin = (k0 >> 48) | ((k1 >> 48) << 16)
+    else:
+        keys = [k0 & M32, k0 >> 32, k1 & M32, k1 >> 32]
+        rounds = [lambda v, o, k=k: _py_round(v, k, o) for k in keys]
+        spin = py_mix32(keys[0] ^ keys[3] ^ GOLDEN)
     x = i
     while True:
-        left, right = x >> half, x & hmask
-        for k in keys:
-            left, right = right, left ^ (py_mix32(right ^ k) & hmask)
-        x = (left << half) | right
+        high, low = x >> a, x & ((1 << a) - 1)
+        high ^= rounds[0](low, b)
+        low ^= rounds[1](high, a)
+        high ^= rounds[2](low, b)
+        low ^= rounds[3](high, a)
+        x = (high << a) | low
         if x < n:
-            return (x + py_mix32((key + GOLDEN) & M32) % n) % n
+            break
+    return (x + ((spin * n) >> 32)) % n
+
+
+def py_permute(i: int, n: int, key: int) -> int:
+    """Python reference of hashing.permute."""
+    return py_permute_wide(i, n, py_wide_key(key, 0))
 
 
 @wp.func
@@ -131,10 +171,10 @@ KNOWN_DEFECTS: dict = {
     # permutation instead and pass (estimators/pointsets/zsobol.py, sobol.py).
     ("per_pixel_correlation", "zsobol"): "pbrt-v4 ZSobol's nested digit permutations pair the "
                                          "samples of two dimensions hierarchically",
-    # Cook's randomised table: the bounce directions come in blocks of 16 (one 4 x 4 jittered table
-    # per block), each randomised on its own. Their block means are all ~ 1/2 (stratified), so at
-    # spp = 64 the 4 blocks' within-block products dominate and (spp - 1) E[r^2] ~ 63/60 = 1.05
-    # for two direction dimensions (unbiased all the same: pooled and joint tests pass).
-    ("per_pixel_correlation", "presampled_random"): "the randomised 16-point tables of two "
-                                                    "bounces are randomised per block of 16 samples",
 }
+# Not listed: Cook's randomised table (presampled_random). Its bounce directions come in blocks of 16
+# (one 4 x 4 jittered table per block), each randomised on its own; their block means are all ~ 1/2
+# (stratified), so at spp = 64 the 4 blocks' within-block products dominate and (spp - 1) E[r^2]
+# ~ 63/60 = 1.05 for two direction dimensions (unbiased all the same). The per-pixel test's bound at
+# 2^14 pixels is 1 + 4.5 SE = 1.054: the defect sits at its edge (1.045 and 1.051 measured as
+# hashing.permute's rounds changed, above the bound with the first Feistel), so no test asserts it.

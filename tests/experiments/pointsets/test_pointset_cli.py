@@ -140,17 +140,11 @@ def verdicts(text: str) -> dict[str, str]:
     return out
 
 
-# Known defects too small for validate's VALIDATE_PIXELS to see: presampled_random's per-pixel
-# correlation of two bounce directions is (spp - 1) E[r^2] ~ 1.05, against +- 0.05 at 1024 pixels
-# (test_pointset_uniformity resolves it with 2^14 pixels).
-TOO_SMALL = {("per_pixel_correlation", "presampled_random")}
-
-
 @pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.xfail(
     strict=True, reason="biased by design (PointSet.biased): validate must report it")]
     if POINTSETS[n].biased else []) for n in sorted(POINTSETS)])
 def test_validate_every_registered_point_set(name, capsys):
-    known = {test for (test, ps) in KNOWN_DEFECTS if ps == name and (test, ps) not in TOO_SMALL}
+    known = {test for (test, ps) in KNOWN_DEFECTS if ps == name}
     rc = main(["validate", name, "--pixels", str(VALIDATE_PIXELS)])
     text = capsys.readouterr().out
     print(text)
