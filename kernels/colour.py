@@ -6,7 +6,15 @@ than a small render, so the sRGB transfer every PNG needs is written out here, a
 tests/kernels/test_colour.py checks it bit for bit against colour-science's on a dense grid."""
 import numpy as np
 
-REC709_Y = (0.2126, 0.7152, 0.0722)
+# IEC 61966-2-1's linear sRGB -> CIE XYZ matrix (D65, no adaptation), as colour-science's sRGB
+# colourspace holds it, and the D65 white point's xy chromaticity (CIE 1931 2 degree observer):
+# tests/kernels/test_colour.py checks both against colour-science's values exactly.
+SRGB_TO_XYZ = ((0.4124, 0.3576, 0.1805),
+               (0.2126, 0.7152, 0.0722),
+               (0.0193, 0.1192, 0.9505))
+D65_XY = (0.3127, 0.329)
+D65_XYZ = (D65_XY[0] / D65_XY[1], 1.0, (1.0 - D65_XY[0] - D65_XY[1]) / D65_XY[1])
+REC709_Y = SRGB_TO_XYZ[1]           # luminance: the Y row of the same matrix
 
 
 def luminance(rgb) -> np.ndarray | float:

@@ -159,13 +159,11 @@ _SRGB: tuple | None = None
 
 
 def srgb_constants():
-    """colour-science's sRGB -> XYZ matrix and D65 white XYZ (one definition: colour's)."""
+    """The sRGB -> XYZ matrix and D65 white XYZ as Warp values (kernels/colour.py holds them)."""
     global _SRGB
     if _SRGB is None:
-        import colour
-        d65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-        m = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ, dtype=np.float64)
-        _SRGB = (wp.mat33d(*m.ravel()), wp.vec3d(*np.asarray(colour.xy_to_XYZ(d65), dtype=np.float64)))
+        from drtlab.kernels.colour import D65_XYZ, SRGB_TO_XYZ
+        _SRGB = (wp.mat33d(*np.ravel(SRGB_TO_XYZ)), wp.vec3d(*D65_XYZ))
     return _SRGB
 
 

@@ -37,3 +37,14 @@ def test_srgb_decoding_is_colour_science():
     assert got.dtype == np.float32
     np.testing.assert_allclose(got, colour.cctf_decoding(codes.astype(np.float64), function="sRGB"),
                                rtol=1e-6, atol=1e-9)
+
+
+def test_srgb_matrix_and_d65_white_are_colour_science_s():
+    # CIELAB (and so CIEDE2000) of every study run goes through these constants: they must be the
+    # ones colour-science's sRGB colourspace and D65 illuminant hold, to the last bit.
+    from drtlab.kernels.colour import D65_XYZ, REC709_Y, SRGB_TO_XYZ
+    m = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ, dtype=np.float64)
+    d65 = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
+    assert np.array_equal(np.asarray(SRGB_TO_XYZ), m)
+    assert np.array_equal(np.asarray(D65_XYZ), np.asarray(colour.xy_to_XYZ(d65), dtype=np.float64))
+    assert np.array_equal(np.asarray(REC709_Y), m[1])
