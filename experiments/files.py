@@ -65,9 +65,9 @@ def atomic_write_json(path, obj) -> None:
     atomic_write_text(path, text + "\n")
 
 
-def atomic_savez(path, **arrays) -> None:
+def atomic_savez(path, compress: bool = True, **arrays) -> None:
     buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
+    (np.savez_compressed if compress else np.savez)(buf, **arrays)
     atomic_write_bytes(path, buf.getvalue())
 
 

@@ -108,7 +108,7 @@ def load_cell(out_dir: Path, cell: str) -> CellFile:
                         z["reps"] if "reps" in z.files else None)
 
 
-def save_cell(out_dir: Path, cell: str, cf: CellFile) -> None:
+def save_cell(out_dir: Path, cell: str, cf: CellFile, compress: bool = True) -> None:
     arrays = {"n": np.int64(cf.moments.n), "mean": cf.moments.mean.astype(np.float32),
               "m2": np.float64(cf.moments.m2), "batches": np.array(cf.batches, dtype=str)}
     if cf.first is not None:
@@ -117,7 +117,7 @@ def save_cell(out_dir: Path, cell: str, cf: CellFile) -> None:
         arrays["images"], arrays["reps"] = cf.images.astype(np.float32), cf.reps
     p = cell_path(out_dir, cell)
     p.parent.mkdir(parents=True, exist_ok=True)
-    atomic_savez(p, **arrays)
+    atomic_savez(p, compress, **arrays)
 
 
 def first_image(out_dir: Path, cell: str) -> np.ndarray | None:
@@ -177,12 +177,13 @@ def write_table(out_dir: Path, records: dict, order: list) -> None:
     atomic_write_bytes(Path(out_dir) / RUNS_FILE, buf.getvalue().to_pybytes())
 
 
-def commit(out_dir: Path, records: dict, order: list, cells: dict) -> None:
+def commit(out_dir: Path, records: dict, order: list, cells: dict, compress: bool = True) -> None:
     """Batches' rows (already in `records`) and then their cells' files (cell -> CellFile): the
-    commit protocol."""
+    commit protocol. `compress=False` writes the cell files as plain npz (a sweep's commits
+    in mid-group: compressing every cell of a group at every commit cost more than the commits)."""
     write_table(out_dir, records, order)
     for cell, cf in cells.items():
-        save_cell(out_dir, cell, cf)
+        save_cell(out_dir, cell, cf, compress)
 
 
 def _record_row(rec: dict, studies: tuple[str, ...]) -> dict:

@@ -298,6 +298,7 @@ class _Sweep:
     targets: dict = field(default_factory=dict)   # cell -> precision-target outcome
     cell_files: dict = field(default_factory=dict)   # cell -> run_store.CellFile, of this group
     dirty: set = field(default_factory=set)          # cells changed since the last commit
+    loose: set = field(default_factory=set)          # cells committed uncompressed in this group
 
     def run(self, gt_req: dict, progress: bool) -> None:
         # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
@@ -383,7 +384,7 @@ class _Sweep:
             if not grown:
                 break
             self._render_batches([b for bs in grown for b in bs], ctx)
-        self._flush()
+        self._flush(group_end=True)
         self.cell_files.clear()                   # one group's cell files in memory at a time
 
     def _targeted(self, cells: dict) -> bool:
@@ -498,13 +499,19 @@ class _Sweep:
         self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
                         f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
 
-    def _flush(self) -> None:
+    def _flush(self, group_end: bool = False) -> None:
         """Commit the batches rendered since the last flush (run_store's protocol: table, then the
-        changed cell files)."""
+        changed cell files). Mid-group the cell files are written uncompressed (the group's cells
+        take turns, so each commit rewrites all of them); at the group's end each is compressed."""
         if self.dirty:
             store.commit(self.out_dir, self.records, [r.run_id for r in self.plan],
-                         {c: self.cell_files[c] for c in self.dirty})
+                         {c: self.cell_files[c] for c in self.dirty}, compress=group_end)
+            self.loose = self.loose - self.dirty if group_end else self.loose | self.dirty
             self.dirty.clear()
+        if group_end:
+            for c in sorted(self.loose):
+                store.save_cell(self.out_dir, c, self.cell_files[c])
+            self.loose.clear()
         self._flushed_at = time.monotonic()
 
     def calibrate(self) -> None:

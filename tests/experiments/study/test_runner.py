@@ -97,7 +97,9 @@ metric = "relmse"
 """
 
 
-def test_end_to_end_on_fake_renderer(tmp_path):
+def test_end_to_end_on_fake_renderer(tmp_path, monkeypatch):
+    from drtlab.experiments.study import runner
+    monkeypatch.setattr(runner, "FLUSH_SECONDS", 0.0)         # a commit after every batch
     # A reference noisy enough for the 1% rule to trip (below): 8 stratified batches of 128 spp.
     tiny = TINY.replace("gt_spp = 8192\ngt_batch_spp = 1024", "gt_spp = 1024\ngt_batch_spp = 128")
     exp = tiny_experiment(tmp_path, tiny + REL_STUDY)        # the second study shares its runs
@@ -127,6 +129,11 @@ def test_end_to_end_on_fake_renderer(tmp_path):
     f = rel["scenes"][0]["slopes"]["stratified"]
     assert f["slope_lo"] - 0.03 <= -0.75 <= f["slope_hi"] + 0.03
     assert summary["chains"]["converged"] == summary["chains"]["fits"] == 6
+    # Commits in mid-group write plain npz; every cell file is compressed once its group is done.
+    import zipfile
+    cell_files = list((out / "cells").glob("*.npz"))
+    assert len(cell_files) == 2 * 2 * 4 and all(
+        i.compress_type == zipfile.ZIP_DEFLATED for f in cell_files for i in zipfile.ZipFile(f).infolist())
     # The stratified runs at 64 spp are better than the 1024-spp reference's 1% rule allows (its
     # variance is 4% of their MSE under the fake's law).
     assert summary["warnings"] and "ground-truth variance" in summary["warnings"][0]
