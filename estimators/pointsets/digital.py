@@ -49,14 +49,19 @@ def reverse_bits(v: wp.uint32) -> wp.uint32:
 
 
 @wp.func
-def owen_scramble(v: wp.uint32, seed: wp.uint32) -> wp.uint32:
-    x = reverse_bits(v)
+def _owen_hash(x: wp.uint32, seed: wp.uint32) -> wp.uint32:
+    """Laine-Karras style nested-uniform scramble of bit-reversed digits (a bit flips with hashes of
+    the bits below it only)."""
     x = x ^ (x * _LK1)
     x = x + seed
     x = x * ((seed >> wp.uint32(16)) | wp.uint32(1))
     x = x ^ (x * _LK2)
-    x = x ^ (x * _LK3)
-    return reverse_bits(x)
+    return x ^ (x * _LK3)
+
+
+@wp.func
+def owen_scramble(v: wp.uint32, seed: wp.uint32) -> wp.uint32:
+    return reverse_bits(_owen_hash(reverse_bits(v), seed))
 
 
 @wp.func
@@ -80,12 +85,7 @@ def owen_sobol(index: wp.uint32, dim: int, seed: wp.uint32) -> wp.uint32:
     x = index
     if dim != 0:
         x = _pascal(index)
-    x = x ^ (x * _LK1)
-    x = x + seed
-    x = x * ((seed >> wp.uint32(16)) | wp.uint32(1))
-    x = x ^ (x * _LK2)
-    x = x ^ (x * _LK3)
-    return reverse_bits(x)
+    return reverse_bits(_owen_hash(x, seed))
 
 
 @wp.func
