@@ -21,6 +21,8 @@ studies of other experiment files, each resolved with its own settings for the s
                                              # of its mean MSE is within +-10% ...
     max_samples_per_cell = 4096              # ... or it has this many samples per pixel (runs x spp)
     keep_images = false                      # keep every repetition's image (error spectra)
+    colour_difference_runs = 64              # optional: CIEDE2000 of a cell's first 64 runs only
+                                             # (each costs as much as a 1-spp render); default: all
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
 
     [[study]]
@@ -50,7 +52,8 @@ EXPERIMENT_DIR = Path(__file__).resolve().parent.parent / "studies"     # the bu
 DEFAULT_PROFILE = "quick"
 
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
-                 "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "keep_images")
+                 "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "keep_images",
+                 "colour_difference_runs")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 STUDY_METRICS = ("mse", "relmse")
@@ -67,6 +70,7 @@ DEFAULTS: dict[str, Any] = {
     "target_rel_ci": None,
     "max_samples_per_cell": None,
     "keep_images": False,
+    "colour_difference_runs": None,
 }
 MIN_GT_BATCHES = 4
 MAX_RUNS_PER_CELL = 4096
@@ -103,6 +107,7 @@ class Settings:
     target_rel_ci: float | None = None     # precision target of a cell's mean MSE (relative 95% CI)
     max_samples_per_cell: int | None = None     # the target's budget, samples per pixel of a cell
     keep_images: bool = False
+    colour_difference_runs: int | None = None   # CIEDE2000 of each cell's first runs only (None: all)
 
     def max_runs_at(self, spp: int) -> int:
         """The most repetitions a precision-targeted cell at `spp` may grow to."""
@@ -227,6 +232,8 @@ def _setting(key, v, fld):
         return float(v)
     if key == "max_samples_per_cell":
         return _int(v, fld, 2)
+    if key == "colour_difference_runs":
+        return _int(v, fld, 2)
     if key == "keep_images":
         if not isinstance(v, bool):
             raise InputError(fld, f"must be true or false, got {v!r}")
@@ -271,7 +278,8 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     gt_spp=vals["gt_spp"], gt_batch_spp=vals["gt_batch_spp"],
                     target_rmse=vals["target_rmse"], strip_spp=tuple(strip),
                     samples_per_cell=per_cell, target_rel_ci=vals["target_rel_ci"],
-                    max_samples_per_cell=vals["max_samples_per_cell"], keep_images=vals["keep_images"])
+                    max_samples_per_cell=vals["max_samples_per_cell"], keep_images=vals["keep_images"],
+                    colour_difference_runs=vals["colour_difference_runs"])
 
 
 def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:

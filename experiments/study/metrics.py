@@ -7,6 +7,7 @@ the ground truth, `gt_var = mean(stderr^2)`, which we report and subtract (`mse_
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -87,12 +88,24 @@ def cell_bias(n: int, mean: np.ndarray, pixel_variance: float, gt: np.ndarray,
             "rms": math.sqrt(max(ms, 0.0)), "pixel_variance": pixel_variance}
 
 
+def compile_metric_kernels() -> float:
+    """Score a 1-pixel image once, so that the Warp kernels of the metrics (error sums, CIEDE2000,
+    the reference's Lab) are compiled or loaded; returns the seconds it took."""
+    t0 = time.perf_counter()
+    one = np.full((1, 1, 3), 0.5)
+    batch_metrics(one[None], one, np.zeros_like(one))
+    return time.perf_counter() - t0
+
+
 def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
-                  gt_lab: np.ndarray | None = None, colour_diff: bool = True) -> list[dict]:
+                  gt_lab: np.ndarray | None = None, colour_diff: bool = True,
+                  colour_rows: int | None = None) -> list[dict]:
     """The metrics of each image of an (R, H, W, 3) batch against the reference `gt` with per-pixel
     standard error `gt_stderr`, from one pass over the pixels (`kernels/error_sums.py`), whose sums
     depend on each image alone: an image scores the same in any batch, bit for bit. `gt_lab` is
-    `reference_lab(gt)` when the caller scores many batches against one reference."""
+    `reference_lab(gt)` when the caller scores many batches against one reference. CIEDE2000 (NaN
+    where not computed) for the first `colour_rows` images (default: all; none without
+    `colour_diff`)."""
     from drtlab.kernels.error_sums import SUMS, error_sums
     x = np.asarray(images, dtype=np.float64)
     gt = np.asarray(gt, dtype=np.float64)
@@ -101,8 +114,12 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
     gvar = float(np.mean(se2))
     relmse_gt = float(np.mean(se2 / (np.square(gt) + REL_EPS)))
-    lab_ref = (reference_lab(gt) if gt_lab is None else gt_lab) if colour_diff else None
-    sums = dict(zip(SUMS, error_sums(x, gt, lab_ref, REL_EPS).T))
+    k = (x.shape[0] if colour_rows is None else max(0, min(colour_rows, x.shape[0]))) if colour_diff else 0
+    lab_ref = (reference_lab(gt) if gt_lab is None else gt_lab) if k else None
+    parts = [error_sums(x[:k], gt, lab_ref, REL_EPS)] if k else []
+    if k < x.shape[0]:
+        parts.append(error_sums(x[k:], gt, None, REL_EPS))
+    sums = dict(zip(SUMS, np.concatenate(parts).T))
     n = gt.size
     out = []
     for r in range(x.shape[0]):
@@ -113,5 +130,5 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                     "relmse": relmse, "relmse_corrected": relmse - relmse_gt,
                     "mae": float(sums["absolute"][r]) / n, "mean_error": float(sums["error"][r]) / n,
                     "finite": bool(sums["non_finite"][r] == 0),
-                    "ciede2000": float(sums["ciede2000"][r]) / (n // 3) if colour_diff else float("nan")})
+                    "ciede2000": float(sums["ciede2000"][r]) / (n // 3) if r < k else float("nan")})
     return out

@@ -99,7 +99,8 @@ def test_negative_control_an_unreachable_target_reports_what_it_would_need(tmp_p
 
 @pytest.mark.parametrize("key, value", [("target_rel_ci", "0"), ("target_rel_ci", "1.5"),
                                         ("target_rel_ci", "true"), ("max_samples_per_cell", "1"),
-                                        ("keep_images", "1")])
+                                        ("keep_images", "1"), ("colour_difference_runs", "1"),
+                                        ("colour_difference_runs", "2.5")])
 def test_bad_precision_settings_are_named(tmp_path, key, value):
     p = tmp_path / "bad.toml"
     p.write_text(_with(TEXT.replace("TARGET", "0.1").replace("BUDGET", "64"), key, value))
