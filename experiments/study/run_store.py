@@ -81,10 +81,10 @@ class CellFile:
 
     def with_batch(self, batch: str, images: np.ndarray, reps: list, keep: bool) -> "CellFile":
         m = CellMoments.of(images)
-        kept = images.astype(np.float32)
+        kept = images.astype(np.float32) if keep else None     # else only the first image is kept
         return CellFile(moments=m if self.moments is None else self.moments.merged(m),
                         batches=self.batches + (batch,),
-                        first=kept[reps.index(0)] if 0 in reps else self.first,
+                        first=images[reps.index(0)].astype(np.float32) if 0 in reps else self.first,
                         images=(kept if self.images is None else np.concatenate([self.images, kept]))
                         if keep else None,
                         reps=(np.asarray(reps) if self.reps is None else
