@@ -36,8 +36,8 @@ W_L = np.array([0.45, 0.8, 0.4]) / np.linalg.norm([0.45, 0.8, 0.4])     # toward
 TRANSFORM = {"scale": [1.6, 0.75, 1.1], "rotate": [{"axis": [0, 0, 1], "degrees": 35},
                                                    {"axis": [1, 1, 0], "degrees": 25}],
              "translate": [0.1, -0.05, 0.0]}
-# Of rho E / pi. Measured: the worst of the 596 usable pixels is off by 0.0015 (mean 0.0002); the
-# wrong normals of the controls by 0.30.
+# Of rho E / pi. Measured: the worst of the 520 usable pixels is off by 0.0010-0.0013 at seeds 7-10
+# (mean 0.00016); the wrong normals of the controls by 0.30.
 TOL = 0.004
 
 
@@ -76,14 +76,23 @@ def _closed_form(cam, normal_map: str):
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     cos = n @ W_L
     value = RHO / np.pi * E * np.maximum(cos, 0.0)
-    usable = np.all(hit, axis=-1) & np.all(cos > 0.15, axis=-1)
+    # Away from the silhouette too: the facets lie inside the ellipsoid, so near its outline one of
+    # a pixel's 64 samples can pass the mesh where the ellipsoid is hit (1/64 of the value, seen at
+    # 1 of 2 seeds); a pixel counts when it and its 8 neighbours are hit at every quadrature point.
+    inside = np.all(hit, axis=-1)
+    core = inside.copy()
+    core[1:-1, 1:-1] = np.all([inside[1 + dy:inside.shape[0] - 1 + dy, 1 + dx:inside.shape[1] - 1 + dx]
+                               for dy in (-1, 0, 1) for dx in (-1, 0, 1)], axis=0)
+    core[[0, -1], :] = False
+    core[:, [0, -1]] = False
+    usable = core & np.all(cos > 0.15, axis=-1)
     return np.sum(value * w, axis=-1), usable
 
 
-@pytest.fixture(scope="module")
-def rendered():
+@pytest.fixture(scope="module", params=[7, 8])
+def rendered(request):
     cam, d = _scene()
-    img = render(scene_from_dict(d), spp=64, sampler="stratified", integrator="drt", seed=7)
+    img = render(scene_from_dict(d), spp=64, sampler="stratified", integrator="drt", seed=request.param)
     return cam, img
 
 
