@@ -19,6 +19,7 @@ from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
 from drtlab.kernels.features import FAULTS, MESH_FAULTS, Features, features_of
+from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as _wp
 
@@ -34,7 +35,6 @@ _compiling: dict = {}        # variant key -> the lock its one compile holds
 # Building a variant's Warp functions (the kernel factory) registers them in their Python module's
 # Warp module: one factory at a time, or two variants can pick up each other's closures.
 _factory_lock = threading.Lock()
-_pools: dict = {}
 
 
 @dataclass
@@ -72,22 +72,10 @@ def _after_fork_in_child() -> None:
     _lock = threading.Lock()
     _factory_lock = threading.Lock()
     _compiling.clear()
-    _pools.clear()
 
 
 if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_after_fork_in_child)
-
-
-def _pool(threads: int) -> ThreadPoolExecutor:
-    """A thread pool of `threads` workers, kept for the process: starting threads for every render
-    costs milliseconds, which a low-spp convergence study pays per run."""
-    with _lock:
-        pool = _pools.get(threads)
-        if pool is None:
-            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads,
-                                                        thread_name_prefix="drtlab-render")
-        return pool
 
 
 def _variant_key(features: Features, spec: SamplerSpec, device: str) -> tuple:
@@ -285,7 +273,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
                   inputs=[sd, index0, count, spp, x0, y0, tw, th, sums])
 
     t0, c0 = time.perf_counter(), time.process_time()
-    pool = _pool(threads) if device == "cpu" and threads > 1 else None
+    pool = launch_pool(threads) if device == "cpu" and threads > 1 else None
     try:
         for index0, count in passes:
             if pool is None:
@@ -303,9 +291,11 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
         if bar is not None:
             bar.close()
     elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
-    total = sums.total.numpy().reshape(R, H, W, 3)
-    images = total / float(spp)
+    total = sums.total.numpy().reshape(R, H, W, 3)        # a view of the sums (CPU), not a copy
     var = _sample_variance(total, sums.squares.numpy().reshape(R, H, W, 3), spp) if variance else None
+    # Divided in place: a batch's images are the buffer's size again, which a 1-spp batch would pay
+    # as an allocation and a pass over memory per call (on CUDA numpy() is a copy already).
+    images = np.divide(total, float(spp), out=total if device == "cpu" else None)
     return BatchStats(images=images, render_seconds=elapsed, cpu_seconds=cpu, compile_seconds=compile_s,
                       spp=spp, width=W, height=H, sampler=spec.name, integrator=integ, seeds=seeds,
                       variant=features.key(), threads=threads, device=device, variances=var)

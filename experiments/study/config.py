@@ -21,7 +21,7 @@ studies of other experiment files, each resolved with its own settings for the s
                                              # of its mean MSE is within +-10% ...
     max_samples_per_cell = 4096              # ... or it has this many samples per pixel (runs x spp)
     keep_images = false                      # keep every repetition's image (error spectra)
-    colour_difference_runs = 64              # optional: CIEDE2000 of a cell's first 64 runs only
+    colour_difference_runs = 16              # optional: CIEDE2000 of a cell's first 16 runs only
                                              # (each costs as much as a 1-spp render); default: all
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
 

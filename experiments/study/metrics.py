@@ -106,7 +106,15 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     `reference_lab(gt)` when the caller scores many batches against one reference. CIEDE2000 (NaN
     where not computed) for the first `colour_rows` images (default: all; none without
     `colour_diff`)."""
-    from drtlab.kernels.error_sums import SUMS, error_sums
+    return score_batch(images, gt, gt_stderr, gt_lab, colour_diff, colour_rows)[0]
+
+
+def score_batch(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
+                gt_lab: np.ndarray | None = None, colour_diff: bool = True,
+                colour_rows: int | None = None):
+    """(`batch_metrics`' rows, the batch's `error_sums.BatchSums`: its moments come from the same
+    pass over the pixels)."""
+    from drtlab.kernels.error_sums import SUMS, batch_sums
     x = np.asarray(images, dtype=np.float64)
     gt = np.asarray(gt, dtype=np.float64)
     if x.shape[1:] != gt.shape:
@@ -116,10 +124,8 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     relmse_gt = float(np.mean(se2 / (np.square(gt) + REL_EPS)))
     k = (x.shape[0] if colour_rows is None else max(0, min(colour_rows, x.shape[0]))) if colour_diff else 0
     lab_ref = (reference_lab(gt) if gt_lab is None else gt_lab) if k else None
-    parts = [error_sums(x[:k], gt, lab_ref, REL_EPS)] if k else []
-    if k < x.shape[0]:
-        parts.append(error_sums(x[k:], gt, None, REL_EPS))
-    sums = dict(zip(SUMS, np.concatenate(parts).T))
+    bs = batch_sums(x, gt, lab_ref, REL_EPS, colour_rows=k)
+    sums = dict(zip(SUMS, bs.sums.T))
     n = gt.size
     out = []
     for r in range(x.shape[0]):
@@ -131,4 +137,4 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                     "mae": float(sums["absolute"][r]) / n, "mean_error": float(sums["error"][r]) / n,
                     "finite": bool(sums["non_finite"][r] == 0),
                     "ciede2000": float(sums["ciede2000"][r]) / (n // 3) if r < k else float("nan")})
-    return out
+    return out, bs

@@ -53,9 +53,11 @@ class CellMoments:
 
     @classmethod
     def of(cls, images: np.ndarray) -> "CellMoments":
-        x = np.asarray(images, dtype=np.float64)
-        mean = x.mean(axis=0)
-        return cls(int(x.shape[0]), mean, float(np.sum(np.square(x - mean))))
+        """The moments of a batch as the runner computes them (`error_sums.batch_sums`, which scores
+        a batch and takes its moments in one pass; here against a zero reference)."""
+        from drtlab.kernels.error_sums import batch_sums
+        s = batch_sums(images, np.zeros(np.shape(images)[1:]), None, 1.0)
+        return cls(int(np.shape(images)[0]), s.mean, s.m2)
 
     def merged(self, other: "CellMoments") -> "CellMoments":
         """Chan et al.'s pairwise update: the moments of both sets of repetitions together."""
@@ -79,8 +81,10 @@ class CellFile:
     images: np.ndarray | None = None          # (n, H, W, 3) float32, with keep_images
     reps: np.ndarray | None = None            # the repetition of each of `images` (commit order)
 
-    def with_batch(self, batch: str, images: np.ndarray, reps: list, keep: bool) -> "CellFile":
-        m = CellMoments.of(images)
+    def with_batch(self, batch: str, images: np.ndarray, reps: list, keep: bool,
+                   moments: CellMoments | None = None) -> "CellFile":
+        """This file with one more batch; `moments` are its images' (computed when not given)."""
+        m = CellMoments.of(images) if moments is None else moments
         kept = images.astype(np.float32) if keep else None     # else only the first image is kept
         return CellFile(moments=m if self.moments is None else self.moments.merged(m),
                         batches=self.batches + (batch,),
@@ -173,7 +177,9 @@ def write_table(out_dir: Path, records: dict, order: list) -> None:
     # Column by column into Arrow: a pandas frame of row dicts cost 20x more, at every commit.
     table = pa.table({k: [row.get(k) for row in rows] for k in TABLE_COLUMNS})
     buf = pa.BufferOutputStream()
-    pq.write_table(table, buf)
+    # Plain encoding: dictionaries halved the write's speed and saved nothing (1.29 MB against
+    # 1.23 MB for the default study's 10,200 rows).
+    pq.write_table(table, buf, use_dictionary=False)
     atomic_write_bytes(Path(out_dir) / RUNS_FILE, buf.getvalue().to_pybytes())
 
 

@@ -29,7 +29,7 @@ from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.config import Experiment, SceneRef
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
-from drtlab.experiments.study.metrics import batch_metrics, compile_metric_kernels, reference_lab
+from drtlab.experiments.study.metrics import compile_metric_kernels, reference_lab, score_batch
 from drtlab.experiments.study.results import METRICS, ExperimentResult
 from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
@@ -485,15 +485,16 @@ class _Sweep:
         """A rendered batch: its metrics, its rows and its cell file (run_store's commit protocol)."""
         images = np.asarray(result.images, dtype=np.float64)
         limit = getattr(self._settings(b.runs[0]), "colour_difference_runs", None)
-        metrics = batch_metrics(images, ctx.gt.mean, ctx.gt.stderr, ctx.gt_lab,
-                                colour_rows=None if limit is None else sum(r.rep < limit for r in b.runs))
+        metrics, sums = score_batch(images, ctx.gt.mean, ctx.gt.stderr, ctx.gt_lab,
+                                    colour_rows=None if limit is None else sum(r.rep < limit for r in b.runs))
         for r, fp, m in zip(b.runs, b.fingerprints, metrics):
             self.records[r.run_id] = _run_record(r, fp, b, result, wall, ctx.gt, m,
                                                  self.backend.code_version, worker)
         if b.cell not in self.cell_files:
             self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
         self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(
-            b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]))
+            b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]),
+            store.CellMoments(len(b.runs), sums.mean, sums.m2))
         self.dirty.add(b.cell)
         if time.monotonic() - self._flushed_at >= FLUSH_SECONDS:
             self._flush()
