@@ -104,3 +104,13 @@ def points(*args, **kwargs):
     for a point set (scipy.stats.qmc style): points("sobol", 256, 2, seed=0, pixel=0)."""
     from drtlab.estimators.points import points as _points
     return _points(*args, **kwargs)
+
+
+def variance_sources(scene, spp: int = 256, **kwargs):
+    """Where `scene`'s variance comes from: a pandas DataFrame, one row per sample dimension group
+    (`group`, `first_order`, `total` and their `_lo`/`_hi` 95% interval ends), the Sobol' indices of
+    one sample's variance from `spp` pick-freeze samples per pixel. Keyword arguments: res, groups,
+    strategy, integrator, seed, threads (as `drtlab sources`). The whole decomposition (per-pixel
+    maps, interaction remainder) is `drtlab.experiments.sources.decompose.variance_sources`."""
+    from drtlab.experiments.sources.decompose import variance_sources as _sources
+    return _sources(scene, spp=spp, **kwargs).frame()

@@ -496,6 +496,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_pointset_commands(sub)
     from drtlab.cli_lobe import add_lobe_command
     add_lobe_command(sub)
+    from drtlab.cli_sources import add_sources_command
+    add_sources_command(sub)
     return p
 
 

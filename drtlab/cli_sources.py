@@ -1,0 +1,74 @@
+"""`drtlab sources SCENE`: where the scene's variance comes from, as Sobol' indices of the sample
+dimension groups (experiments/sources/). Bad input is one line naming the flag and exit 2, checked
+before any work (Warp and matplotlib load after)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from drtlab import fields
+from drtlab.cli_args import Help, flag, int_flag, resolution_flag
+from drtlab.errors import InputError
+from drtlab.estimators.dimensions import GROUPS
+from drtlab.estimators.strategies import STRATEGIES
+
+
+def _groups(text: str, field: str) -> tuple:
+    from drtlab.experiments.sources.decompose import check_groups
+    return check_groups(text, field)
+
+
+def cmd_sources(args) -> int:
+    from drtlab.experiments.paths import results_root
+    from drtlab.experiments.sources import report
+    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT
+    from drtlab.experiments.sources.decompose import variance_sources
+    from drtlab.kernels.render import check_image_size
+    from drtlab.kernels.scene_file import load_scene
+    scene = load_scene(args.scene)
+    if args.seed + args.spp + 1 >= BASE_LIMIT:
+        raise InputError("--seed", f"must be below {BASE_LIMIT - args.spp - 1} with --spp {args.spp} "
+                                   f"(pick-freeze seeds carry the group in their top byte)")
+    if args.res is not None:
+        width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+        check_image_size(width, height, field="--res")
+    out = args.out if args.out is not None else results_root() / "sources" / scene.name
+    fields.writable_location(out, "--out", folder=True)
+    s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,
+                         integrator=args.integrator, seed=args.seed, threads=args.threads)
+    report.write_sources(s, out, argv=sys.argv)
+    print("\n".join(report.table_lines(s)))
+    print(f"wrote {out}/: {', '.join(report.FILES)} ({s.seconds:.1f} s, rendering {s.render_seconds:.1f} s)")
+    return 0
+
+
+def add_sources_command(sub) -> None:
+    """The `sources` subcommand on the parser's subparsers `sub`."""
+    from drtlab.experiments.sources.decompose import DEFAULT_SAMPLES, MAX_SAMPLES
+    p = sub.add_parser(
+        "sources", formatter_class=Help,
+        help="where a scene's variance comes from: Sobol' indices of its sample dimension groups",
+        description="Renders the scene with the pickfreeze point set: per base sample, f(A), f(B) "
+                    "and f(A_B^g) for each group g (group g's dimensions from B's seed), one sample "
+                    "per pixel each, and estimates each group's first-order index S (Saltelli 2010) "
+                    "and total index T (Jansen 1999) of one sample's variance, pooled over pixels "
+                    "and channels, with 95% delta-method intervals; 1 - sum S is the interactions' "
+                    "share. Groups: " + "; ".join(GROUPS) + " (estimators/dimensions.py says which "
+                    "dimensions each holds). Writes sources.json, sources.png (image, the map of the "
+                    "group that dominates each pixel's variance, bars of S and T) and manifest.json.")
+    p.add_argument("scene", help="built-in scene name or path to a .toml scene")
+    p.add_argument("--spp", type=int_flag(2, MAX_SAMPLES), default=DEFAULT_SAMPLES, metavar="N",
+                   help="base samples per pixel (each renders len(groups) + 2 samples)")
+    p.add_argument("--res", type=resolution_flag, default=None,
+                   help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
+    p.add_argument("--groups", type=flag(_groups), default=None, metavar="G,G,...",
+                   help=f"groups to decompose, from {','.join(GROUPS)} (default: all)")
+    p.add_argument("--strategy", choices=list(STRATEGIES), default=None,
+                   help="the estimator whose variance is decomposed (default: the default sampler's)")
+    p.add_argument("--integrator", default=None, help="whitted, drt or path (default: the scene's)")
+    p.add_argument("--seed", type=int_flag(0, (1 << 24) - 3), default=0, help="first base seed")
+    p.add_argument("--threads", type=int_flag(1, 1024), default=None,
+                   help="CPU threads (default: all cores)")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="output folder (default: results/sources/SCENE)")
+    p.set_defaults(func=cmd_sources)
