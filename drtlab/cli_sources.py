@@ -35,7 +35,8 @@ def cmd_sources(args) -> int:
     out = args.out if args.out is not None else results_root() / "sources" / scene.name
     fields.writable_location(out, "--out", folder=True)
     s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,
-                         integrator=args.integrator, seed=args.seed, threads=args.threads)
+                         integrator=args.integrator, seed=args.seed, threads=args.threads,
+                         metric=args.metric)
     report.write_sources(s, out, argv=sys.argv)
     print("\n".join(report.table_lines(s)))
     print(f"wrote {out}/: {', '.join(report.FILES)} ({s.seconds:.1f} s, rendering {s.render_seconds:.1f} s)")
@@ -66,6 +67,11 @@ def add_sources_command(sub) -> None:
     p.add_argument("--strategy", choices=list(STRATEGIES), default=None,
                    help="the estimator whose variance is decomposed (default: the default sampler's)")
     p.add_argument("--integrator", default=None, help="whitted, drt or path (default: the scene's)")
+    p.add_argument("--metric", choices=("mse", "relmse"), default="mse",
+                   help="what the image-level indices split: the mean per-pixel variance (mse), or "
+                        "with each pixel weighted by 1/(mean^2 + 0.01) as the studies' relMSE "
+                        "(relmse: a few very bright pixels, such as a light's edge, no longer "
+                        "decide it alone)")
     p.add_argument("--seed", type=int_flag(0, (1 << 24) - 3), default=0, help="first base seed")
     p.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")

@@ -3,8 +3,10 @@
 in one batch of the `pickfreeze` point set (seeds differing only in their group code), one sample
 per pixel each, and `experiments/stats/sobol_indices.py` turns their terms into S_g and T_g.
 
-Image level: the terms are summed over pixels and channels, so the indices split the mean
-per-pixel variance of one sample (a render's MSE is that over spp). Pixel level: each pixel's own
+Image level: the terms are averaged over pixels and channels, so the indices split the mean
+per-pixel variance of one sample (a render's MSE is that over spp); with metric "relmse" each pixel
+weighs 1 / (mean^2 + REL_EPS) as in the studies' relMSE (its mean from the independent pilot render),
+so that a few very bright pixels (a light's edge seen directly) do not decide the split alone. Pixel level: each pixel's own
 terms give its total indices, and the map of which group holds most of its variance.
 """
 from __future__ import annotations
@@ -18,6 +20,7 @@ from drtlab.errors import InputError
 from drtlab.estimators.dimensions import GROUPS
 
 DEFAULT_SAMPLES = 256
+METRICS = ("mse", "relmse")
 MAX_SAMPLES = 1 << 16
 PILOT_SPP = 16               # the pilot render whose mean centres the first-order terms
 BATCH_PIXELS = 1 << 21       # pixels x images of one batch (~50 MB of float64 images)
@@ -35,6 +38,12 @@ def check_groups(groups, field: str = "groups") -> tuple[str, ...]:
     return tuple(g for g in GROUPS if g in names)
 
 
+def check_metric(metric, field: str = "metric") -> str:
+    if metric not in METRICS:
+        raise InputError(field, f"must be one of {', '.join(METRICS)}, got {metric!r}")
+    return metric
+
+
 def check_samples(n) -> int:
     from drtlab import fields
     return fields.integer_in(n, "spp", 2, MAX_SAMPLES)
@@ -46,6 +55,7 @@ class Sources:
     scene: str
     sampler: str
     integrator: str
+    metric: str                  # what the image-level indices split: "mse" or "relmse"
     samples: int                 # base samples per pixel (each renders len(groups) + 2 samples)
     seed: int
     groups: tuple
@@ -79,7 +89,8 @@ class Sources:
 
 def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, strategy: str | None = None,
                      integrator: str | None = None, seed: int = 0, threads: int | None = None,
-                     device: str = "cpu", progress: bool = False, pointset: str = "pickfreeze") -> Sources:
+                     device: str = "cpu", progress: bool = False, pointset: str = "pickfreeze",
+                     metric: str = "mse") -> Sources:
     """Decompose `scene`'s sample variance (a Scene, built-in name or .toml path) with `spp` base
     samples per pixel; `strategy` as in POINTS+STRATEGY (default: the default sampler's). `pointset`
     is a pick-freeze set (`pickfreeze`; tests pass one with a wrong group map)."""
@@ -92,6 +103,7 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     t_start = time.perf_counter()
     n = check_samples(spp)
     names = check_groups(groups)
+    check_metric(metric)
     seed = fields.integer_in(seed, "seed", 0, BASE_LIMIT - 1 - n - 1)
     strat = strategy if strategy is not None else parse_sampler(DEFAULT_SAMPLER).strategy.name
     sampler = parse_sampler(f"{pointset}+{strat}", "strategy").name
@@ -102,6 +114,9 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     pilot = render_with_stats(scene, spp=PILOT_SPP, seed=pick_freeze_seed(seed + n, 0), **kw)
     centre = pilot.image
     H, W = centre.shape[:2]
+    # Every term is a product of two differences of f: weighting a pixel by w scales f by sqrt(w).
+    from drtlab.experiments.study.metrics import REL_EPS
+    scale = 1.0 if metric == "mse" else 1.0 / np.sqrt(np.square(centre) + REL_EPS)
     per_batch = max(1, BATCH_PIXELS // (H * W * len(codes)))
     terms = None
     image = np.zeros((H, W, 3))
@@ -116,14 +131,14 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
         render_s += out.render_seconds
         f = out.images.reshape(len(bases), len(codes), H, W, 3)
         fa, fb, fab = f[:, 0], f[:, 1], np.moveaxis(f[:, 2:], 1, 0)
-        t = pick_freeze_terms(fa, fb, fab, centre)
+        t = pick_freeze_terms(fa * scale, fb * scale, fab * scale, centre * scale)
         terms = t if terms is None else terms.merged(t)
         image += fa.sum(axis=0)
         pvar += 0.5 * np.square(fa - fb).sum(axis=(0, 3))
         ptot += 0.5 * np.square(fab - fa[None]).sum(axis=(1, 4))
     with np.errstate(invalid="ignore", divide="ignore"):
         pixel_total = np.where(pvar > 0, ptot / pvar, np.nan)
-    return Sources(scene=scene.name, sampler=sampler, integrator=integ, samples=n, seed=seed, groups=names,
+    return Sources(scene=scene.name, sampler=sampler, integrator=integ, metric=metric, samples=n, seed=seed, groups=names,
                    indices=sobol_indices(terms, names), terms=terms, image=image / n, pixel_variance=pvar / n,
                    pixel_total=pixel_total, seconds=time.perf_counter() - t_start,
                    render_seconds=render_s)

@@ -16,7 +16,7 @@ FILES = ("sources.json", "sources.png", "manifest.json")
 
 def table_lines(s: Sources) -> list[str]:
     """The printed table: one line per group, then the interaction remainder and the variance."""
-    lines = [f"{s.scene}: {s.sampler}, {s.integrator}, {s.samples} samples per pixel x "
+    lines = [f"{s.scene}: {s.sampler}, {s.integrator}, {s.metric}, {s.samples} samples per pixel x "
              f"{len(s.groups) + 2} pick-freeze renders, {s.image.shape[1]}x{s.image.shape[0]}",
              f"  {'group':<10} {'first order S [95% CI]':<26} {'total T [95% CI]':<26}"]
     for r in s.indices["groups"]:
@@ -24,7 +24,8 @@ def table_lines(s: Sources) -> list[str]:
                      f"{_ci(r['total'], r['total_lo'], r['total_hi']):<26}")
     lines.append(f"  {'1 - sum S':<10} {_ci(*s.indices['interaction']):<26} (interactions)")
     v, lo, hi = s.indices["variance"]
-    lines.append(f"  variance of one sample, mean over pixels and channels: {v:.4g} [{lo:.4g}, {hi:.4g}]")
+    what = "variance" if s.metric == "mse" else "relative variance (relMSE weights)"
+    lines.append(f"  {what} of one sample, mean over pixels and channels: {v:.4g} [{lo:.4g}, {hi:.4g}]")
     return lines
 
 
@@ -35,7 +36,7 @@ def _ci(v, lo, hi) -> str:
 def summary(s: Sources) -> dict:
     dom, share = s.dominant()
     counted = dom >= 0
-    return {"scene": s.scene, "sampler": s.sampler, "integrator": s.integrator,
+    return {"scene": s.scene, "sampler": s.sampler, "integrator": s.integrator, "metric": s.metric,
             "samples_per_pixel": s.samples, "resolution": [int(s.image.shape[1]), int(s.image.shape[0])],
             "groups": s.indices["groups"],
             "interaction": dict(zip(("value", "lo", "hi"), map(float, s.indices["interaction"]))),
@@ -75,7 +76,8 @@ def figure_png(s: Sources) -> bytes:
                   color=("#0072B2", "#D55E00")[k], hatch=("", "///")[k], edgecolor="black", linewidth=0.4)
     ax[2].set_xticks(x, [r["group"] for r in rows])
     ax[2].set_ylim(0, 1.05)
-    ax[2].set_title(f"share of the variance (95% CI); 1 - sum S = {s.indices['interaction'][0]:.3f}")
+    ax[2].set_title(f"share of the {'' if s.metric == 'mse' else 'relative '}variance (95% CI); "
+                    f"1 - sum S = {s.indices['interaction'][0]:.3f}")
     ax[2].legend(frameon=False)
     fig.tight_layout()
     return png_bytes(fig)

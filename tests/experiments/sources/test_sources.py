@@ -49,9 +49,10 @@ def _level(checks: int) -> float:
     return 1 - sidak(0.01, checks)
 
 
-def test_pixel_area_alone_holds_all_the_variance_of_a_pinhole_edge_scene():
-    s = variance_sources(_edges_scene(), spp=64, seed=11)
-    ind = s.indices_at(_level(2))
+@pytest.mark.parametrize("metric", ["mse", "relmse"])
+def test_pixel_area_alone_holds_all_the_variance_of_a_pinhole_edge_scene(metric):
+    s = variance_sources(_edges_scene(), spp=64, seed=11, metric=metric)
+    ind = s.indices_at(_level(4))           # two indices, two metrics
     pixel = ind["groups"][GROUPS.index("pixel")]
     assert pixel["first_order_lo"] <= 1.0 <= pixel["first_order_hi"]
     assert pixel["total"] == pytest.approx(1.0, abs=1e-12)            # f(A_B^pixel) = f(B) exactly

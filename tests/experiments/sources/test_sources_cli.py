@@ -38,6 +38,7 @@ def test_python_api_returns_one_row_per_group():
     (["sources", "dof", "--seed", "-1"], "--seed"),
     (["sources", "dof", "--res", "0x4"], "--res"),
     (["sources", "dof", "--strategy", "magic"], "--strategy"),
+    (["sources", "dof", "--metric", "rmse"], "--metric"),
 ])
 def test_bad_input(argv, field, tmp_path, capsys):
     run_bad(argv + ["--out", str(tmp_path / "o")], field, tmp_path, capsys)
