@@ -22,7 +22,7 @@ from drtlab.estimators.dimensions import GROUPS
 DEFAULT_SAMPLES = 256
 METRICS = ("mse", "relmse")
 MAX_SAMPLES = 1 << 16
-PILOT_SPP = 16               # the pilot render whose mean centres the first-order terms
+PILOT_SPP = 64               # the pilot render whose mean centres the first-order terms (and weighs relmse)
 BATCH_PIXELS = 1 << 21       # pixels x images of one batch (~50 MB of float64 images)
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.experiments.sources.decompose import Sources
+from drtlab.experiments.sources.decompose import PILOT_SPP, Sources
 
 FILES = ("sources.json", "sources.png", "manifest.json")
 
@@ -102,7 +102,7 @@ def write_sources(s: Sources, out_dir: Path, argv=None) -> list[Path]:
         "finished": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"), "version": __version__,
         "code_version": CODE_VERSION, "git": git_info(),
         "seeds": {"scheme": "base sample n: pickfreeze seeds (seed + n) | code << 24, code 0 = A, "
-                            "255 = B, g + 1 = A_B^g; pilot: seed + samples, 16 spp",
+                            f"255 = B, g + 1 = A_B^g; pilot: seed + samples, {PILOT_SPP} spp",
                   "seed": s.seed},
         "packages": package_versions(), "machine": machine_info(),
         "wall_seconds": round(s.seconds, 3), "render_seconds": round(s.render_seconds, 3),
