@@ -24,6 +24,9 @@ studies of other experiment files, each resolved with its own settings for the s
     colour_difference_runs = 16              # optional: CIEDE2000 of a cell's first 16 runs only
                                              # (each costs as much as a 1-spp render); default: all
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
+    variance_sources = 256                   # optional: decompose each scene's variance over the
+                                             # sample dimension groups (`drtlab sources`) with this
+                                             # many samples per pixel; report.md shows where it lives
 
     [[study]]
     name     = "stratification"               # required, unique
@@ -53,7 +56,7 @@ DEFAULT_PROFILE = "quick"
 
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
                  "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "keep_images",
-                 "colour_difference_runs")
+                 "colour_difference_runs", "variance_sources")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 STUDY_METRICS = ("mse", "relmse")
@@ -71,6 +74,7 @@ DEFAULTS: dict[str, Any] = {
     "max_samples_per_cell": None,
     "keep_images": False,
     "colour_difference_runs": None,
+    "variance_sources": None,
 }
 MIN_GT_BATCHES = 4
 MAX_RUNS_PER_CELL = 4096
@@ -108,6 +112,7 @@ class Settings:
     max_samples_per_cell: int | None = None     # the target's budget, samples per pixel of a cell
     keep_images: bool = False
     colour_difference_runs: int | None = None   # CIEDE2000 of each cell's first runs only (None: all)
+    variance_sources: int | None = None         # samples per pixel of each scene's decomposition
 
     def max_runs_at(self, spp: int) -> int:
         """The most repetitions a precision-targeted cell at `spp` may grow to."""
@@ -234,6 +239,9 @@ def _setting(key, v, fld):
         return _int(v, fld, 2)
     if key == "colour_difference_runs":
         return _int(v, fld, 2)
+    if key == "variance_sources":
+        from drtlab.experiments.sources.decompose import MAX_SAMPLES
+        return fields.integer_in(v, fld, 2, MAX_SAMPLES)
     if key == "keep_images":
         if not isinstance(v, bool):
             raise InputError(fld, f"must be true or false, got {v!r}")
@@ -279,7 +287,8 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     target_rmse=vals["target_rmse"], strip_spp=tuple(strip),
                     samples_per_cell=per_cell, target_rel_ci=vals["target_rel_ci"],
                     max_samples_per_cell=vals["max_samples_per_cell"], keep_images=vals["keep_images"],
-                    colour_difference_runs=vals["colour_difference_runs"])
+                    colour_difference_runs=vals["colour_difference_runs"],
+                    variance_sources=vals["variance_sources"])
 
 
 def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:

@@ -220,6 +220,10 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         sweep.run(gt_req, progress)
         if analyze:
             sweep.calibrate()
+            if any(st.settings.variance_sources for st in exp.studies):
+                from drtlab.experiments.study.variance_sources import decompose_studies
+                sweep.stats["variance_sources_seconds"] = round(decompose_studies(
+                    exp.studies, out_dir, backend, threads, log), 3)
         return _analyse_and_report(exp, sweep, analyze, argv, t_start)
     finally:
         lock.close()
