@@ -101,7 +101,8 @@ def env_radiance(env: EnvironmentData, d: wp.vec3) -> wp.vec3:
 
 @wp.func
 def image_pdf(env: EnvironmentData, d: wp.vec3) -> float:
-    sin_t = wp.sqrt(wp.max(0.0, 1.0 - d[1] * d[1]))
+    # From the horizontal components: 1 - y^2 loses all precision near the poles in float32.
+    sin_t = wp.sqrt(d[0] * d[0] + d[2] * d[2])
     if sin_t <= 0.0:
         return 0.0
     return env.texel_pdf[texel_index(env, d)] / (LATLONG_JACOBIAN * sin_t)

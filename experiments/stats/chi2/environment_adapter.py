@@ -4,7 +4,6 @@ of an EnvironmentMap, sampling env_sample(env, n, u) with the harness's `uniform
 and evaluating env_pdf(env, n, d). `tables` replaces the image sampler's tables (a SamplingTables
 of kernels/environment_map.py, e.g. built without the sin(theta) weight: the negative control) while
 the claimed density stays the exact one (environment_map.direction_pdf)."""
-from __future__ import annotations
 
 from dataclasses import dataclass
 
