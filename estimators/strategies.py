@@ -67,9 +67,11 @@ class Strategy:
 
 
 STRATEGIES = {s.name: s for s in (
-    Strategy("uniform", "uniform directions and uniform light area, next-event estimation",
+    Strategy("uniform", "uniform directions and uniform light area (an environment: uniform sphere), "
+             "next-event estimation",
              "uniform", LightSampling("area", "uniform", environment="uniform")),
-    Strategy("importance", "BSDF-lobe and solid-angle light sampling combined by MIS (power heuristic)",
+    Strategy("importance", "BSDF-lobe and solid-angle light sampling (an environment: by its image) "
+             "combined by MIS (power heuristic)",
              "lobe", LightSampling("solid_angle", "power", mis=True)),
     Strategy("light", "light sampling only (solid angle), BSDF-lobe continuation",
              "lobe", LightSampling("solid_angle", "power")),
