@@ -175,3 +175,13 @@ def test_negative_control_is_rejected():
                           block=BLOCK, faults=("drop_cosine",))
     c = compare(est, cf.region_truth(BLOCK), ALPHA_TEST)
     assert c.rejected, c.summary()
+
+
+def test_image_file_is_found_beside_the_scene_file(tmp_path):
+    from drtlab.kernels.scene_file import load_scene
+    write_exr(tmp_path / "sky.exr", np.full((2, 4, 3), 0.5, dtype=np.float32))
+    (tmp_path / "s.toml").write_text(
+        '[scene]\ndescription = "d"\n[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n'
+        '[materials.m]\n[[shapes]]\nkind = "sphere"\nmaterial = "m"\ncenter = [0, 0, 0]\n'
+        'radius = 1\n[environment]\nkind = "image"\nfile = "sky.exr"\n')
+    assert load_scene(tmp_path / "s.toml").environment.image.shape == (2, 4, 3)
