@@ -17,6 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
+ENVIRONMENT_SAMPLERS = ("uniform", "cosine", "image")
+
+
 @dataclass(frozen=True)
 class LightSampling:
     """Next-event estimation: which light, which point on it, and whether MIS weights it."""
@@ -25,6 +28,10 @@ class LightSampling:
     pick: str           # "uniform" over lights or "power" (proportional to emitted power)
     mis: bool = False   # combine with scattered-ray hits by the power heuristic
     environment: str = "image"  # the environment's sampler: "uniform" | "cosine" | "image"
+
+    def __post_init__(self):
+        if self.environment not in ENVIRONMENT_SAMPLERS:
+            raise ValueError(f"environment sampler {self.environment!r}: one of {ENVIRONMENT_SAMPLERS}")
 
 
 @dataclass(frozen=True)
