@@ -5,6 +5,9 @@ in variance. Fields are compile-time switches read by the kernel factory.
     direction   "uniform": uniform hemisphere (sphere for transmissive lobes); "lobe": cosine for
                 diffuse, the Phong lobe for glossy reflection/transmission, Fresnel for the lobe choice
     light       how lights are sampled (LightSampling), or None: no light sampling
+    light.environment  how next-event estimation samples an environment light (scenes without one
+                compile it out): "uniform" over the sphere, "cosine" about the shading normal,
+                "image": by the radiance image (piecewise-constant 2D, kernels/environment_map.py)
 A strategy's `combine` follows from `light`: "nee" (light samples without MIS): emitters count only
 through light samples after a non-delta bounce; "bsdf" (no light sampling): only through scattered
 rays; "mis" (light samples with MIS): both, power heuristic (Veach 1995).
@@ -14,6 +17,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
+ENVIRONMENT_SAMPLERS = ("uniform", "cosine", "image")
+
+
 @dataclass(frozen=True)
 class LightSampling:
     """Next-event estimation: which light, which point on it, and whether MIS weights it."""
@@ -21,6 +27,11 @@ class LightSampling:
                         # cone a sphere light subtends (rectangles stay area-sampled)
     pick: str           # "uniform" over lights or "power" (proportional to emitted power)
     mis: bool = False   # combine with scattered-ray hits by the power heuristic
+    environment: str = "image"  # the environment's sampler: "uniform" | "cosine" | "image"
+
+    def __post_init__(self):
+        if self.environment not in ENVIRONMENT_SAMPLERS:
+            raise ValueError(f"environment sampler {self.environment!r}: one of {ENVIRONMENT_SAMPLERS}")
 
 
 @dataclass(frozen=True)
@@ -45,6 +56,10 @@ class Strategy:
         return self.light is not None and self.light.point == "solid_angle"
 
     @property
+    def environment_sampler(self) -> str:
+        return self.light.environment if self.light is not None else "image"
+
+    @property
     def power_pick(self) -> bool:
         return self.light is not None and self.light.pick == "power"
 
@@ -59,12 +74,19 @@ class Strategy:
 
 
 STRATEGIES = {s.name: s for s in (
-    Strategy("uniform", "uniform directions and uniform light area, next-event estimation",
-             "uniform", LightSampling("area", "uniform")),
-    Strategy("importance", "BSDF-lobe and solid-angle light sampling combined by MIS (power heuristic)",
+    Strategy("uniform", "uniform directions and uniform light area (an environment: uniform sphere), "
+             "next-event estimation",
+             "uniform", LightSampling("area", "uniform", environment="uniform")),
+    Strategy("importance", "BSDF-lobe and solid-angle light sampling (an environment: by its image) "
+             "combined by MIS (power heuristic)",
              "lobe", LightSampling("solid_angle", "power", mis=True)),
     Strategy("light", "light sampling only (solid angle), BSDF-lobe continuation",
              "lobe", LightSampling("solid_angle", "power")),
     Strategy("bsdf", "BSDF-lobe sampling only, emitters found by scattered rays",
              "lobe", None),
+    # The environment's three samplers with all else as `importance` (which samples the image).
+    Strategy("env_uniform", "as importance, but the environment sampled uniformly over the sphere",
+             "lobe", LightSampling("solid_angle", "power", mis=True, environment="uniform")),
+    Strategy("env_cosine", "as importance, but the environment sampled by cosine about the normal",
+             "lobe", LightSampling("solid_angle", "power", mis=True, environment="cosine")),
 )}

@@ -19,6 +19,7 @@ import warp as wp
 
 from drtlab.kernels.intersection.quad_records import quad_geometry, quad_groups
 from drtlab.kernels.colour import luminance
+from drtlab.kernels.environment import EnvironmentData, environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
@@ -145,6 +146,7 @@ class SceneData:
     meshes: MeshData
     materials: MaterialData
     lights: LightData
+    environment: EnvironmentData               # the [environment] light (kernels/environment.py)
     camera: CameraData
     background: wp.vec3
     eps: float                                 # ray-origin offset at the scene's scale
@@ -278,14 +280,19 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
 
 
+def emitter_powers(scene: Scene) -> list[float]:
+    """The power of each area light (emitter_shapes order), what the power pick weighs."""
+    return [max(luminance(scene.materials[s.material].emission), 1e-12) * s.area() * math.pi
+            for s in (scene.shapes[i] for i in scene.emitter_shapes())]
+
+
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
                 arr: Callable) -> None:
     """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
     index = {id(s): i for group in (spheres, quads, meshes) for i, s in enumerate(group)}
     code = {"sphere": SPHERE, "quad": QUAD, "mesh": MESH}
     emitters = [scene.shapes[i] for i in scene.emitter_shapes()]
-    power = [max(luminance(scene.materials[s.material].emission), 1e-12) * s.area() * math.pi
-             for s in emitters]
+    power = emitter_powers(scene)
     pmf = np.array(power) / np.sum(power) if power else np.zeros(0)
     cdf = np.cumsum(pmf) if power else np.zeros(0)
     lights = sd.lights
@@ -403,6 +410,8 @@ def _upload(scene: Scene, device: str) -> SceneData:
                              + _put_sphere_bvh(sd, scene, spheres, device, extent))
     _put_materials(sd, scene.materials, arr)
     _put_lights(sd, scene, spheres, quads, meshes, arr)
+    sd.environment = environment_data(scene.environment, np.asarray(emitter_powers(scene)),
+                                      0.5 * extent, arr)
     _put_camera(sd, scene)
     sd.background = wp.vec3(*_f3(scene.background))
     sd.eps = float(1e-6 * extent)

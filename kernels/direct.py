@@ -8,6 +8,9 @@ make_bsdf and make_lights) returns DirectLighting, Warp functions:
     next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, dt) -> beta times one
         area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
     hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
+With an environment (`environment`: kernels/environment_lighting.py) the light choice u_light first
+picks it with probability env_pick (u_light < env_pick), else an area light with u_light rescaled to
+[0, 1); the area lights' densities then carry the factor 1 - env_pick.
 """
 from typing import NamedTuple
 
@@ -29,7 +32,10 @@ class DirectLighting(NamedTuple):
 
 
 def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
-                lights: AreaLights) -> DirectLighting:
+                lights: AreaLights, environment=None) -> DirectLighting:
+    ENV = environment is not None
+    env_pick = environment.env_pick if ENV else None
+    env_next_event = environment.env_next_event if ENV else None
     POINTS = f.point_lights
     DIRS = f.dir_lights
     MIS = strategy.mis
@@ -80,8 +86,19 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     def next_event(sd: SceneData, beta: wp.vec3, kind: int, albedo: wp.vec3, exponent: float,
                    ior: float, h: Hit, wo: wp.vec3, u_light: float, u_point: wp.vec2,
                    dt: float) -> wp.vec3:
-        li = pick_light(sd, u_light)
+        ul = u_light
+        share = float(1.0)      # the area lights' share of the light choice
+        if wp.static(ENV):
+            pe = env_pick(sd.environment)
+            if ul < pe:
+                return env_next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_point, pe,
+                                      dt)
+            ul = (ul - pe) / (1.0 - pe)
+            share = 1.0 - pe
+        li = pick_light(sd, ul)
         ls = sample_light(sd, li, h.p, u_point, dt)
+        if wp.static(ENV):
+            ls.pdf = ls.pdf * share
         if ls.valid == 1:
             ns = h.n
             if wp.static(MESHES):
@@ -115,6 +132,8 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
         if prev_delta == 0:
             if wp.static(MIS):
                 pl = light_pdf(sd, h.light, prev_p, h.p, h.n, dt)
+                if wp.static(ENV):
+                    pl = pl * (1.0 - env_pick(sd.environment))
                 w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
             elif wp.static(not COUNT_HITS):
                 w = 0.0

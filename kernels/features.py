@@ -65,6 +65,7 @@ class Features:
     moments: bool = False   # also sum each sample's square (a per-pixel variance image)
     meshes: bool = False    # triangle meshes (wp.Mesh ray queries; absent: compiled out)
     sphere_bvh: bool = False  # spheres found through a wp.Bvh (uses_sphere_bvh), else by a loop
+    environment: bool = False  # an [environment] light (kernels/environment.py; absent: compiled out)
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -106,7 +107,7 @@ class Features:
     def key(self) -> str:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
-                             "sphere_bvh") if getattr(self, n)]
+                             "sphere_bvh", "environment") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += "+moments" if self.moments else ""
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
@@ -129,6 +130,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         background=bool(np.any(np.asarray(scene.background) > 0)),
         meshes=any(shape.kind == "mesh" for shape in scene.shapes),
         sphere_bvh=uses_sphere_bvh(scene),
+        environment=scene.environment is not None,
     )
 
 

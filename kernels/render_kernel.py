@@ -25,6 +25,7 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.camera import grid_ray_dir, make_camera
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import make_direct
+from drtlab.kernels.environment_lighting import make_environment_lighting
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect
@@ -51,10 +52,14 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     rays = make_intersect(f, motion=motion)
     bsdf = make_bsdf(f, strategy)
     lights = make_lights(f, strategy, motion=motion)
-    lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights)
+    environment = (make_environment_lighting(f, strategy, rays=rays, bsdf=bsdf)
+                   if f.environment and not WHITTED else None)
+    lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights,
+                           environment=environment)
     sample_ray = make_camera(f, pointset)
     trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
-    trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting)
+    trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting,
+                       environment=environment)
     pixel_key = pointset.pixel_key
     count_word = pointset.count_word
 

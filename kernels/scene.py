@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drtlab.kernels.environment_map import EnvironmentMap
+
 INTEGRATORS = ("whitted", "drt", "path")
 
 
@@ -119,6 +121,7 @@ class Scene:
     shapes: list[Shape]
     point_lights: list[PointLight] = field(default_factory=list)
     directional_lights: list[DirectionalLight] = field(default_factory=list)
+    environment: EnvironmentMap | None = None   # the [environment] light (kernels/environment_map.py)
     source: str = ""                            # built-in name or file path
     text: str = ""                              # the TOML text the scene came from
 
@@ -131,6 +134,8 @@ class Scene:
         for s in self.shapes:           # a mesh file may change under an unchanged TOML text
             if s.mesh is not None:
                 h.update(s.mesh.digest().encode())
+        if self.environment is not None:        # so may an environment's image file
+            h.update(self.environment.digest().encode())
         return h.hexdigest()[:16]
 
     @property

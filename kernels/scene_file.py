@@ -50,6 +50,7 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
     data = _parse_toml(text, path)
     _apply_overrides(data, overrides or {})
     _anchor_mesh_files(data, path.parent)
+    _anchor_environment_file(data, path.parent)
     return build_scene(data, name=name, source=source, text=text + _overrides_suffix(overrides))
 
 
@@ -119,6 +120,15 @@ def _anchor_mesh_files(data: dict, folder: Path) -> None:
             file = Path(shape["file"]).expanduser()
             if not file.is_absolute():
                 shape["file"] = str(folder / file)
+
+
+def _anchor_environment_file(data: dict, folder: Path) -> None:
+    """An environment image's relative `file` names a file next to the scene file (as meshes')."""
+    env = data.get("environment")
+    if isinstance(env, dict) and isinstance(env.get("file"), str):
+        file = Path(env["file"]).expanduser()
+        if not file.is_absolute():
+            env["file"] = str(folder / file)
 
 
 def _overrides_suffix(overrides: dict | None) -> str:

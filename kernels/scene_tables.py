@@ -1,5 +1,5 @@
 """The tables of a scene file, one validator each: [scene], [camera], [materials.*], [[shapes]],
-[[lights]] -> the in-memory `Scene` (kernels/scene.py). Every check raises one `InputError` naming the
+[[lights]], [environment] (kernels/environment_map.py) -> the in-memory `Scene` (kernels/scene.py). Every check raises one `InputError` naming the
 offending value's dotted path.
 
 Beyond SCENE_FORMAT.md this loader requires `kind` on every shape and light and the position/intensity
@@ -15,13 +15,14 @@ import numpy as np
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
+from drtlab.kernels.environment_map import parse_environment
 from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS
 from drtlab.kernels.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
 from drtlab.kernels.transforms import parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
-TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights")
+TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environment")
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
               "rr_depth", "background")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
@@ -81,9 +82,13 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     materials = _parse_materials(data.get("materials", {}))
     shapes = _parse_shapes(data.get("shapes", []), materials)
     point_lights, directional_lights = _parse_lights(data.get("lights", []))
+    environment = parse_environment(data["environment"]) if "environment" in data else None
+    if environment is not None and np.any(settings["background"] > 0.0):
+        raise InputError("scene.background", "give either a background or an [environment] "
+                                             "(kind = \"constant\" is a sampled background), not both")
     return Scene(name=name, camera=camera, materials=materials, shapes=shapes,
                  point_lights=point_lights, directional_lights=directional_lights,
-                 source=source, text=text, **settings)
+                 environment=environment, source=source, text=text, **settings)
 
 
 def parse_settings(value: Any) -> dict:

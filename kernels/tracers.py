@@ -12,6 +12,7 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import DirectLighting
+from drtlab.kernels.environment_lighting import oriented
 from drtlab.kernels.features import DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, Features
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
@@ -30,11 +31,16 @@ def black(c: wp.vec3) -> int:
 
 
 def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
-               lighting: DirectLighting) -> wp.Function:
+               lighting: DirectLighting, environment=None) -> wp.Function:
     get1d = pointset.get1d
     get2d = pointset.get2d
     AREA = f.area_lights
-    NEE = f.sampled_area_lights and strategy.light is not None
+    # An environment (kernels/environment_lighting.py) is a light to sample and what escaping rays see.
+    ENV = environment is not None
+    env_escape = environment.env_escape if ENV else None
+    NEE = (f.sampled_area_lights or ENV) and strategy.light is not None
+    # With an environment the light choice matters from one area light on.
+    CHOICE_FROM = 1 if ENV else 2
     DELTA_LIGHTS = f.delta_lights
     RR = f.roulette
     RR_REWEIGHT = RR_NO_REWEIGHT not in f.faults
@@ -66,11 +72,15 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
         prev_delta = int(1)      # camera rays and delta bounces see emitters at full weight
         prev_pdf = float(0.0)
         prev_p = o0
+        prev_n = d0              # the environment's cosine sampler's axis at the last vertex
         last_segment = int(0)    # drt: after a diffuse scatter only the emission hit counts
         while True:
             h = intersect(sd, o, d, 1.0e30, dt)
             if h.index < 0:
-                L += wp.cw_mul(beta, sd.background)
+                if wp.static(ENV):
+                    L += wp.cw_mul(beta, env_escape(sd, d, prev_delta, prev_pdf, prev_n))
+                else:
+                    L += wp.cw_mul(beta, sd.background)
                 break
             wo = -d
             m = h.material
@@ -109,7 +119,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if not is_delta:
                 if wp.static(NEE):
                     ul = float(0.0)
-                    if sd.lights.n_area > 1:     # one light is picked whatever ul is
+                    if sd.lights.n_area >= wp.static(CHOICE_FROM):  # else one light is picked
                         ul = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_CHOICE)),
                                    spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
@@ -144,6 +154,8 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             prev_delta = s.delta
             prev_pdf = s.pdf
             prev_p = h.p
+            if wp.static(ENV):
+                prev_n = oriented(ns, wo)
             o = offset_origin(h.p, h.n, s.wi, sd.eps)
             d = s.wi
             depth += 1

@@ -11,6 +11,7 @@ import warp as wp
 from drtlab.estimators.domain_maps import PI
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
 from drtlab.kernels.direct import DirectLighting
+from drtlab.kernels.environment import env_radiance
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
@@ -25,6 +26,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     DELTA_LIGHTS = f.delta_lights
     SPLITS = f.whitted_splits
     MESHES = f.meshes
+    ENV = f.environment
     intersect = rays.intersect
     visible = rays.visible
     visible_mesh = rays.visible_mesh
@@ -99,7 +101,10 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
             while True:
                 h = intersect(sd, o, d, 1.0e30, 0.0)
                 if h.index < 0:
-                    L += wp.cw_mul(beta, sd.background)
+                    if wp.static(ENV):      # seen, but lights no surface (as its area lights)
+                        L += wp.cw_mul(beta, env_radiance(sd.environment, d))
+                    else:
+                        L += wp.cw_mul(beta, sd.background)
                     break
                 wo = -d
                 L += wp.cw_mul(beta, emitted(sd, h, wo))

@@ -200,6 +200,8 @@ def check_scene_reference(ref: dict) -> None:
     assert set(ref["shapes"][-1]["transform"]) <= set(TRANSFORM_KEYS)
     for light in ref["lights"]:
         assert set(light) == set(T.LIGHT_KEYS[light["kind"]])
+    from drtlab.kernels.environment_map import KEYS as ENVIRONMENT_KEYS
+    assert set(ref["environment"]) == set().union(*ENVIRONMENT_KEYS.values())
     (material,) = ref["materials"].values()
     assert set(material) == _material_keys(T)
     # "Every field not marked required has the default shown": the loader's defaults.

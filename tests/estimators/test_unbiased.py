@@ -5,9 +5,9 @@ Test (tests/support/stats_util.py has the details): RUNS independent renders at 
 RES = 32 x 24, each reduced to 12 region values (8 x 8-pixel regions, mean of R + G + B); the
 reference is REF_RUNS renders with the `importance` sampler (independent points, MIS) at REF_SPP and
 other seeds. Per region a Welch t -> equal-p normal deviate; X = sum z^2 ~ chi-square(12) under
-"no bias". Multiple-test correction: Sidak over the full matrix, m = 11 scenes x 2 integrators x
-36 samplers (9 unbiased point sets x 4 strategies) = 792, so each test runs at alpha_test =
-1 - 0.99^(1/792) = 1.27e-5 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
+"no bias". Multiple-test correction: Sidak over the full matrix, m = 12 scenes x 2 integrators x
+54 samplers (9 unbiased point sets x 6 strategies) = 1296, so each test runs at alpha_test =
+1 - 0.99^(1/1296) = 7.8e-6 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
 a subset of the matrix at the same alpha_test (its family-wise rate is then below 0.01 too).
 
 Point sets biased by design (PointSet.biased: `presampled`, Cook's fixed table) are not in the
@@ -19,7 +19,9 @@ reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt
 presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
 point sets on cornell-box and veach-mis, minus the HEAVY combinations (62 combinations), plus each
 of the seven other point sets (lhs, cmj, halton, sobol, zsobol, pmj02, presampled_random) with the
-importance strategy
+importance strategy, plus the environment's two other samplers (env_uniform, env_cosine: they differ
+from importance only where a scene has an environment) with independent points on the environment
+scene (4 combinations; the FAST_ALL_SAMPLERS scenes run the original four strategies)
 on two representative scene x integrator pairs (FAST_MODERN): cornell-box with path tracing (to
 depth 8, through every per-bounce dimension) and drt-showcase with drt (lens, shutter time, glossy
 reflection and transmission, area light): 14 combinations, 14 kernel variants (a variant costs a
@@ -84,7 +86,9 @@ FAST_ALL_POINTSETS = ("independent", "stratified")     # every strategy on FAST_
 # (scene, integrator) on which the other point sets run in the fast tier, with FAST_MODERN_STRATEGY.
 FAST_MODERN = (("cornell-box", "path"), ("drt-showcase", "drt"))
 FAST_MODERN_STRATEGY = "importance"
-M_TESTS = 11 * 2 * 36
+# Strategies that differ from importance only in how they sample an environment light.
+ENV_STRATEGIES = ("env_uniform", "env_cosine")
+M_TESTS = 12 * 2 * 54
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 # (scene, integrator or None for both, strategy): heavy-tailed estimators, HEAVY_SPP (module doc).
@@ -111,6 +115,8 @@ def in_fast_tier(scene: str, integrator: str, sampler: str) -> bool:
     spec = parse_sampler(sampler)
     if sampler in PRESETS:
         return True
+    if spec.strategy.name in ENV_STRATEGIES:
+        return scene == "environment" and spec.pointset.name == "independent"
     if spec.pointset.name in FAST_ALL_POINTSETS:
         return scene in FAST_ALL_SAMPLERS
     return (scene, integrator) in FAST_MODERN and spec.strategy.name == FAST_MODERN_STRATEGY
@@ -169,7 +175,8 @@ def matrix():
 
 def test_matrix_is_the_whole_product():
     assert len(matrix()) == M_TESTS == len(SCENES) * len(UNBIASED) * len(SAMPLERS)
-    assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf"}
+    assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf",
+                                                  *ENV_STRATEGIES}
     assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.unbiased_pointsets()) \
         == set(registry.POINTSETS) - {"presampled"} == {
         "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
@@ -178,8 +185,9 @@ def test_matrix_is_the_whole_product():
     fast = [p.values for p in matrix() if not p.marks]
     modern = [c for c in fast if parse_sampler(c[2]).pointset.name not in FAST_ALL_POINTSETS]
     # 62 preset cases of the nine effect scenes, 12 of displaced-sphere and sphere-grid (3 presets x
-    # 2 integrators each), and the 14 modern point-set cases.
-    assert len(fast) == 62 + 12 + 14 and len(modern) == 14
+    # 2 integrators each), the 14 modern point-set cases, and the environment scene's 6 preset and 4
+    # environment-sampler cases.
+    assert len(fast) == 62 + 12 + 14 + 10 and len(modern) == 14
 
 
 def test_biased_integrators_are_labelled_and_excluded():

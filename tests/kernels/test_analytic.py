@@ -68,11 +68,16 @@ ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 
 FAST_ALL_POINTSETS = ("independent", "stratified")
+# Strategies that differ from importance only under an environment light, which none of these scenes
+# has: full tier only (tests/kernels/test_environment.py tests them where they differ).
+ENV_STRATEGIES = ("env_uniform", "env_cosine")
 FAST_MODERN = ("importance", "path")      # the other point sets' (strategy, integrator) in fast
 
 
 def in_fast_furnace(sampler: str, integrator: str) -> bool:
     spec = registry.parse_sampler(sampler)
+    if spec.strategy.name in ENV_STRATEGIES:
+        return False
     return (spec.pointset.name in FAST_ALL_POINTSETS
             or (spec.strategy.name, integrator) == FAST_MODERN)
 
@@ -85,7 +90,8 @@ def samplers_for(fast_all: bool):
     """All samplers in the full tier; in the fast tier all (fast_all) or the presets."""
     out = []
     for s in SAMPLERS:
-        keep = fast_all or s in PRESETS
+        keep = (fast_all and registry.parse_sampler(s).strategy.name not in ENV_STRATEGIES
+                or s in PRESETS)
         out.append(pytest.param(s, marks=[] if keep else slow_marks()))
     return out
 
@@ -114,7 +120,7 @@ def test_family_size():
     n = len(registry.unbiased_pointsets()) * len(registry.STRATEGIES)
     nee_only = len(registry.unbiased_pointsets()) * len(NEE_ONLY)
     assert M_TESTS == n * 5 - nee_only + n * 2 * 3 + 1 + 5 + 1
-    assert len(SAMPLERS) == n == 36 and nee_only == 18
+    assert len(SAMPLERS) == n == 54 and nee_only == 18
     assert registry.biased_pointsets() == ["presampled"]
 
 

@@ -18,7 +18,11 @@ The matrix:
   edges and corners (furnace looking into a corner, one face split in two quads; the glass cube's
   corner); a camera inside a sphere; a moving object with zero velocity (motion compiled in); a thin
   lens focused at the object and at infinity; the grazing cases again with the plane a triangle
-  mesh (a graded 24 x 24 grid cut along random diagonals: many shared edges at grazing angles).
+  mesh (a graded 24 x 24 grid cut along random diagonals: many shared edges at grazing angles); an
+  environment light (tests/kernels/test_environment.py has its closed forms): a tiny very bright sun
+  (one texel of a 256 x 128 map, radiance 10^5 over a sky of 0.5: ~95% of the irradiance), the
+  two-level sky seen by a grazing camera and on a plane tilted 89 degrees (grazing normal), and a
+  black environment (exactly 0, test_black_environment).
 
 Samplers: `importance` and `stratified` (uniform strategy) where the uniform strategy has a testable
 variance. It is left out for Phong exponents 10^3 and 10^6 (uniform hemisphere directions hit a lobe
@@ -39,6 +43,7 @@ import numpy as np
 import pytest
 
 from drtlab.experiments.stats.chi2 import sidak
+from drtlab.kernels.render import render
 
 import scene_util as su
 from mesh_util import graded_plane, mesh, unit, write_mesh
@@ -74,6 +79,19 @@ def _grazing_quad_light():
     return su.light_over_plane("quad", light_pos=(-3.0, 0.3, 0.0), size=0.5, le=200.0, bg=0.01,
                                quad_normal=(1.0, 0.0, 0.0), cam_pos=(0.0, 3.0, 0.5),
                                look=(0.0, 0.0, 0.0), fov=30.0, name="grazing-quad-light")
+
+
+SKY = dict(kind="two_level", upper=[2.0, 2.0, 2.0], lower=[0.3, 0.3, 0.3])
+
+
+def _environment_sun():
+    from drtlab.kernels.environment_map import texels
+    h, w, sun, le = 128, 256, [1.0, 1.3, 0.4], 1.0e5
+    row = int(texels(np.array([sun]), h, w)[0][0])
+    env = dict(kind="two_level", upper=[0.5] * 3, lower=[0.1] * 3, resolution=[w, h],
+               sun_direction=sun, sun_radiance=[le] * 3)
+    return su.environment_over_plane(env, math.pi * 0.5 + le * su.texel_irradiance(h, w, row),
+                                     name="environment-sun-texel")
 
 
 def _light_size(kind: str, size: float):
@@ -145,6 +163,13 @@ CASES = {
     "thin-lens-focus-infinity": (lambda: su.light_over_plane("sphere", lens=(0.1, 1.0e7),
                                                              name="lens-focus-infinity", **LENS_KW),
                                  BOTH),
+    "environment-sun-texel": (_environment_sun, IMPORTANCE),
+    "environment-grazing-camera": (lambda: su.environment_over_plane(
+        SKY, su.two_level_irradiance(2.0, 0.3, 0.0), camera=(0.08, 3.0), fov=2.0,
+        name="environment-grazing-camera"), BOTH),
+    "environment-grazing-normal": (lambda: su.environment_over_plane(
+        SKY, su.two_level_irradiance(2.0, 0.3, 89.0), tilt_deg=89.0,
+        name="environment-grazing-normal"), BOTH),
 }
 
 # Heavy tails: area sampling of the radius-100 sphere 1.5 above the receivers lands 0.7% of its
@@ -183,6 +208,23 @@ def test_hard_case(name, sampler):
     assert est.nonfinite == 0, f"{msg}: {est.nonfinite} non-finite pixel values"
     assert est.negative == 0, f"{msg}: {est.negative} negative pixel values"
     assert not c.rejected, msg
+
+
+def test_black_environment():
+    # Nothing to sample: the image sampler falls back to (about) uniform directions, the pick of
+    # the environment by power is 0 beside an area light; every pixel must be exactly 0 without one.
+    cf = su.environment_over_plane(dict(kind="constant", radiance=[0, 0, 0]), 0.0, camera=(0.08, 3.0),
+                                   fov=2.0, name="black-environment")
+    for sampler in BOTH + ("independent+env_cosine", "independent+env_uniform"):
+        img = render(cf.load(), spp=16, sampler=sampler, integrator="path", progress=False)
+        assert np.all(img == 0.0), sampler
+    lit = su.light_over_plane("sphere", bg=0.0, name="black-environment-and-light")
+    scene = dict(lit.scene, scene=dict(lit.scene["scene"]), environment=dict(kind="constant",
+                                                                             radiance=[0, 0, 0]))
+    del scene["scene"]["background"]
+    img = render(su.ClosedForm("x", scene, lit.truth).load(), spp=16, sampler="importance",
+                 integrator="path", progress=False)
+    assert np.all(np.isfinite(img)) and img.min() >= 0.0 and img.max() > 0.0
 
 
 def test_closed_forms_are_sane():

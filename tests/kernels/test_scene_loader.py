@@ -22,8 +22,8 @@ from drtlab.kernels.scene_file import (
 )
 from drtlab.kernels.scene import Scene
 
-BUILTINS = ["aa-edges", "cornell-box", "displaced-sphere", "dof", "drt-showcase", "glossy",
-            "motion-blur", "soft-shadows", "sphere-grid", "translucency", "veach-mis"]
+BUILTINS = ["aa-edges", "cornell-box", "displaced-sphere", "dof", "drt-showcase", "environment",
+            "glossy", "motion-blur", "soft-shadows", "sphere-grid", "translucency", "veach-mis"]
 
 
 def normal(shape) -> np.ndarray:
@@ -47,7 +47,7 @@ def materials_of(scene: Scene, kind: str):
 # Built-in scenes
 # ---------------------------------------------------------------------------------------------------
 
-def test_builtin_names_are_the_eleven_scenes():
+def test_builtin_names_are_the_twelve_scenes():
     assert builtin_names() == BUILTINS
     descriptions = builtin_descriptions()
     assert sorted(descriptions) == BUILTINS
@@ -60,7 +60,8 @@ def test_builtin_loads_small_and_sane(name):
     assert scene.name == name and scene.source == name
     assert 64 <= scene.width <= 96 and 48 <= scene.height <= 72
     assert scene.spp == 16
-    assert scene.shapes and scene.emitter_shapes(), "every built-in is lit by an emissive shape"
+    assert scene.shapes and (scene.emitter_shapes() or scene.environment is not None), \
+        "every built-in is lit by an emissive shape or an environment"
     assert len(scene.content_hash()) == 16
     # Every area light must face the scene: the camera or what it looks at is on its emitting side.
     for i in scene.emitter_shapes():

@@ -388,3 +388,50 @@ def sphere_interior(*, rho=0.5, le=4.0, R=2.0, r=0.3, depth=5, res=(16, 12), sca
     else:
         L = rho * le * s * sum((rho * (1 - s)) ** k for k in range(kmax + 1)) if kmax >= 0 else 0.0
     return ClosedForm(name or "sphere-interior", d, np.full((res[1], res[0]), 3.0 * L))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Environment lights (kernels/environment_map.py)
+# ---------------------------------------------------------------------------------------------------
+def two_level_irradiance(upper: float, lower: float, tilt_deg: float) -> float:
+    """Irradiance on a plane whose normal makes the angle a with +y, under radiance `upper` above the
+    horizon (y > 0) and `lower` below, the plane's own half-space not blocking anything else: the
+    half-space y > 0 fills the fraction (1 + cos a) / 2 of the projected solid angle pi of the
+    plane's hemisphere (the sky view factor), so E = pi [upper (1 + cos a) + lower (1 - cos a)] / 2."""
+    c = math.cos(math.radians(tilt_deg))
+    return math.pi * (upper * (1.0 + c) + lower * (1.0 - c)) / 2.0
+
+
+def texel_irradiance(height: int, width: int, row: int) -> float:
+    """Irradiance per unit radiance from one lat-long texel of `row` (above the horizon) on an upward
+    plane: the integral of cos theta over it, (2 pi / W) (sin^2 theta_1 - sin^2 theta_0) / 2."""
+    t0, t1 = row * math.pi / height, (row + 1) * math.pi / height
+    assert t1 <= math.pi / 2 + 1e-12, "the texel must lie above the horizon"
+    return (2.0 * math.pi / width) * (math.sin(t1) ** 2 - math.sin(t0) ** 2) / 2.0
+
+
+def environment_over_plane(environment: dict, irradiance: float, *, rho=0.6, tilt_deg=0.0,
+                           camera=(2.2, 3.0), fov=30.0, res=(16, 12), integrator="path",
+                           max_depth=3, name=None) -> ClosedForm:
+    """A diffuse plane (albedo rho) through the origin with normal (0, cos a, sin a), alone under an
+    `environment` table whose irradiance on it is `irradiance` (two_level_irradiance,
+    texel_irradiance): every pixel is rho E / pi. The camera stands camera[0] above the plane and
+    camera[1] along it, looking at the origin; every camera ray must hit the plane."""
+    a = math.radians(tilt_deg)
+    n = np.array([0.0, math.cos(a), math.sin(a)])
+    t = np.array([0.0, -math.sin(a), math.cos(a)])
+    e1 = np.array([1.0, 0.0, 0.0])
+    half = 40.0
+    cam = camera_dict(camera[0] * n + camera[1] * t, (0.0, 0.0, 0.0), fov, up=tuple(n))
+    mats = {"plane": {"kind": "diffuse", "albedo": [rho] * 3}}
+    shapes = [quad(-half * t - half * e1, 2 * half * t, 2 * half * e1, "plane", name="plane")]
+    d = scene_dict("a plane under an environment", cam, mats, shapes, res=res,
+                   integrator=integrator, max_depth=max_depth)
+    d["environment"] = environment
+    o, dirs, _ = camera_rays(cam, res[0], res[1], n_pix=2)
+    dist = -(o @ n) / (dirs @ n)
+    hit = o + dirs * dist[..., None]
+    if not (np.all(dist > 0) and np.all(np.abs(hit @ t) < half) and np.all(np.abs(hit[..., 0]) < half)):
+        raise ValueError("every camera ray must hit the plane inside its extent")
+    truth = np.full((res[1], res[0]), 3.0 * rho * irradiance / math.pi)
+    return ClosedForm(name or "environment-over-plane", d, truth)

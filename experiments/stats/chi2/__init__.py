@@ -53,12 +53,13 @@ Additions for this project:
 
 Modules: `domains` (the parameter grids), `harness` (the test: pooling, ChiSquareTest, run_chi2),
 `adapters` (the Warp adapters and upload_scene), `mesh_adapter` (`MeshLightAdapter`: light sampling
-of scenes with triangle-mesh emitters). Every public name is re-exported here, with `sidak` of
+of scenes with triangle-mesh emitters), `environment_adapter` (`EnvironmentAdapter`: the environment
+light's samplers, histogrammed over `LatLongDomain`, whose cells can be whole texels). Every public name is re-exported here, with `sidak` of
 experiments/stats/hypothesis_tests.py, so `from drtlab.experiments.stats import chi2 as C;
 C.ChiSquareTest(...)` is the way to use the harness.
 """
-from drtlab.experiments.stats.chi2.domains import (CapDomain, ConeDomain, Domain, PlanarDomain,
-                                             SphericalDomain, orthonormal_frame)
+from drtlab.experiments.stats.chi2.domains import (CapDomain, ConeDomain, Domain, LatLongDomain,
+                                             PlanarDomain, SphericalDomain, orthonormal_frame)
 from drtlab.experiments.stats.chi2.harness import (ALPHA, POOL_THRESHOLD, ChiSquareResult, ChiSquareTest,
                                              PdfFunc, SampleFunc, pooled_chi2, relative_error,
                                              run_chi2)
@@ -68,10 +69,12 @@ from drtlab.experiments.stats.chi2.adapters import (ALL_KINDS, CONE, COSINE_HEMI
                                               BSDFAdapter, BSDFSamples, LightAdapter, LightSamples,
                                               WarpsAdapter, uniform, upload_scene)
 from drtlab.experiments.stats.chi2.mesh_adapter import MeshLightAdapter, MeshLightSamples
+from drtlab.experiments.stats.chi2.environment_adapter import EnvironmentAdapter, EnvSamples
 
 __all__ = [
     # domains
-    "Domain", "SphericalDomain", "CapDomain", "ConeDomain", "PlanarDomain", "orthonormal_frame",
+    "Domain", "SphericalDomain", "CapDomain", "ConeDomain", "PlanarDomain", "LatLongDomain",
+    "orthonormal_frame",
     # harness
     "ALPHA", "POOL_THRESHOLD", "sidak", "pooled_chi2", "ChiSquareResult", "ChiSquareTest",
     "SampleFunc", "PdfFunc", "run_chi2", "relative_error",
@@ -79,4 +82,5 @@ __all__ = [
     "uniform", "UNIFORM_HEMISPHERE", "UNIFORM_SPHERE", "COSINE_HEMISPHERE", "PHONG", "CONE", "DISK",
     "SQUARE", "WarpsAdapter", "KIND_INDEX", "ALL_KINDS", "BSDFSamples", "BSDFAdapter",
     "LightSamples", "LightAdapter", "upload_scene", "MeshLightAdapter", "MeshLightSamples",
+    "EnvironmentAdapter", "EnvSamples",
 ]

@@ -141,3 +141,30 @@ class PlanarDomain(Domain):
 
     def from_param(self, prm):
         return prm.copy()
+
+
+class LatLongDomain(Domain):
+    """Directions as the environment's lat-long coordinates (v = theta / pi from +y, u = phi / 2 pi
+    from +x towards +z; kernels/environment_map.py): d omega = 2 pi^2 sin(pi v) dv du. A grid whose
+    cells are whole texels integrates a piecewise-constant map's density exactly."""
+    dim = 3
+
+    def __init__(self):
+        self.bounds = np.array([(0.0, 1.0), (0.0, 1.0)], dtype=np.float64)
+        self.name = "lat-long"
+
+    def to_param(self, pts):
+        p = np.asarray(pts, dtype=np.float64)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            p = p / np.linalg.norm(p, axis=1, keepdims=True)
+        v = np.arccos(np.clip(p[:, 1], -1.0, 1.0)) / math.pi
+        u = np.mod(np.arctan2(p[:, 2], p[:, 0]), 2.0 * math.pi) / (2.0 * math.pi)
+        return np.stack([v, u], axis=1)
+
+    def from_param(self, prm):
+        theta, phi = prm[:, 0] * math.pi, prm[:, 1] * 2.0 * math.pi
+        s = np.sin(theta)
+        return np.stack([s * np.cos(phi), np.cos(theta), s * np.sin(phi)], axis=1)
+
+    def jacobian(self, prm):
+        return 2.0 * math.pi ** 2 * np.sin(math.pi * prm[:, 0])

@@ -42,7 +42,7 @@ def write(tmp_path, text, name="exp.toml"):
     return p
 
 
-@pytest.mark.parametrize("name", ["stratified", "importance", "uniform", "all"])
+@pytest.mark.parametrize("name", ["stratified", "importance", "uniform", "environment", "all"])
 @pytest.mark.parametrize("profile", ["quick", "full"])
 def test_shipped_experiments_parse_with_the_real_scenes(name, profile):
     exp = load_experiment(name, profile)

@@ -1,0 +1,246 @@
+"""The environment light's model: a lat-long radiance image (procedural or from a file), the
+`[environment]` table that makes it, and the tables that sample it by importance. numpy only (the
+Warp side is kernels/environment.py).
+
+Lat-long convention (the image's rows top to bottom, columns left to right):
+    v = theta / pi, theta the angle from +y (row 0 looks up);  u = phi / (2 pi), phi = atan2(z, x)
+    in [0, 2 pi) (column 0 starts at +x, turning towards +z);  d = (sin t cos p, cos t, sin t sin p).
+Radiance is piecewise constant: a direction sees the texel it falls in (no filtering), so the image
+is exactly the function that is sampled and integrated (the closed forms hold to float precision).
+
+Importance sampling is pbrt's PiecewiseConstant2D over (u, v) in [0, 1)^2 of
+func = luminance(texel) * sin(theta at the row's centre): a marginal distribution over rows and one
+conditional distribution over columns per row, each a cdf with a leading 0 (a row or image whose
+func is all 0 gets a uniform cdf, as pbrt-v4's PiecewiseConstant1D does). A texel's density over
+(u, v) is func / mean(func); over solid angle it is that / (2 pi^2 sin theta), d omega =
+2 pi^2 sin theta du dv. An all-black image samples func = sin(theta), i.e. about uniformly.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drtlab.errors import InputError
+from drtlab.fields import REQUIRED, Table, numbers, number, show, string
+
+KINDS = ("constant", "two_level", "gradient", "image")
+PROCEDURAL_KEYS = ("resolution", "sun_direction", "sun_radiance")
+KEYS = {
+    "constant": ("kind", "radiance", "scale") + PROCEDURAL_KEYS,
+    "two_level": ("kind", "upper", "lower", "scale") + PROCEDURAL_KEYS,
+    "gradient": ("kind", "zenith", "horizon", "nadir", "scale") + PROCEDURAL_KEYS,
+    "image": ("kind", "file", "scale"),
+}
+DEFAULT_RESOLUTION = (64, 32)
+MAX_TEXELS = 1 << 22
+
+
+@dataclass
+class EnvironmentMap:
+    """Radiance per texel, (H, W, 3) float64, row 0 = +y (the module's lat-long convention)."""
+    kind: str
+    image: np.ndarray
+    source: str = ""                    # the file it came from, or the kind
+    _digest: str = field(default="", repr=False)
+
+    @property
+    def height(self) -> int:
+        return int(self.image.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.image.shape[1])
+
+    def digest(self) -> str:
+        """Hash of the radiance: what a scene's content_hash cannot see in the TOML of a file map."""
+        if not self._digest:
+            self._digest = hashlib.sha256(np.ascontiguousarray(self.image).tobytes()).hexdigest()
+        return self._digest
+
+    def luminance_integral(self) -> float:
+        """Integral over the sphere of the luminance, in W / (m^2) per unit radiance: the
+        environment's share of the power pick (kernels/device_scene.py)."""
+        from drtlab.kernels.colour import luminance
+        return float(np.sum(luminance(self.image) * texel_solid_angles(self.height, self.width)))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Geometry of the lat-long grid
+# ---------------------------------------------------------------------------------------------------
+def row_cos_edges(height: int) -> np.ndarray:
+    """cos theta at the H + 1 row edges, top (1) to bottom (-1)."""
+    return np.cos(np.linspace(0.0, math.pi, height + 1))
+
+
+def texel_solid_angles(height: int, width: int) -> np.ndarray:
+    """(H, W) solid angle of each texel: (2 pi / W) (cos theta_top - cos theta_bottom)."""
+    c = row_cos_edges(height)
+    return np.repeat(((c[:-1] - c[1:]) * 2.0 * math.pi / width)[:, None], width, axis=1)
+
+
+def directions(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Unit directions of lat-long coordinates (u, v) in [0, 1]^2."""
+    theta, phi = np.asarray(v) * math.pi, np.asarray(u) * 2.0 * math.pi
+    s = np.sin(theta)
+    return np.stack([s * np.cos(phi), np.cos(theta), s * np.sin(phi)], axis=-1)
+
+
+def texels(dirs: np.ndarray, height: int, width: int) -> tuple[np.ndarray, np.ndarray]:
+    """(row, column) of the texel each direction falls in."""
+    d = np.asarray(dirs, dtype=np.float64)
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    theta = np.arccos(np.clip(d[..., 1], -1.0, 1.0))
+    phi = np.mod(np.arctan2(d[..., 2], d[..., 0]), 2.0 * math.pi)
+    row = np.minimum((theta / math.pi * height).astype(np.int64), height - 1)
+    col = np.minimum((phi / (2.0 * math.pi) * width).astype(np.int64), width - 1)
+    return row, col
+
+
+# ---------------------------------------------------------------------------------------------------
+# Importance sampling tables (PiecewiseConstant2D)
+# ---------------------------------------------------------------------------------------------------
+@dataclass
+class SamplingTables:
+    texel_pdf: np.ndarray       # (H, W) density over (u, v) of each texel
+    marginal: np.ndarray        # (H + 1,) cdf over rows
+    conditional: np.ndarray     # (H, W + 1) cdf over columns, per row
+
+
+def _cdf(func: np.ndarray) -> np.ndarray:
+    """Cdfs with a leading 0 along the last axis; a zero function gets the uniform cdf."""
+    c = np.concatenate([np.zeros(func.shape[:-1] + (1,)), np.cumsum(func, axis=-1)], axis=-1)
+    total = c[..., -1:]
+    uniform = np.broadcast_to(np.linspace(0.0, 1.0, func.shape[-1] + 1), c.shape)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(total > 0.0, c / np.where(total > 0.0, total, 1.0), uniform)
+    out[..., -1] = 1.0
+    return out
+
+
+def sampling_func(image: np.ndarray, sin_weight: bool = True) -> np.ndarray:
+    """The function importance sampling follows: luminance times sin(theta) at the row centres
+    (sin_weight=False drops the Jacobian: the chi-square test's negative control)."""
+    from drtlab.kernels.colour import luminance
+    h = image.shape[0]
+    func = np.maximum(luminance(image), 0.0)
+    s = np.sin((np.arange(h) + 0.5) / h * math.pi)[:, None]
+    if not np.any(func > 0.0):
+        func = np.ones_like(func)          # black: sample (about) uniformly over the sphere
+    return func * s if sin_weight else func
+
+
+def sampling_tables(image: np.ndarray, sin_weight: bool = True) -> SamplingTables:
+    func = sampling_func(image, sin_weight)
+    mean = float(func.mean())
+    return SamplingTables(texel_pdf=func / mean, marginal=_cdf(func.sum(axis=1)),
+                          conditional=_cdf(func))
+
+
+def direction_pdf(image: np.ndarray, dirs: np.ndarray, sin_weight: bool = True) -> np.ndarray:
+    """The exact solid-angle density of importance sampling at `dirs` (float64): the chi-square
+    test's claimed pdf, independent of the Warp code."""
+    h, w = image.shape[:2]
+    pdf_uv = sampling_tables(image, sin_weight).texel_pdf
+    row, col = texels(dirs, h, w)
+    d = np.asarray(dirs, dtype=np.float64)
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    sin_t = np.sqrt(np.maximum(0.0, 1.0 - d[..., 1] ** 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(sin_t > 0.0, pdf_uv[row, col] / (2.0 * math.pi ** 2 * sin_t), 0.0)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Procedural maps
+# ---------------------------------------------------------------------------------------------------
+def _row_cos_centres(height: int) -> np.ndarray:
+    return np.cos((np.arange(height) + 0.5) / height * math.pi)
+
+
+def procedural(kind: str, height: int, width: int, **radiance) -> np.ndarray:
+    """(H, W, 3) radiance of a procedural kind: constant (radiance), two_level (upper where
+    cos theta > 0, lower below: exact for an even height), gradient (zenith -> horizon -> nadir,
+    linear in cos theta at the row centres)."""
+    c = _row_cos_centres(height)[:, None]
+    if kind == "constant":
+        rows = np.broadcast_to(radiance["radiance"], (height, 3))
+    elif kind == "two_level":
+        rows = np.where(c > 0.0, radiance["upper"], radiance["lower"])
+    else:
+        up, mid, down = radiance["zenith"], radiance["horizon"], radiance["nadir"]
+        rows = np.where(c > 0.0, mid + (up - mid) * c, mid + (down - mid) * (-c))
+    return np.repeat(np.asarray(rows, dtype=np.float64)[:, None, :], width, axis=1).copy()
+
+
+# ---------------------------------------------------------------------------------------------------
+# The [environment] table
+# ---------------------------------------------------------------------------------------------------
+def _color(t: Table, key: str, default: Any) -> np.ndarray:
+    return numbers(t.get(key, default, "a list of 3 finite numbers >= 0"), t.field(key), 3, ">= 0",
+                   lambda x: x >= 0.0)
+
+
+def _resolution(t: Table) -> tuple[int, int]:
+    v = t.get("resolution", list(DEFAULT_RESOLUTION), "")
+    ok = (isinstance(v, (list, tuple)) and len(v) == 2
+          and all(isinstance(x, int) and not isinstance(x, bool) for x in v))
+    if not ok or not (v[0] >= 1 and v[1] >= 2 and v[1] % 2 == 0 and v[0] * v[1] <= MAX_TEXELS):
+        raise InputError(t.field("resolution"), "must be [width, height], integers, width >= 1, "
+                                                "height even >= 2 (the horizon on a row edge), "
+                                                f"width * height <= {MAX_TEXELS}, got {show(v)}")
+    return int(v[0]), int(v[1])
+
+
+def _read_image(t: Table) -> tuple[np.ndarray, str]:
+    path = string(t.get("file", REQUIRED, "a path to a lat-long EXR/HDR image"), t.field("file"))
+    from drtlab.kernels.imageio import read_linear
+    try:
+        pixels, _, _ = read_linear(Path(path).expanduser())
+    except OSError as exc:
+        raise InputError(t.field("file"), f"cannot read a lat-long image from {path}: {exc}") from None
+    px = np.asarray(pixels, dtype=np.float64)
+    if px.ndim == 2:
+        px = px[..., None]
+    px = np.repeat(px[..., :1], 3, axis=2) if px.shape[2] < 3 else px[..., :3]
+    if px.shape[0] * px.shape[1] > MAX_TEXELS:
+        raise InputError(t.field("file"), f"{path}: {px.shape[1]} x {px.shape[0]} texels, at most "
+                                          f"{MAX_TEXELS} allowed")
+    if not np.all(np.isfinite(px)) or np.any(px < 0.0):
+        raise InputError(t.field("file"), f"{path}: every pixel must be finite and >= 0 (radiance)")
+    return px, path
+
+
+def parse_environment(value: Any) -> EnvironmentMap:
+    """The [environment] table validated (kernels/SCENE_FORMAT.md): one InputError per bad key or
+    value, naming it and what is allowed."""
+    t = Table(value, "environment", "[environment]")
+    kind = string(t.get("kind", REQUIRED, " | ".join(KINDS)), t.field("kind"), KINDS)
+    t.check_keys(KEYS[kind])
+    scale = number(t.get("scale", 1.0, ""), t.field("scale"), ">= 0", lambda x: x >= 0.0)
+    if kind == "image":
+        image, source = _read_image(t)
+        return EnvironmentMap(kind, image * scale, source)
+    width, height = _resolution(t)
+    if kind == "constant":
+        colours = dict(radiance=_color(t, "radiance", [1, 1, 1]))
+    elif kind == "two_level":
+        colours = dict(upper=_color(t, "upper", [1, 1, 1]), lower=_color(t, "lower", [0, 0, 0]))
+    else:
+        colours = dict(zenith=_color(t, "zenith", [0.3, 0.5, 1.0]),
+                       horizon=_color(t, "horizon", [1, 1, 1]),
+                       nadir=_color(t, "nadir", [0.2, 0.2, 0.2]))
+    image = procedural(kind, height, width, **colours)
+    if t.has("sun_direction") or t.has("sun_radiance"):
+        sun = numbers(t.get("sun_direction", REQUIRED, "a non-zero list of 3 finite numbers (towards "
+                                                       "the sun)"), t.field("sun_direction"), 3)
+        if not np.linalg.norm(sun) > 0.0:
+            raise InputError(t.field("sun_direction"), "must be a non-zero list of 3 finite numbers "
+                                                       f"(towards the sun), got {show(sun.tolist())}")
+        sun_l = _color(t, "sun_radiance", REQUIRED)
+        row, col = texels(sun[None, :], height, width)
+        image[row[0], col[0]] += sun_l          # one texel: the tiny, very bright source
+    return EnvironmentMap(kind, image * scale, kind)
