@@ -22,6 +22,7 @@ from drtlab.kernels.colour import luminance
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
+from drtlab.kernels.filters import BOX, FILTERS, filter_cdf
 from drtlab.kernels.material_kinds import MATERIAL_CODE
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as initialised_warp
@@ -135,6 +136,15 @@ class CameraData:
 
 
 @wp.struct
+class FilterData:
+    """A non-box pixel filter's sampling table (kernels/filters.py: filter_cdf); unused by the box."""
+    cdf: wp.array(dtype=float)      # bins + 1 values, 0 ... 1
+    bins: int
+    radius: float
+    inv_integral: float             # 1 / integral of the 2D filter
+
+
+@wp.struct
 class SceneData:
     """The scene as the kernels read it, in parts: its shapes by kind, materials, lights, camera,
     then the render settings. Nesting costs nothing: sd.camera.position is one load at a fixed
@@ -146,6 +156,7 @@ class SceneData:
     materials: MaterialData
     lights: LightData
     camera: CameraData
+    filter: FilterData
     background: wp.vec3
     eps: float                                 # ray-origin offset at the scene's scale
     width: int
@@ -331,6 +342,16 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     c.shutter_close = float(cam.shutter[1])
 
 
+def _put_filter(sd: SceneData, name: str, arr: Callable) -> None:
+    filt = FILTERS[name]
+    fd = sd.filter
+    cdf = filter_cdf(name) if name != BOX else np.array([0.0, 1.0])
+    fd.cdf = arr(cdf, float, (2,))
+    fd.bins = len(cdf) - 1
+    fd.radius = float(filt.radius)
+    fd.inv_integral = float(1.0 / filt.integral)
+
+
 def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device: str,
                 extent: float) -> list:
     """The meshes' BVHs and tables; returns the wp.Bvh objects, which must outlive sd."""
@@ -404,6 +425,7 @@ def _upload(scene: Scene, device: str) -> SceneData:
     _put_materials(sd, scene.materials, arr)
     _put_lights(sd, scene, spheres, quads, meshes, arr)
     _put_camera(sd, scene)
+    _put_filter(sd, scene.camera.filter, arr)
     sd.background = wp.vec3(*_f3(scene.background))
     sd.eps = float(1e-6 * extent)
     sd.width = int(scene.width)
