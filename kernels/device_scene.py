@@ -22,7 +22,7 @@ from drtlab.kernels.colour import luminance
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
-from drtlab.kernels.filters import BOX, FILTERS, filter_cdf
+from drtlab.kernels.filters import BOX, filter_cdf
 from drtlab.kernels.material_kinds import MATERIAL_CODE
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as initialised_warp
@@ -137,11 +137,9 @@ class CameraData:
 
 @wp.struct
 class FilterData:
-    """A non-box pixel filter's sampling table (kernels/filters.py: filter_cdf); unused by the box."""
+    """A non-box pixel filter's sampling table (kernels/filters.py: filter_cdf; its size, the radius
+    and the integral are compile-time constants of the filter's variant); unused by the box."""
     cdf: wp.array(dtype=float)      # bins + 1 values, 0 ... 1
-    bins: int
-    radius: float
-    inv_integral: float             # 1 / integral of the 2D filter
 
 
 @wp.struct
@@ -343,13 +341,7 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
 
 
 def _put_filter(sd: SceneData, name: str, arr: Callable) -> None:
-    filt = FILTERS[name]
-    fd = sd.filter
-    cdf = filter_cdf(name) if name != BOX else np.array([0.0, 1.0])
-    fd.cdf = arr(cdf, float, (2,))
-    fd.bins = len(cdf) - 1
-    fd.radius = float(filt.radius)
-    fd.inv_integral = float(1.0 / filt.integral)
+    sd.filter.cdf = arr(filter_cdf(name) if name != BOX else np.array([0.0, 1.0]), float, (2,))
 
 
 def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device: str,

@@ -1,53 +1,59 @@
 """The pixel filters on the device: each filter's 1D profile, filter importance sampling and the
-splatting weight (the definitions and the tables: kernels/filters.py).
+splatting weights (the definitions and the tables: kernels/filters.py).
 
 `make_pixel_filter(features)` returns a PixelFilter of Warp functions, or None for the box (whose
-pixel is today's square, with no filter code compiled in):
-    profile(x) -> f1(x)                           the separable profile, 0 outside the radius
-    sample(sd, u) -> vec3(dx, dy, w)              an offset from the pixel centre drawn from the table
-                                                  of |f1| x |f1| and its weight f / (p integral f)
-    weight(dx, dy) -> f(dx, dy)                   what a splatted sample at that offset adds
+pixel is today's square, with no filter code compiled in). A filter's radius, table size and integral
+are compile-time constants (a variant per filter), so the profile's constants fold away and the
+table search is a fixed number of steps:
+    profile(x) -> f1(x)                     the separable profile, 0 outside the radius
+    sample(sd, u) -> vec3(dx, dy, w)        an offset from the pixel centre drawn from the table of
+                                            |f1| x |f1| and its weight f / (p integral f)
+    reach(u) -> Reach                       for a sample at u within its pixel, f1 at its offsets
+                                            from the centres of the 2 margin + 1 pixels in each
+                                            direction around it (the gather multiplies them)
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT, Features
-from drtlab.kernels.filters import BH_COEFFS, BOX, GAUSSIAN_SIGMA, MITCHELL_B, MITCHELL_C
-
-INV_SQRT_2PI = wp.constant(0.3989422804014327)
+from drtlab.kernels.filters import (BH_COEFFS, BOX, FILTERS, GAUSSIAN_SIGMA, MITCHELL_B, MITCHELL_C,
+                                    filter_cdf)
 
 
 class PixelFilter(NamedTuple):
     profile: wp.Function
     sample: wp.Function
-    weight: wp.Function
+    reach: wp.Function
+    reach_type: type            # the vector of reach's values, one per neighbour column (or row)
 
 
-def _profile(name: str) -> wp.Function:
+def _profile(name: str, radius: float) -> wp.Function:
+    r = wp.constant(float(radius))
     if name == "gaussian":
-        sigma = wp.constant(float(GAUSSIAN_SIGMA))
+        inv_two_var = wp.constant(float(0.5 / GAUSSIAN_SIGMA ** 2))
+        norm = wp.constant(float(1.0 / (math.sqrt(2.0 * math.pi) * GAUSSIAN_SIGMA)))
+        at_radius = wp.constant(float(math.exp(-0.5 * (radius / GAUSSIAN_SIGMA) ** 2)))
 
         @wp.func
-        def gaussian(x: float, r: float) -> float:
-            g = wp.exp(-0.5 * (x / sigma) * (x / sigma))
-            gr = wp.exp(-0.5 * (r / sigma) * (r / sigma))
-            return wp.max(0.0, (g - gr) * (INV_SQRT_2PI / sigma))
+        def gaussian(x: float) -> float:
+            return wp.max(0.0, (wp.exp(-inv_two_var * x * x) - at_radius) * norm)
         return gaussian
     if name == "mitchell":
         b, c = float(MITCHELL_B), float(MITCHELL_C)
-        # Mitchell-Netravali's two cubics, coefficients of x^3, x^2, x, 1 over 6.
-        i3, i2, i0 = wp.constant((12 - 9 * b - 6 * c) / 6), wp.constant((-18 + 12 * b + 6 * c) / 6), \
-            wp.constant((6 - 2 * b) / 6)
-        o3, o2, o1, o0 = wp.constant((-b - 6 * c) / 6), wp.constant((6 * b + 30 * c) / 6), \
-            wp.constant((-12 * b - 48 * c) / 6), wp.constant((8 * b + 24 * c) / 6)
+        # Mitchell-Netravali's two cubics in t = |2x / radius|: coefficients of t^3, t^2, t, 1, over 6.
+        i3, i2, i0 = (wp.constant(v / 6.0) for v in (12 - 9 * b - 6 * c, -18 + 12 * b + 6 * c, 6 - 2 * b))
+        o3, o2, o1, o0 = (wp.constant(v / 6.0) for v in (-b - 6 * c, 6 * b + 30 * c, -12 * b - 48 * c,
+                                                         8 * b + 24 * c))
+        scale = wp.constant(float(2.0 / radius))
 
         @wp.func
-        def mitchell(x: float, r: float) -> float:
-            t = wp.abs(2.0 * x / r)
+        def mitchell(x: float) -> float:
+            t = wp.abs(x * scale)
             v = float(0.0)
             if t <= 1.0:
                 v = (i3 * t + i2) * t * t + i0
@@ -57,13 +63,17 @@ def _profile(name: str) -> wp.Function:
         return mitchell
     if name == "blackman_harris":
         a0, a1, a2, a3 = (wp.constant(float(a)) for a in BH_COEFFS)
+        freq = wp.constant(float(math.pi / radius))
 
         @wp.func
-        def blackman_harris(x: float, r: float) -> float:
+        def blackman_harris(x: float) -> float:
             v = float(0.0)
             if wp.abs(x) <= r:
-                t = wp.pi * (x + r) / r
-                v = a0 - a1 * wp.cos(t) + a2 * wp.cos(2.0 * t) - a3 * wp.cos(3.0 * t)
+                # cos 2t and cos 3t from cos t (one cosine per value).
+                c1 = wp.cos(freq * (x + r))
+                c2 = 2.0 * c1 * c1 - 1.0
+                c3 = (4.0 * c1 * c1 - 3.0) * c1
+                v = a0 - a1 * c1 + a2 * c2 - a3 * c3
             return v
         return blackman_harris
     raise ValueError(f"no device profile for filter {name!r}")
@@ -72,43 +82,50 @@ def _profile(name: str) -> wp.Function:
 def make_pixel_filter(f: Features) -> PixelFilter | None:
     if f.filter == BOX:
         return None
-    profile = _profile(f.filter)
+    filt = FILTERS[f.filter]
+    profile = _profile(f.filter, filt.radius)
+    bins = len(filter_cdf(f.filter)) - 1
+    STEPS = int(math.log2(bins))
+    assert 1 << STEPS == bins, "the table search halves a power-of-two table"
+    r = wp.constant(float(filt.radius))
+    bin_width = wp.constant(float(2.0 * filt.radius / bins))
+    inv_integral = wp.constant(float(1.0 / filt.integral))
     NO_SIGN = FILTER_NO_SIGN in f.faults
     spread = wp.constant(1.1 if FILTER_RADIUS_HIGH_10PCT in f.faults else 1.0)
+    K = 2 * filt.margin + 1
+    reach_type = wp.types.vector(length=K, dtype=wp.float32)
+    first = wp.constant(float(-filt.margin - 0.5))
 
     @wp.func
     def sample_1d(sd: SceneData, u: float) -> wp.vec2:
         # (x, density): the bin whose CDF interval holds u (cdf[0] = 0 <= u < 1 = cdf[bins], so
         # the bin has mass), then uniform within it.
         lo = int(0)
-        hi = sd.filter.bins
-        while hi - lo > 1:
-            mid = (lo + hi) / 2
-            if sd.filter.cdf[mid] <= u:
-                lo = mid
-            else:
-                hi = mid
+        half = int(bins)
+        for _ in range(wp.static(STEPS)):
+            half = half / 2
+            if sd.filter.cdf[lo + half] <= u:
+                lo = lo + half
         c0 = sd.filter.cdf[lo]
         mass = sd.filter.cdf[lo + 1] - c0
-        h = 2.0 * sd.filter.radius / float(sd.filter.bins)
         t = wp.clamp((u - c0) / mass, 0.0, 1.0)
-        return wp.vec2(-sd.filter.radius + h * (float(lo) + t), mass / h)
-
-    @wp.func
-    def weight(sd: SceneData, dx: float, dy: float) -> float:
-        r = sd.filter.radius
-        if wp.abs(dx) > r or wp.abs(dy) > r:
-            return 0.0
-        return profile(dx, r) * profile(dy, r)
+        return wp.vec2(-r + bin_width * (float(lo) + t), mass / bin_width)
 
     @wp.func
     def sample(sd: SceneData, u: wp.vec2) -> wp.vec3:
         sx = sample_1d(sd, u[0])
         sy = sample_1d(sd, u[1])
-        fv = weight(sd, sx[0], sy[0])
+        fv = profile(sx[0]) * profile(sy[0])
         if wp.static(NO_SIGN):
             fv = wp.abs(fv)
-        w = fv / (sx[1] * sy[1]) * sd.filter.inv_integral
+        w = fv / (sx[1] * sy[1]) * inv_integral
         return wp.vec3(sx[0] * spread, sy[0] * spread, w)
 
-    return PixelFilter(profile=profile, sample=sample, weight=weight)
+    @wp.func
+    def reach(u: float) -> reach_type:
+        out = reach_type()
+        for i in range(wp.static(K)):
+            out[i] = profile(first + float(i) + u)
+        return out
+
+    return PixelFilter(profile=profile, sample=sample, reach=reach, reach_type=reach_type)

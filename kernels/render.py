@@ -196,12 +196,12 @@ MAX_PIXELS = 2**28      # a Warp launch's thread count and array shape stay far 
 def check_image_size(width: int, height: int, moments: bool = False, field: str = "res",
                      repetitions: int = 1, splat_samples: int = 0, margin: int = 0) -> None:
     """Refuse, before compiling or rendering, an image (or a batch of `repetitions` images) whose
-    buffers cannot fit in this machine (splatting also keeps `splat_samples` samples, 20 bytes each,
-    of every pixel of the image grown by `margin`)."""
+    buffers cannot fit in this machine (splatting also keeps `splat_samples` samples of every pixel
+    of the image grown by `margin`: radiance and 2 (2 margin + 1) profile values, float32)."""
     pixels = width * height * repetitions
     need = pixels * (_BYTES_PER_PIXEL + (48 if moments else 0))
     if splat_samples:
-        need += (width + 2 * margin) * (height + 2 * margin) * repetitions * (20 * splat_samples + 8)
+        need += (width + 2 * margin) * (height + 2 * margin) * repetitions * (4 * (3 + 4 * margin + 2) * splat_samples + 8)
     try:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):
@@ -332,7 +332,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
     sums.total = wp.zeros(R * W * H, dtype=wp.vec3d, device=device)
     sums.squares = wp.zeros(R * W * H if variance else 1, dtype=wp.vec3d, device=device)
     grown = R * (W + 2 * m) * (H + 2 * m) * pass_samples if features.splat else 1
-    sums.splat_u = wp.zeros(grown, dtype=wp.vec2, device=device)
+    sums.splat_f = wp.zeros(grown * 2 * (2 * m + 1) if features.splat else 1, dtype=float, device=device)
     sums.splat_L = wp.zeros(grown, dtype=wp.vec3, device=device)
     sums.weight = wp.zeros(R * W * H if features.splat else 1, dtype=wp.float64, device=device)
     tiles = _tiles(W + 2 * m, H + 2 * m, tile, device)

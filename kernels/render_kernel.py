@@ -47,9 +47,10 @@ class PixelSums:
     total: wp.array(dtype=wp.vec3d)
     squares: wp.array(dtype=wp.vec3d)
     # Splatting only (else one element each): this pass's samples of every pixel of the image grown
-    # by the filter's margin, their offsets within their pixel and radiance (kernels/splat.py gathers
-    # them), and each pixel's sum of filter weights.
-    splat_u: wp.array(dtype=wp.vec2)
+    # by the filter's margin, their radiance and the filter's profile at their offsets from the
+    # 2 margin + 1 columns' and rows' centres around them (kernels/splat.py gathers them), and each
+    # pixel's sum of filter weights.
+    splat_f: wp.array(dtype=float)
     splat_L: wp.array(dtype=wp.vec3)
     weight: wp.array(dtype=wp.float64)
 
@@ -66,6 +67,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     FIS = pixel_filter is not None and not f.splat
     SPLAT = pixel_filter is not None and f.splat
     MARGIN = FILTERS[f.filter].margin if SPLAT else 0
+    K = 2 * MARGIN + 1
+    reach = pixel_filter.reach if SPLAT else None
     get2d = pointset.get2d
     trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
     trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting)
@@ -114,10 +117,15 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                 if wp.static(FIS):
                     Ls = Ls * ray.w
                 if wp.static(SPLAT):
-                    # The pixel position again (a pure function of the sample's key): kept with the
-                    # radiance for the gather.
-                    sums.splat_u[pixel * count + k] = get2d(seed, pix, idx,
-                                                            wp.uint32(wp.static(dims.PIXEL)), word)
+                    # The pixel position again (a pure function of the sample's key) -> the filter's
+                    # profile at its offsets from the neighbour pixels' centres, kept for the gather.
+                    u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), word)
+                    fx = reach(u[0])
+                    fy = reach(u[1])
+                    base = (pixel * count + k) * wp.static(2 * K)
+                    for i in range(wp.static(K)):
+                        sums.splat_f[base + i] = fx[i]
+                        sums.splat_f[base + wp.static(K) + i] = fy[i]
                     sums.splat_L[pixel * count + k] = Ls
             x = wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
             total += x
