@@ -222,10 +222,10 @@ def test_fis_without_the_sign_of_negative_lobes_is_rejected():
     assert c.rejected, c.summary()
 
 
-@pytest.mark.parametrize("pixel_filter", ["gaussian", "blackman_harris"])
-def test_fis_with_a_wrong_radius_is_rejected(pixel_filter):
-    # Offsets drawn 10% too far from the centre: a wider filter than the pixel's.
-    c = fis_comparison(pixel_filter, runs=32, faults=(FILTER_RADIUS_HIGH_10PCT,))
+def test_fis_with_a_wrong_radius_is_rejected():
+    # Offsets drawn 10% too far from the centre: a wider filter than the pixel's (Blackman-Harris's
+    # and Mitchell's are rejected too, p = 6e-23 and 3e-4 when written: one case keeps compiles few).
+    c = fis_comparison("gaussian", runs=32, faults=(FILTER_RADIUS_HIGH_10PCT,))
     assert c.rejected, c.summary()
 
 
@@ -253,6 +253,7 @@ def test_splatting_is_biased_at_one_sample_per_pixel():
 # Determinism, and the settings' errors
 # ---------------------------------------------------------------------------------------------------
 
+# zsobol keys pixels by their Morton code: splatting keys them in the grown image.
 @pytest.mark.parametrize("sampler", ["stratified", "zsobol+splat"])
 def test_bit_identical_across_threads_tiles_and_batches(sampler):
     scene = half_plane_scene("mitchell")
@@ -267,8 +268,8 @@ def test_bit_identical_across_threads_tiles_and_batches(sampler):
 
 def test_box_is_the_same_image_under_both_estimators():
     scene = half_plane_scene("box")
-    assert np.array_equal(render(scene, spp=3, sampler="sobol", seed=2, progress=False),
-                          render(scene, spp=3, sampler="sobol+splat", seed=2, progress=False))
+    assert np.array_equal(render(scene, spp=3, sampler="stratified", seed=2, progress=False),
+                          render(scene, spp=3, sampler="stratified+splat", seed=2, progress=False))
 
 
 def test_bad_filter_and_unsupported_combinations_are_one_input_error():
