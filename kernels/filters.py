@@ -21,7 +21,7 @@ unbiased for I(p) whatever the table's resolution; the pixel stays an independen
 
 Splatting (weighted accumulation): every pixel's samples stay uniform in its own square, and a pixel
 is sum_k f(x_k - c) L_k / sum_k f(x_k - c) over every sample within the radius, its neighbours'
-included (a ratio estimator: consistent, biased at low spp). See kernels/render.py for the gather.
+included (a ratio estimator: consistent, biased at low spp). See kernels/splat.py for the gather.
 """
 from __future__ import annotations
 
@@ -32,7 +32,11 @@ from functools import lru_cache
 import numpy as np
 
 BOX = "box"
-TABLE_BINS = 256        # per axis: a 2D table of pbrt-v4's 32 bins per unit radius would be 48-64
+# Bins per axis, a power of two (the device's search halves the table). pbrt-v4 tabulates the 2D
+# filter at 32 bins per unit radius (48-64 a side) and weighs a sample by the bin's value over its
+# density, which estimates the tabulated filter; here the weight uses f itself, so the table's size
+# sets only the variance (f / p within a bin), never the pixel's definition.
+TABLE_BINS = 256
 
 
 @dataclass(frozen=True)
