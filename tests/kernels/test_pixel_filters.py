@@ -155,6 +155,7 @@ def band_comparison(pixel_filter: str, imgs: np.ndarray):
     spread over the runs can be zero while its value is not; the lit pixels beyond the filter's reach
     (value exactly 1) form one band, which tests the weights' normalisation. Each band's variance is
     the spread of its K run means (K - 1 dof), which also holds for splatting's shared samples."""
+    assert np.isfinite(imgs).all()      # splatting's sum of weights can be <= 0: its pixel is 0
     truth = truth_of(pixel_filter)
     r = FILTERS[pixel_filter].radius
     p0, _, n = _edge()
