@@ -9,7 +9,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -55,6 +55,9 @@ experiment-presampled: $(RUNTIME)
 
 experiment-environment: $(RUNTIME)
 	$(DRT) experiment environment
+
+experiment-filters: $(RUNTIME)
+	$(DRT) experiment filters
 
 experiment-all: $(RUNTIME)
 	$(DRT) experiment all

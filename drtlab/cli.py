@@ -47,6 +47,11 @@ def cmd_samplers(args) -> int:
         ("strategies:", [(s.name, s.description) for s in STRATEGIES.values()]),
         (f"presets: any POINTS+STRATEGY is accepted too; the default is {DEFAULT_SAMPLER}",
          [(name, f"{p}+{s}") for name, (p, s) in PRESETS.items()]),
+        ("pixel-filter estimators: a suffix of any sampler name ([camera] filter; the box is the "
+         "same image under both)",
+         [("+fis", "filter importance sampling (the default): unbiased, each pixel independent"),
+          ("+splat", "splatting, sum f L / sum f over the samples within the radius: consistent, "
+                     "biased at low spp")]),
         ("integrators:", [(i.name, "biased" if i.biased else "unbiased", i.description)
                           for i in INTEGRATORS.values()])]
     # One name column for all sections, so that the lists read as one table.

@@ -88,30 +88,49 @@ PRESETS: dict[str, tuple[str, str]] = {
 }
 
 
+# How a pixel filter other than the box is estimated (kernels/filters.py), as a suffix of the sampler
+# name: "+fis" (filter importance sampling, the default, unbiased) or "+splat" (weighted splatting,
+# consistent). A box-filtered scene renders the same image under both.
+PIXEL_ESTIMATORS = ("fis", "splat")
+
+
 @dataclass(frozen=True)
 class SamplerSpec:
     pointset: PointSet
     strategy: Strategy
+    splat: bool = False
 
     @property
     def name(self) -> str:
-        """Canonical name: the preset name when one matches, else POINTS+STRATEGY."""
+        """Canonical name: the preset name when one matches, else POINTS+STRATEGY; "+splat" after
+        it for the splatting estimator."""
+        suffix = "+splat" if self.splat else ""
         for preset, pair in PRESETS.items():
             if pair == (self.pointset.name, self.strategy.name):
-                return preset
-        return f"{self.pointset.name}+{self.strategy.name}"
+                return preset + suffix
+        return f"{self.pointset.name}+{self.strategy.name}{suffix}"
 
 
 def _allowed() -> str:
     return (f"a preset ({', '.join(PRESETS)}), POINTS+STRATEGY with POINTS in "
             f"{{{', '.join(POINTSETS)}}} and STRATEGY in {{{', '.join(STRATEGIES)}}}, or POINTS "
-            f"alone (= POINTS+{POINTSET_STRATEGY})")
+            f"alone (= POINTS+{POINTSET_STRATEGY}); any of them may end in "
+            f"{' or '.join('+' + e for e in PIXEL_ESTIMATORS)} (the pixel filter's estimator)")
 
 
 def parse_sampler(name: str, field: str = "sampler") -> SamplerSpec:
     """A preset, POINTS+STRATEGY, or a point set's name alone (POINTS+POINTSET_STRATEGY)."""
     if not isinstance(name, str):
         raise InputError(field, f"must be a string: {_allowed()}, got {name!r}")
+    full, estimator = name, "fis"
+    head, _, tail = name.rpartition("+")
+    if head and tail in PIXEL_ESTIMATORS:
+        name, estimator = head, tail
+    spec = _parse_base(name, full, field)
+    return SamplerSpec(spec.pointset, spec.strategy, splat=estimator == "splat")
+
+
+def _parse_base(name: str, full: str, field: str) -> SamplerSpec:
     if name in PRESETS:
         points, strategy = PRESETS[name]
     elif name in POINTSETS:
@@ -119,9 +138,9 @@ def parse_sampler(name: str, field: str = "sampler") -> SamplerSpec:
     elif name.count("+") == 1:
         points, strategy = name.split("+")
     else:
-        raise InputError(field, f"unknown sampler '{name}'; expected {_allowed()}")
+        raise InputError(field, f"unknown sampler '{full}'; expected {_allowed()}")
     if points not in POINTSETS or strategy not in STRATEGIES:
-        raise InputError(field, f"unknown sampler '{name}'; expected {_allowed()}")
+        raise InputError(field, f"unknown sampler '{full}'; expected {_allowed()}")
     return SamplerSpec(POINTSETS[points], STRATEGIES[strategy])
 
 

@@ -1,7 +1,8 @@
 """Primary rays: the camera's thin lens and shutter per kernel variant, and Whitted's sub-pixel grid.
 
 `make_camera(features, pointset)` returns the Warp function
-sample_ray(sd, seed, pix, idx, spp, px, py) -> CameraRay (pixel, lens and time from the point set);
+sample_ray(sd, seed, pix, idx, spp, px, py) -> CameraRay (pixel, lens and time from the point set;
+with filter importance sampling the pixel position is drawn from the filter and weighted, `w`);
 `grid_ray_dir(sd, px, py, sub, nx, ny)` is the pinhole direction through the centre of sub-pixel
 `sub` of an nx x ny grid.
 """
@@ -12,6 +13,7 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.domain_maps import square_to_disk
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import Features
+from drtlab.kernels.filter_sampling import PixelFilter
 
 
 @wp.struct
@@ -19,6 +21,7 @@ class CameraRay:
     o: wp.vec3
     d: wp.vec3
     dt: float           # shutter offset (time since shutter open)
+    w: float            # the pixel filter's sample weight (filter importance sampling; else unused)
 
 
 @wp.func
@@ -39,14 +42,22 @@ def grid_ray_dir(sd: SceneData, px: int, py: int, sub: int, nx: int, ny: int) ->
     return camera_ray_dir(sd, px, py, u, wp.vec2(0.0, 0.0))
 
 
-def make_camera(f: Features, pointset: PointSet) -> wp.Function:
+def make_camera(f: Features, pointset: PointSet, pixel_filter: PixelFilter | None = None) -> wp.Function:
     get1d = pointset.get1d
     get2d = pointset.get2d
+    # Filter importance sampling: the pixel dimensions drawn from the filter around the pixel centre.
+    FIS = pixel_filter is not None and not f.splat
+    filter_sample = pixel_filter.sample if FIS else None
 
     @wp.func
     def sample_ray(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32,
                    spp: wp.uint32, px: int, py: int) -> CameraRay:
         u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), spp)
+        w = float(1.0)
+        if wp.static(FIS):
+            s = filter_sample(sd, u)
+            u = wp.vec2(0.5 + s[0], 0.5 + s[1])
+            w = s[2]
         lens = wp.vec2(0.0, 0.0)
         o = sd.camera.position
         # A runtime switch (one branch per sample): scenes with and without a lens share a variant.
@@ -58,6 +69,7 @@ def make_camera(f: Features, pointset: PointSet) -> wp.Function:
         ray.o = o
         ray.d = camera_ray_dir(sd, px, py, u, lens)
         ray.dt = float(0.0)
+        ray.w = w
         if sd.moving == 1:
             ray.dt = (sd.camera.shutter_close - sd.camera.shutter_open) * get1d(
                 seed, pix, idx, wp.uint32(wp.static(dims.TIME)), spp)

@@ -23,6 +23,7 @@ from drtlab.kernels.environment import EnvironmentData, environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
+from drtlab.kernels.filters import BOX, filter_cdf
 from drtlab.kernels.material_kinds import MATERIAL_CODE
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as initialised_warp
@@ -136,6 +137,13 @@ class CameraData:
 
 
 @wp.struct
+class FilterData:
+    """A non-box pixel filter's sampling table (kernels/filters.py: filter_cdf; its size, the radius
+    and the integral are compile-time constants of the filter's variant); unused by the box."""
+    cdf: wp.array(dtype=float)      # bins + 1 values, 0 ... 1
+
+
+@wp.struct
 class SceneData:
     """The scene as the kernels read it, in parts: its shapes by kind, materials, lights, camera,
     then the render settings. Nesting costs nothing: sd.camera.position is one load at a fixed
@@ -148,6 +156,7 @@ class SceneData:
     lights: LightData
     environment: EnvironmentData               # the [environment] light (kernels/environment.py)
     camera: CameraData
+    filter: FilterData
     background: wp.vec3
     eps: float                                 # ray-origin offset at the scene's scale
     width: int
@@ -338,6 +347,10 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     c.shutter_close = float(cam.shutter[1])
 
 
+def _put_filter(sd: SceneData, name: str, arr: Callable) -> None:
+    sd.filter.cdf = arr(filter_cdf(name) if name != BOX else np.array([0.0, 1.0]), float, (2,))
+
+
 def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device: str,
                 extent: float) -> list:
     """The meshes' BVHs and tables; returns the wp.Bvh objects, which must outlive sd."""
@@ -413,6 +426,7 @@ def _upload(scene: Scene, device: str) -> SceneData:
     sd.environment = environment_data(scene.environment, np.asarray(emitter_powers(scene)),
                                       0.5 * extent, arr)
     _put_camera(sd, scene)
+    _put_filter(sd, scene.camera.filter, arr)
     sd.background = wp.vec3(*_f3(scene.background))
     sd.eps = float(1e-6 * extent)
     sd.width = int(scene.width)

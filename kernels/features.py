@@ -18,6 +18,11 @@ FAULTS = (DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, LIGHT_JACOBIAN)
 # controlled on built-in scenes by tests/estimators/test_unbiased.py).
 MESH_PDF_HIGH_10PCT = "mesh_pdf_high_10pct"  # mesh lights claim an area density 10% too high
 MESH_FAULTS = (MESH_PDF_HIGH_10PCT,)
+# Faults of the pixel filters (tests/kernels/test_pixel_filters.py): filter importance sampling that
+# drops the sign of negative lobes, or samples the filter over a radius 10% too wide.
+FILTER_NO_SIGN = "filter_no_sign"
+FILTER_RADIUS_HIGH_10PCT = "filter_radius_high_10pct"
+FILTER_FAULTS = (FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT)
 
 # Scenes with at least this many spheres find them through a wp.Bvh of their bounding boxes instead
 # of a loop over all of them. `make bench` measures the crossover (experiments/bench/primitives.py,
@@ -66,6 +71,8 @@ class Features:
     meshes: bool = False    # triangle meshes (wp.Mesh ray queries; absent: compiled out)
     sphere_bvh: bool = False  # spheres found through a wp.Bvh (uses_sphere_bvh), else by a loop
     environment: bool = False  # an [environment] light (kernels/environment.py; absent: compiled out)
+    filter: str = "box"     # pixel filter (kernels/filters.py); box: no filter code at all
+    splat: bool = False     # the splatting estimator of a non-box filter (else filter importance sampling)
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -109,6 +116,7 @@ class Features:
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
+        key += f"+{self.filter}" + ("-splat" if self.splat else "") if self.filter != "box" else ""
         key += "+moments" if self.moments else ""
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
 
@@ -131,6 +139,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         meshes=any(shape.kind == "mesh" for shape in scene.shapes),
         sphere_bvh=uses_sphere_bvh(scene),
         environment=scene.environment is not None,
+        filter=scene.camera.filter,
     )
 
 

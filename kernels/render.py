@@ -18,7 +18,8 @@ from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integ
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
-from drtlab.kernels.features import FAULTS, MESH_FAULTS, Features, features_of
+from drtlab.kernels.features import FAULTS, FILTER_FAULTS, MESH_FAULTS, Features, features_of
+from drtlab.kernels.filters import BOX, FILTERS
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as _wp
@@ -114,6 +115,42 @@ def get_kernel(features: Features, spec: SamplerSpec, device: str):
         return entry
 
 
+def get_gather(features: Features, device: str):
+    """The splatting gather kernel of `features.filter` (kernels/splat.py); one per filter."""
+    wp = _wp()
+    key = ("gather", features.filter, device)
+    with _lock:
+        entry = _kernels.get(key)
+        if entry is not None:
+            return entry[0], 0.0
+        variant_lock = _compiling.setdefault(key, threading.Lock())
+    with variant_lock:
+        with _lock:
+            entry = _kernels.get(key)
+        if entry is not None:
+            return entry[0], 0.0
+        from drtlab.kernels.splat import make_gather
+        with _factory_lock:
+            kernel = make_gather(features)
+        t0 = time.perf_counter()
+        wp.load_module(kernel.module, device=device)
+        entry = (kernel, time.perf_counter() - t0)
+        with _lock:
+            _kernels[key] = entry
+        return entry
+
+
+def render_features(scene: Scene, integrator: str, spec: SamplerSpec) -> Features:
+    """The features of rendering `scene` with `integrator` and the sampler `spec`: the scene's, plus
+    the pixel filter's estimator (splatting only for a filter other than the box, for which both
+    estimators are today's pixel)."""
+    f = features_of(scene, integrator)
+    if f.filter != BOX and f.whitted:
+        raise InputError("camera.filter", f"'{f.filter}' needs a stochastic integrator (drt or path): "
+                                          "whitted samples a fixed sub-pixel grid of the box pixel")
+    return replace(f, splat=spec.splat and f.filter != BOX)
+
+
 def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> dict:
     """Compile (or load from Warp's cache) the kernel variants of `jobs`, (scene, sampler, integrator)
     triples, on `threads` threads at once: a cold experiment's compiles are most of its first minute,
@@ -123,11 +160,16 @@ def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> d
     keys = {}
     for scene, sampler, integrator in jobs:
         spec, scene, integ = _resolve_job(scene, sampler, integrator, None)
-        f = features_of(scene, integ)
+        f = render_features(scene, integ, spec)
         keys.setdefault(_variant_key(f.code_key(), spec, device), (f, spec))
     t0 = time.perf_counter()
+
+    def compile_one(fs):
+        gather = get_gather(fs[0], device)[1] if fs[0].splat else 0.0
+        return get_kernel(fs[0], fs[1], device)[1] + gather
+
     with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="drtlab-compile") as pool:
-        seconds = list(pool.map(lambda fs: get_kernel(fs[0], fs[1], device)[1], keys.values()))
+        seconds = list(pool.map(compile_one, keys.values()))
     return {"variants": len(keys), "compiled": sum(1 for x in seconds if x > 0.2),
             "wall_seconds": time.perf_counter() - t0, "compile_seconds": sum(seconds),
             "threads": threads}
@@ -140,11 +182,14 @@ MAX_PIXELS = 2**28      # a Warp launch's thread count and array shape stay far 
 
 
 def check_image_size(width: int, height: int, moments: bool = False, field: str = "res",
-                     repetitions: int = 1) -> None:
+                     repetitions: int = 1, splat_samples: int = 0, margin: int = 0) -> None:
     """Refuse, before compiling or rendering, an image (or a batch of `repetitions` images) whose
-    buffers cannot fit in this machine."""
+    buffers cannot fit in this machine (splatting also keeps `splat_samples` samples of every pixel
+    of the image grown by `margin`: radiance and 2 (2 margin + 1) profile values, float32)."""
     pixels = width * height * repetitions
     need = pixels * (_BYTES_PER_PIXEL + (48 if moments else 0))
+    if splat_samples:
+        need += (width + 2 * margin) * (height + 2 * margin) * repetitions * (4 * (3 + 4 * margin + 2) * splat_samples + 8)
     try:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):
@@ -240,29 +285,46 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
         raise InputError("device", f"must be one of {', '.join(DEVICES)}, got {device!r}")
     if device == "cuda" and not _wp().is_cuda_available():
         raise InputError("device", "cuda requested but no CUDA device is available; use cpu")
-    features = features_of(scene, integ)
+    features = render_features(scene, integ, spec)
+    if variance and features.splat:
+        raise InputError("variance", "is not defined for the splatting estimator (a pixel is a ratio "
+                                     "over its neighbours' samples); use the +fis estimator")
     if scene.max_depth == -1 and not features.roulette:
         raise InputError("scene.max_depth", "-1 (unbounded) needs integrator path with "
                          "russian_roulette = true; use a depth >= 1")
 
     wp = _wp()
     if faults:
-        unknown = sorted(set(faults) - set(FAULTS + MESH_FAULTS))
+        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS
+        unknown = sorted(set(faults) - set(allowed))
         if unknown:
-            raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(FAULTS + MESH_FAULTS)}")
+            raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(allowed)}")
         features = replace(features, faults=frozenset(faults))
     if variance:
         features = replace(features, moments=True)
     R, W, H = len(seeds), scene.width, scene.height
-    check_image_size(W, H, moments=bool(variance), repetitions=R)
+    # Splatting traces the image grown by the filter's margin and keeps a pass's samples.
+    m = FILTERS[features.filter].margin if features.splat else 0
+    pass_samples = min(PASS_SAMPLES, spp) if features.splat else 0
+    check_image_size(W, H, moments=bool(variance), repetitions=R, splat_samples=pass_samples,
+                     margin=m)
     kernel, compile_s = get_kernel(features, spec, device)
+    gather = None
+    if features.splat:
+        gather, gather_s = get_gather(features, device)
+        compile_s += gather_s
     sd = upload(scene, device)
     from drtlab.kernels.render_kernel import PixelSums
     sums = PixelSums()
     sums.seeds = wp.array(np.asarray(seeds, dtype=np.uint32), dtype=wp.uint32, device=device)
     sums.total = wp.zeros(R * W * H, dtype=wp.vec3d, device=device)
     sums.squares = wp.zeros(R * W * H if variance else 1, dtype=wp.vec3d, device=device)
-    tiles = _tiles(W, H, tile, device)
+    grown = R * (W + 2 * m) * (H + 2 * m) * pass_samples if features.splat else 1
+    sums.splat_f = wp.zeros(grown * 2 * (2 * m + 1) if features.splat else 1, dtype=float, device=device)
+    sums.splat_L = wp.zeros(grown, dtype=wp.vec3, device=device)
+    sums.weight = wp.zeros(R * W * H if features.splat else 1, dtype=wp.float64, device=device)
+    tiles = _tiles(W + 2 * m, H + 2 * m, tile, device)
+    gather_tiles = _tiles(W, H, tile, device) if features.splat else []
     passes = [(i, min(PASS_SAMPLES, spp - i)) for i in range(0, spp, PASS_SAMPLES)]
     bar = _progress_bar(R * W * H * spp > 4_000_000 if progress is None else progress,
                         len(passes) * len(tiles), scene.name)
@@ -271,6 +333,10 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
         x0, y0, tw, th = t
         wp.launch(kernel, dim=R * tw * th, device=device,
                   inputs=[sd, index0, count, spp, x0, y0, tw, th, sums])
+
+    def launch_gather(t, count):
+        x0, y0, tw, th = t
+        wp.launch(gather, dim=R * tw * th, device=device, inputs=[sd, count, x0, y0, tw, th, sums])
 
     t0, c0 = time.perf_counter(), time.process_time()
     pool = launch_pool(threads) if device == "cpu" and threads > 1 else None
@@ -281,11 +347,15 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
                     launch(t, index0, count)
                     if bar:
                         bar.update(1)
+                for t in gather_tiles:      # after every tile of the pass: it reads their samples
+                    launch_gather(t, count)
             else:
                 for fut in [pool.submit(launch, t, index0, count) for t in tiles]:
                     fut.result()
                     if bar:
                         bar.update(1)
+                for fut in [pool.submit(launch_gather, t, count) for t in gather_tiles]:
+                    fut.result()
         wp.synchronize_device(device)
     finally:
         if bar is not None:
@@ -293,12 +363,22 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
     elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
     total = sums.total.numpy().reshape(R, H, W, 3)        # a view of the sums (CPU), not a copy
     var = _sample_variance(total, sums.squares.numpy().reshape(R, H, W, 3), spp) if variance else None
-    # Divided in place: a batch's images are the buffer's size again, which a 1-spp batch would pay
-    # as an allocation and a pass over memory per call (on CUDA numpy() is a copy already).
-    images = np.divide(total, float(spp), out=total if device == "cpu" else None)
+    if features.splat:
+        images = splat_ratio(total, sums.weight.numpy().reshape(R, H, W, 1))
+    else:
+        # Divided in place: a batch's images are the buffer's size again, which a 1-spp batch would
+        # pay as an allocation and a pass over memory per call (on CUDA numpy() is a copy already).
+        images = np.divide(total, float(spp), out=total if device == "cpu" else None)
     return BatchStats(images=images, render_seconds=elapsed, cpu_seconds=cpu, compile_seconds=compile_s,
                       spp=spp, width=W, height=H, sampler=spec.name, integrator=integ, seeds=seeds,
                       variant=features.key(), threads=threads, device=device, variances=var)
+
+
+def splat_ratio(total: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """sum f L / sum f per pixel; 0 where the filter weights sum to <= 0 (only a negative-lobed
+    filter at very low spp can get there: the pixel is then undefined, and black is the choice)."""
+    ok = weight > 0.0
+    return np.where(ok, total / np.where(ok, weight, 1.0), 0.0)
 
 
 def _progress_bar(show: bool, launches: int, name: str):

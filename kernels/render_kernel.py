@@ -25,8 +25,11 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.camera import grid_ray_dir, make_camera
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import make_direct
+from drtlab.estimators import dimensions as dims
 from drtlab.kernels.environment_lighting import make_environment_lighting
 from drtlab.kernels.features import Features
+from drtlab.kernels.filter_sampling import make_pixel_filter
+from drtlab.kernels.filters import FILTERS
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect
 from drtlab.kernels.lights import make_lights
@@ -44,6 +47,13 @@ class PixelSums:
     seeds: wp.array(dtype=wp.uint32)
     total: wp.array(dtype=wp.vec3d)
     squares: wp.array(dtype=wp.vec3d)
+    # Splatting only (else one element each): this pass's samples of every pixel of the image grown
+    # by the filter's margin, their radiance and the filter's profile at their offsets from the
+    # 2 margin + 1 columns' and rows' centres around them (kernels/splat.py gathers them), and each
+    # pixel's sum of filter weights.
+    splat_f: wp.array(dtype=float)
+    splat_L: wp.array(dtype=wp.vec3)
+    weight: wp.array(dtype=wp.float64)
 
 
 def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
@@ -56,7 +66,14 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                    if f.environment and not WHITTED else None)
     lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights,
                            environment=environment)
-    sample_ray = make_camera(f, pointset)
+    pixel_filter = make_pixel_filter(f)
+    sample_ray = make_camera(f, pointset, pixel_filter)
+    FIS = pixel_filter is not None and not f.splat
+    SPLAT = pixel_filter is not None and f.splat
+    MARGIN = FILTERS[f.filter].margin if SPLAT else 0
+    K = 2 * MARGIN + 1
+    reach = pixel_filter.reach if SPLAT else None
+    get2d = pointset.get2d
     trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
     trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting,
                        environment=environment)
@@ -73,11 +90,18 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         local = tid - rep * tile_w * tile_h
         px = x0 + local % tile_w
         py = y0 + local / tile_w
-        if px >= sd.width or py >= sd.height:
+        # Splatting renders the image grown by the filter's margin (tiles of the grown grid, pixels
+        # keyed in it): the samples of pixels outside the image reach the pixels at its border.
+        grown_w = sd.width + 2 * wp.static(MARGIN)
+        grown_h = sd.height + 2 * wp.static(MARGIN)
+        if px >= grown_w or py >= grown_h:
             return
         seed = sums.seeds[rep]
-        pixel = rep * sd.width * sd.height + py * sd.width + px
-        pix = pixel_key(px, py, sd.width)
+        pixel = rep * grown_w * grown_h + py * grown_w + px
+        pix = pixel_key(px, py, grown_w)
+        if wp.static(SPLAT):
+            px = px - wp.static(MARGIN)
+            py = py - wp.static(MARGIN)
         uspp = wp.uint32(spp)
         # What the point set derives from spp alone (the stratified grid), once per pixel and pass.
         word = count_word(uspp)
@@ -95,10 +119,25 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             else:
                 ray = sample_ray(sd, seed, pix, idx, word, px, py)
                 Ls = trace(sd, seed, pix, idx, word, ray.o, ray.d, ray.dt)
+                if wp.static(FIS):
+                    Ls = Ls * ray.w
+                if wp.static(SPLAT):
+                    # The pixel position again (a pure function of the sample's key) -> the filter's
+                    # profile at its offsets from the neighbour pixels' centres, kept for the gather.
+                    u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), word)
+                    fx = reach(u[0])
+                    fy = reach(u[1])
+                    base = (pixel * count + k) * wp.static(2 * K)
+                    for i in range(wp.static(K)):
+                        sums.splat_f[base + i] = fx[i]
+                        sums.splat_f[base + wp.static(K) + i] = fy[i]
+                    sums.splat_L[pixel * count + k] = Ls
             x = wp.vec3d(wp.float64(Ls[0]), wp.float64(Ls[1]), wp.float64(Ls[2]))
             total += x
             if wp.static(f.moments):
                 total2 += wp.cw_mul(x, x)
+        if wp.static(SPLAT):
+            return
         sums.total[pixel] = sums.total[pixel] + total
         if wp.static(f.moments):
             sums.squares[pixel] = sums.squares[pixel] + total2

@@ -25,6 +25,7 @@ class Camera:
     aperture_radius: float = 0.0        # 0 -> pinhole
     focus_distance: float = 1.0         # distance along the view axis of the plane in focus
     shutter: tuple[float, float] = (0.0, 0.0)
+    filter: str = "box"                 # pixel reconstruction filter, a name in kernels/filters.py
 
     @property
     def has_lens(self) -> bool:

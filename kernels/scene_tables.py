@@ -16,6 +16,7 @@ from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
 from drtlab.kernels.environment_map import parse_environment
+from drtlab.kernels.filters import BOX, FILTER_NAMES
 from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS
 from drtlab.kernels.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
@@ -26,7 +27,7 @@ TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environme
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
               "rr_depth", "background")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
-               "focal_length", "image_distance", "shutter")
+               "focal_length", "image_distance", "shutter", "filter")
 # What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/mesh_file.py).
 SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
 SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
@@ -140,8 +141,9 @@ def _parse_camera(value: Any) -> Camera:
     fov = number(t.get("fov", 40.0, ""), t.field("fov"), "in (0, 180) degrees", lambda x: 0.0 < x < 180.0)
     aperture, focus = _parse_lens(t)
     shutter = _parse_shutter(t.get("shutter", [0.0, 0.0], ""), t.field("shutter"))
+    pixel_filter = string(t.get("filter", BOX, ""), t.field("filter"), FILTER_NAMES)
     return Camera(position=position, look_at=look_at, up=up, vfov_deg=fov, aperture_radius=aperture,
-                  focus_distance=focus, shutter=shutter)
+                  focus_distance=focus, shutter=shutter, filter=pixel_filter)
 
 
 def _parallel(a: np.ndarray, b: np.ndarray) -> bool:

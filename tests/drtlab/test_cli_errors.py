@@ -62,6 +62,10 @@ CLI_CASES = {
     "res-garbage": (["{good}", "--res", "big"], "--res"),
     "res-three-parts": (["{good}", "--res", "4x4x4"], "--res"),
     "device-tpu": (["{good}", "--device", "tpu"], "device"),
+    "unknown-filter-estimator": (["{good}", "--sampler", "stratified+splatter"], "sampler"),
+    "unknown-filter": (["{good}", "--set", "camera.filter=lanczos"], "camera.filter"),
+    "filter-with-whitted": (["{good}", "--set", "camera.filter=gaussian", "--integrator", "whitted"],
+                            "camera.filter"),
     **{f"scene-{name}": ([f"{{scenes}}/{name}.toml"], field) for name, (_, field) in BAD_SCENES.items()},
 }
 

@@ -1,12 +1,13 @@
 """render_batch: repetition r of a batch is bit-identical to a render of seeds[r] alone, whatever the
 batch size, thread count and tile size; over point sets, integrators and scenes with a thin lens,
-motion blur, triangle meshes, many spheres and Whitted's grid. Bad seeds are one InputError."""
+motion blur, triangle meshes, many spheres, Whitted's grid and pixel filters (both estimators). Bad seeds are one InputError."""
 import numpy as np
 import pytest
 
 import drtlab
 from drtlab.errors import InputError
 from drtlab.kernels.render import render_batch_with_stats
+from drtlab.kernels.scene_file import load_scene
 
 CASES = [  # scene, sampler, integrator
     ("dof", "sobol+importance", None),                    # thin lens
@@ -16,6 +17,10 @@ CASES = [  # scene, sampler, integrator
     ("cornell-box", "cmj+light", "path"),                 # transformed boxes, light sampling only
     ("veach-mis", "halton+bsdf", None),
     ("cornell-box", "uniform", "whitted"),                # no sampler: the sub-pixel grid
+    # Pixel filters: importance-sampled (each pixel alone) and splatted (a pass's samples of the
+    # grown image, gathered after the pass).
+    (load_scene("aa-edges", {"camera.filter": "gaussian"}), "stratified", None),
+    (load_scene("aa-edges", {"camera.filter": "mitchell"}), "sobol+splat", None),
 ]
 SEEDS = [0, 7, 2**32 - 1, 12345, 7]                      # a repeated seed repeats its image
 

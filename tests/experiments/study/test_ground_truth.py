@@ -94,3 +94,20 @@ def test_biased_integrator_refused(tmp_path):
         ensure_ground_truth(SCENE, "whitted", RES, 2048, 256, FakeRenderer().backend(), tmp_path,
                             progress=False)
     assert e.value.field == "integrator"
+
+
+def test_each_pixel_filter_has_its_own_reference(tmp_path):
+    # A filter defines the pixel: the same scene under two filters must never share a reference
+    # (the filter is in the scene's overrides, its content hash and its directory), and the reference
+    # is rendered with filter importance sampling (unbiased), never the splatting estimator.
+    from drtlab.experiments.study.config import scene_ref
+    from drtlab.experiments.study.ground_truth import gt_directory, scene_key_info
+    from drtlab.estimators.registry import parse_sampler
+    backend = FakeRenderer().backend()
+    refs = [scene_ref(e, "scenes[0]") for e in
+            ("aa-edges", {"name": "aa-edges", "overrides": {"camera.filter": "gaussian"}},
+             {"name": "aa-edges", "overrides": {"camera.filter": "mitchell"}})]
+    keys = [scene_key_info(r, "drt", RES, backend)[0] for r in refs]
+    assert len({k["scene_hash"] for k in keys}) == 3
+    assert len({gt_directory(tmp_path, r, "drt", RES) for r in refs}) == 3
+    assert not parse_sampler(GT_SAMPLER).splat

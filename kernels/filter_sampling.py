@@ -1,0 +1,131 @@
+"""The pixel filters on the device: each filter's 1D profile, filter importance sampling and the
+splatting weights (the definitions and the tables: kernels/filters.py).
+
+`make_pixel_filter(features)` returns a PixelFilter of Warp functions, or None for the box (whose
+pixel is today's square, with no filter code compiled in). A filter's radius, table size and integral
+are compile-time constants (a variant per filter), so the profile's constants fold away and the
+table search is a fixed number of steps:
+    profile(x) -> f1(x)                     the separable profile, 0 outside the radius
+    sample(sd, u) -> vec3(dx, dy, w)        an offset from the pixel centre drawn from the table of
+                                            |f1| x |f1| and its weight f / (p integral f)
+    reach(u) -> Reach                       for a sample at u within its pixel, f1 at its offsets
+                                            from the centres of the 2 margin + 1 pixels in each
+                                            direction around it (the gather multiplies them)
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import warp as wp
+
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.features import FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT, Features
+from drtlab.kernels.filters import (BH_COEFFS, BOX, FILTERS, GAUSSIAN_SIGMA, MITCHELL_B, MITCHELL_C,
+                                    filter_cdf)
+
+
+class PixelFilter(NamedTuple):
+    profile: wp.Function
+    sample: wp.Function
+    reach: wp.Function
+    reach_type: type            # the vector of reach's values, one per neighbour column (or row)
+
+
+def _profile(name: str, radius: float) -> wp.Function:
+    r = wp.constant(float(radius))
+    if name == "gaussian":
+        inv_two_var = wp.constant(float(0.5 / GAUSSIAN_SIGMA ** 2))
+        norm = wp.constant(float(1.0 / (math.sqrt(2.0 * math.pi) * GAUSSIAN_SIGMA)))
+        at_radius = wp.constant(float(math.exp(-0.5 * (radius / GAUSSIAN_SIGMA) ** 2)))
+
+        @wp.func
+        def gaussian(x: float) -> float:
+            return wp.max(0.0, (wp.exp(-inv_two_var * x * x) - at_radius) * norm)
+        return gaussian
+    if name == "mitchell":
+        b, c = float(MITCHELL_B), float(MITCHELL_C)
+        # Mitchell-Netravali's two cubics in t = |2x / radius|: coefficients of t^3, t^2, t, 1, over 6.
+        i3, i2, i0 = (wp.constant(v / 6.0) for v in (12 - 9 * b - 6 * c, -18 + 12 * b + 6 * c, 6 - 2 * b))
+        o3, o2, o1, o0 = (wp.constant(v / 6.0) for v in (-b - 6 * c, 6 * b + 30 * c, -12 * b - 48 * c,
+                                                         8 * b + 24 * c))
+        scale = wp.constant(float(2.0 / radius))
+
+        @wp.func
+        def mitchell(x: float) -> float:
+            t = wp.abs(x * scale)
+            v = float(0.0)
+            if t <= 1.0:
+                v = (i3 * t + i2) * t * t + i0
+            elif t <= 2.0:
+                v = ((o3 * t + o2) * t + o1) * t + o0
+            return v
+        return mitchell
+    if name == "blackman_harris":
+        a0, a1, a2, a3 = (wp.constant(float(a)) for a in BH_COEFFS)
+        freq = wp.constant(float(math.pi / radius))
+
+        @wp.func
+        def blackman_harris(x: float) -> float:
+            v = float(0.0)
+            if wp.abs(x) <= r:
+                # cos 2t and cos 3t from cos t (one cosine per value).
+                c1 = wp.cos(freq * (x + r))
+                c2 = 2.0 * c1 * c1 - 1.0
+                c3 = (4.0 * c1 * c1 - 3.0) * c1
+                v = a0 - a1 * c1 + a2 * c2 - a3 * c3
+            return v
+        return blackman_harris
+    raise ValueError(f"no device profile for filter {name!r}")
+
+
+def make_pixel_filter(f: Features) -> PixelFilter | None:
+    if f.filter == BOX:
+        return None
+    filt = FILTERS[f.filter]
+    profile = _profile(f.filter, filt.radius)
+    bins = len(filter_cdf(f.filter)) - 1
+    STEPS = int(math.log2(bins))
+    assert 1 << STEPS == bins, "the table search halves a power-of-two table"
+    r = wp.constant(float(filt.radius))
+    bin_width = wp.constant(float(2.0 * filt.radius / bins))
+    inv_integral = wp.constant(float(1.0 / filt.integral))
+    NO_SIGN = FILTER_NO_SIGN in f.faults
+    spread = wp.constant(1.1 if FILTER_RADIUS_HIGH_10PCT in f.faults else 1.0)
+    K = 2 * filt.margin + 1
+    reach_type = wp.types.vector(length=K, dtype=wp.float32)
+    first = wp.constant(float(-filt.margin - 0.5))
+
+    @wp.func
+    def sample_1d(sd: SceneData, u: float) -> wp.vec2:
+        # (x, density): the bin whose CDF interval holds u (cdf[0] = 0 <= u < 1 = cdf[bins], so
+        # the bin has mass), then uniform within it.
+        lo = int(0)
+        half = int(bins)
+        for _ in range(wp.static(STEPS)):
+            half = half / 2
+            if sd.filter.cdf[lo + half] <= u:
+                lo = lo + half
+        c0 = sd.filter.cdf[lo]
+        mass = sd.filter.cdf[lo + 1] - c0
+        t = wp.clamp((u - c0) / mass, 0.0, 1.0)
+        return wp.vec2(-r + bin_width * (float(lo) + t), mass / bin_width)
+
+    @wp.func
+    def sample(sd: SceneData, u: wp.vec2) -> wp.vec3:
+        sx = sample_1d(sd, u[0])
+        sy = sample_1d(sd, u[1])
+        fv = profile(sx[0]) * profile(sy[0])
+        if wp.static(NO_SIGN):
+            fv = wp.abs(fv)
+        w = fv / (sx[1] * sy[1]) * inv_integral
+        return wp.vec3(sx[0] * spread, sy[0] * spread, w)
+
+    @wp.func
+    def reach(u: float) -> reach_type:
+        out = reach_type()
+        for i in range(wp.static(K)):
+            out[i] = profile(first + float(i) + u)
+        return out
+
+    return PixelFilter(profile=profile, sample=sample, reach=reach, reach_type=reach_type)
