@@ -43,11 +43,11 @@ def slots(dims: int) -> list[tuple[int, int, int]]:
     return [(kind, start, d - start) for d in range(dims) for kind, start in [slot(d)]]
 
 
-def _kernel(name: str):
+def _kernel(name: str, ps=None):
     from drtlab.estimators.registry import POINTSETS
     wp = _warp()
     if name not in _kernels:
-        ps = POINTSETS[name]
+        ps = POINTSETS[name] if ps is None else ps
         get1d, get2d, count_word = ps.get1d, ps.get2d, ps.count_word
 
         @wp.kernel(enable_backward=False, module="unique")
@@ -73,11 +73,16 @@ def _uint32(value, field: str) -> int:
     return int(value)
 
 
-def points(name: str, n: int, dims: int, seed: int = 0, pixel: int = 0) -> np.ndarray:
-    """(n, dims) float64: samples 0 ... n - 1 (spp = n) of point set `name` in dimensions
-    0 ... dims - 1 for (seed, pixel key), read as the tracer reads them (module docstring)."""
+def points(name, n: int, dims: int, seed: int = 0, pixel: int = 0) -> np.ndarray:
+    """(n, dims) float64: samples 0 ... n - 1 (spp = n) of point set `name` (a registered name, or a
+    PointSet outside the registry) in dimensions 0 ... dims - 1 for (seed, pixel key), read as the
+    tracer reads them (module docstring)."""
+    from drtlab.estimators.pointsets.base import PointSet
     from drtlab.estimators.registry import POINTSETS
-    if name not in POINTSETS:
+    own = name if isinstance(name, PointSet) else None
+    if own is not None:
+        name = own.name
+    elif name not in POINTSETS:
         raise InputError("points", f"unknown point set {name!r}; allowed: {', '.join(POINTSETS)}")
     for value, field in ((n, "n"), (dims, "dims")):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or \
@@ -85,7 +90,7 @@ def points(name: str, n: int, dims: int, seed: int = 0, pixel: int = 0) -> np.nd
             raise InputError(field, f"must be an integer >= 1, got {value!r}")
     seed, pixel = _uint32(seed, "seed"), _uint32(pixel, "pixel")
     n, dims = int(n), int(dims)
-    wp, kernel = _kernel(name)
+    wp, kernel = _kernel(name, own)
     layout = slots(dims)
     arrays = [wp.array(np.array([c[0] for c in layout], dtype=np.int32), dtype=int, device="cpu"),
               wp.array(np.array([c[1] for c in layout], dtype=np.uint32), dtype=wp.uint32,

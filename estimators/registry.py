@@ -16,7 +16,7 @@ from drtlab.errors import InputError
 
 # The modules of pointsets/, each named after the POINTSET it defines, in the order listings show.
 _POINTSET_MODULES = ("independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
-                     "presampled", "presampled_random", "pickfreeze")
+                     "presampled", "presampled_random")
 
 
 class _PointSets(MutableMapping):

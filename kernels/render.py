@@ -212,9 +212,10 @@ def _resolve_scene(scene, res) -> Scene:
     return scene
 
 
-def _resolve_job(scene, sampler: str, integrator: str | None, res) -> tuple:
-    """(sampler spec, Scene at `res`, integrator name) of a render's arguments."""
-    spec = parse_sampler(sampler)
+def _resolve_job(scene, sampler, integrator: str | None, res) -> tuple:
+    """(sampler spec, Scene at `res`, integrator name) of a render's arguments; `sampler` is a name
+    or a SamplerSpec (a tool's own point set, outside the registry: `drtlab sources`' pickfreeze)."""
+    spec = sampler if isinstance(sampler, SamplerSpec) else parse_sampler(sampler)
     scene = _resolve_scene(scene, res)
     return spec, scene, parse_integrator(integrator if integrator is not None else scene.integrator).name
 

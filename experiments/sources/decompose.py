@@ -89,15 +89,19 @@ class Sources:
 
 def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, strategy: str | None = None,
                      integrator: str | None = None, seed: int = 0, threads: int | None = None,
-                     device: str = "cpu", progress: bool = False, pointset: str = "pickfreeze",
+                     device: str = "cpu", progress: bool = False, pointset=None,
                      metric: str = "mse") -> Sources:
     """Decompose `scene`'s sample variance (a Scene, built-in name or .toml path) with `spp` base
     samples per pixel; `strategy` as in POINTS+STRATEGY (default: the default sampler's). `pointset`
-    is a pick-freeze set (`pickfreeze`; tests pass one with a wrong group map)."""
+    is a pick-freeze PointSet (default: `pickfreeze.POINTSET`; tests pass one with a wrong group
+    map). The pick-freeze set is this tool's, not a sampler of the registry: with seeds below 2^24
+    it is `independent`, and its codes mean something only to this function."""
     from drtlab import fields
     from drtlab.estimators.defaults import DEFAULT_SAMPLER
     from drtlab.estimators.registry import parse_sampler
-    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT, CODE_B, pick_freeze_seed
+    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT, CODE_B, POINTSET, pick_freeze_seed
+    from drtlab.estimators.registry import SamplerSpec
+    from drtlab.estimators.strategies import STRATEGIES
     from drtlab.experiments.stats.sobol_indices import pick_freeze_terms, sobol_indices
     from drtlab.kernels.render import _resolve_scene, render_batch_with_stats, render_with_stats
     t_start = time.perf_counter()
@@ -106,10 +110,13 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     check_metric(metric)
     seed = fields.integer_in(seed, "seed", 0, BASE_LIMIT - 1 - n - 1)
     strat = strategy if strategy is not None else parse_sampler(DEFAULT_SAMPLER).strategy.name
-    sampler = parse_sampler(f"{pointset}+{strat}", "strategy").name
+    if strat not in STRATEGIES:
+        raise InputError("strategy", f"must be one of {', '.join(STRATEGIES)}, got {strat!r}")
+    spec = SamplerSpec(POINTSET if pointset is None else pointset, STRATEGIES[strat])
+    sampler = spec.name
     scene = _resolve_scene(scene, res)
     codes = [0, CODE_B] + [1 + GROUPS.index(g) for g in names]
-    kw = dict(sampler=sampler, integrator=integrator, threads=threads, device=device)
+    kw = dict(sampler=spec, integrator=integrator, threads=threads, device=device)
     # The pilot: samples of seed + n (never a base below), indices 0 ... PILOT_SPP - 1.
     pilot = render_with_stats(scene, spp=PILOT_SPP, seed=pick_freeze_seed(seed + n, 0), **kw)
     centre = pilot.image

@@ -17,7 +17,7 @@ def test_each_module_defines_the_set_it_is_named_after():
     for name in POINTSETS:
         assert POINTSETS[name].name == name
     assert [ps.name for ps in POINTSETS.values()] == list(POINTSETS)
-    assert len(POINTSETS) == len(set(POINTSETS)) == 11
+    assert len(POINTSETS) == len(set(POINTSETS)) == 10
 
 
 def test_an_unknown_name_is_a_key_error_and_an_input_error():

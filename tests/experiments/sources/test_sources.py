@@ -13,6 +13,7 @@ from scipy.special import ndtri
 
 from drtlab.estimators.dimensions import GROUPS, group_of
 from drtlab.estimators.pointsets.pickfreeze import CODE_B, dimension_group, make_pick_freeze, pick_freeze_seed
+from drtlab.estimators.pointsets.pickfreeze import POINTSET as PICKFREEZE
 from drtlab.estimators.points import points
 from drtlab.experiments.stats.hypothesis_tests import sidak
 from drtlab.experiments.sources.decompose import variance_sources
@@ -23,12 +24,12 @@ DIMS = 45                      # the camera's five and five bounces
 
 
 def test_each_code_redraws_exactly_its_group_s_dimensions():
-    a = points("pickfreeze", 8, DIMS, seed=pick_freeze_seed(77, 0))
+    a = points(PICKFREEZE, 8, DIMS, seed=pick_freeze_seed(77, 0))
     assert np.array_equal(a, points("independent", 8, DIMS, seed=77))     # A is `independent`
-    b = points("pickfreeze", 8, DIMS, seed=pick_freeze_seed(77, CODE_B))
+    b = points(PICKFREEZE, 8, DIMS, seed=pick_freeze_seed(77, CODE_B))
     assert np.all(a != b)
     for g in range(len(GROUPS)):
-        ab = points("pickfreeze", 8, DIMS, seed=pick_freeze_seed(77, g + 1))
+        ab = points(PICKFREEZE, 8, DIMS, seed=pick_freeze_seed(77, g + 1))
         from_b = [d for d in range(DIMS) if np.array_equal(ab[:, d], b[:, d])]
         from_a = [d for d in range(DIMS) if np.array_equal(ab[:, d], a[:, d])]
         assert from_b == [d for d in range(DIMS) if group_of(d) == g]
@@ -74,13 +75,8 @@ def _pixel_as_lens(dim: wp.uint32) -> int:
 
 
 def test_a_wrong_group_map_is_rejected_by_the_single_effect_scene():
-    from drtlab.estimators.registry import POINTSETS
-    POINTSETS["pickfreeze-wrongmap"] = make_pick_freeze(_pixel_as_lens, "pickfreeze-wrongmap",
-                                                        "negative control: pixel and lens swapped")
-    try:
-        s = variance_sources(_edges_scene(), spp=64, seed=11, pointset="pickfreeze-wrongmap")
-    finally:
-        del POINTSETS["pickfreeze-wrongmap"]
+    wrong = make_pick_freeze(_pixel_as_lens, "pickfreeze-wrongmap", "negative control: pixel and lens swapped")
+    s = variance_sources(_edges_scene(), spp=64, seed=11, pointset=wrong)
     pixel = s.indices_at(_level(2))["groups"][GROUPS.index("pixel")]
     assert not (pixel["first_order_lo"] <= 1.0 <= pixel["first_order_hi"])
 
