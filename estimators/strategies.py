@@ -85,8 +85,8 @@ STRATEGIES = {s.name: s for s in (
     Strategy("bsdf", "BSDF-lobe sampling only, emitters found by scattered rays",
              "lobe", None),
     # The environment's three samplers with all else as `importance` (which samples the image).
-    Strategy("env_uniform", "as importance, but the environment sampled uniformly over the sphere",
+    Strategy("env-uniform", "as importance, but the environment sampled uniformly over the sphere",
              "lobe", LightSampling("solid_angle", "power", mis=True, environment="uniform")),
-    Strategy("env_cosine", "as importance, but the environment sampled by cosine about the normal",
+    Strategy("env-cosine", "as importance, but the environment sampled by cosine about the normal",
              "lobe", LightSampling("solid_angle", "power", mis=True, environment="cosine")),
 )}

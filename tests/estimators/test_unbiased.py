@@ -19,7 +19,7 @@ reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt
 presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
 point sets on cornell-box and veach-mis, minus the HEAVY combinations (62 combinations), plus each
 of the seven other point sets (lhs, cmj, halton, sobol, zsobol, pmj02, presampled_random) with the
-importance strategy, plus the environment's two other samplers (env_uniform, env_cosine: they differ
+importance strategy, plus the environment's two other samplers (env-uniform, env-cosine: they differ
 from importance only where a scene has an environment) with independent points on the environment
 scene (4 combinations; the FAST_ALL_SAMPLERS scenes run the original four strategies)
 on two representative scene x integrator pairs (FAST_MODERN): cornell-box with path tracing (to
@@ -87,7 +87,7 @@ FAST_ALL_POINTSETS = ("independent", "stratified")     # every strategy on FAST_
 FAST_MODERN = (("cornell-box", "path"), ("drt-showcase", "drt"))
 FAST_MODERN_STRATEGY = "importance"
 # Strategies that differ from importance only in how they sample an environment light.
-ENV_STRATEGIES = ("env_uniform", "env_cosine")
+ENV_STRATEGIES = ("env-uniform", "env-cosine")
 M_TESTS = 12 * 2 * 54
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 

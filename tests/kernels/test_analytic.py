@@ -70,7 +70,7 @@ ALPHA_TEST = sidak(ALPHA, M_TESTS)
 FAST_ALL_POINTSETS = ("independent", "stratified")
 # Strategies that differ from importance only under an environment light, which none of these scenes
 # has: full tier only (tests/kernels/test_environment.py tests them where they differ).
-ENV_STRATEGIES = ("env_uniform", "env_cosine")
+ENV_STRATEGIES = ("env-uniform", "env-cosine")
 FAST_MODERN = ("importance", "path")      # the other point sets' (strategy, integrator) in fast
 
 

@@ -10,7 +10,7 @@ Closed forms (tests/support/scene_util.py), a diffuse plane of albedo rho alone 
   * light_over_plane's sphere light over a plane with its uniform background given as a constant
     environment instead (identical radiance everywhere, so the same closed form): the light choice
     between the environment and the area light, by power (importance) and uniformly (uniform).
-Samplers: the three environment samplers with MIS (env_uniform, env_cosine, importance = image) and
+Samplers: the three environment samplers with MIS (env-uniform, env-cosine, importance = image) and
 the non-MIS strategies (uniform: uniform sphere without MIS; light: image, light samples only).
 Each comparison is the suite's one test (tests/support/stats_util.py): RUNS renders x SPP, 12
 regions of 4 x 4 pixels, Welch t -> chi-square, Sidak over M_TESTS at family-wise alpha = 0.01;
@@ -36,7 +36,7 @@ from stats_util import ALPHA, compare, render_estimate, tier
 BLOCK = 4
 RUNS = tier(8, 16)
 SPP = tier(64, 256)
-ENV_SAMPLERS = ("importance", "independent+env_uniform", "independent+env_cosine")
+ENV_SAMPLERS = ("importance", "independent+env-uniform", "independent+env-cosine")
 ALL = ENV_SAMPLERS + ("uniform", "independent+light")
 TWO = dict(kind="two_level", upper=[2.0, 2.0, 2.0], lower=[0.3, 0.3, 0.3])
 

@@ -215,7 +215,7 @@ def test_black_environment():
     # the environment by power is 0 beside an area light; every pixel must be exactly 0 without one.
     cf = su.environment_over_plane(dict(kind="constant", radiance=[0, 0, 0]), 0.0, camera=(0.08, 3.0),
                                    fov=2.0, name="black-environment")
-    for sampler in BOTH + ("independent+env_cosine", "independent+env_uniform"):
+    for sampler in BOTH + ("independent+env-cosine", "independent+env-uniform"):
         img = render(cf.load(), spp=16, sampler=sampler, integrator="path", progress=False)
         assert np.all(img == 0.0), sampler
     lit = su.light_over_plane("sphere", bg=0.0, name="black-environment-and-light")
