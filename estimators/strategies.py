@@ -5,6 +5,10 @@ in variance. Fields are compile-time switches read by the kernel factory.
     direction   "uniform": uniform hemisphere (sphere for transmissive lobes); "lobe": cosine for
                 diffuse, the Phong lobe for glossy reflection/transmission, Fresnel for the lobe choice
     light       how lights are sampled (LightSampling), or None: no light sampling
+    microfacet  how "lobe" samples a GGX microfacet normal: "vndf", the distribution of normals
+                visible from wo (Dupuy & Benyoub 2023's spherical caps, the same density as Heitz
+                2018), or "d", the full distribution D weighted by cos(theta_m) (Walter et al. 2007);
+                all else equal, so a study isolates the choice (no effect on other kinds)
 A strategy's `combine` follows from `light`: "nee" (light samples without MIS): emitters count only
 through light samples after a non-delta bounce; "bsdf" (no light sampling): only through scattered
 rays; "mis" (light samples with MIS): both, power heuristic (Veach 1995).
@@ -29,6 +33,7 @@ class Strategy:
     description: str
     direction: str
     light: LightSampling | None = None
+    microfacet: str = "vndf"
 
     @property
     def combine(self) -> str:
@@ -67,4 +72,9 @@ STRATEGIES = {s.name: s for s in (
              "lobe", LightSampling("solid_angle", "power")),
     Strategy("bsdf", "BSDF-lobe sampling only, emitters found by scattered rays",
              "lobe", None),
+    Strategy("importance-ggxd", "as importance, but GGX normals drawn from D cos (not the visible "
+             "normals)", "lobe", LightSampling("solid_angle", "power", mis=True), microfacet="d"),
+    Strategy("bsdf-ggxd", "as bsdf, but GGX normals drawn from D cos (not the visible normals)",
+             "lobe", None, microfacet="d"),
 )}
+MICROFACET_SAMPLING = ("vndf", "d")
