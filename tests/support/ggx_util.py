@@ -17,10 +17,16 @@ times the lobe's factor, cut where wi lands on the wrong side. Gauss-Legendre in
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
+
+
+@functools.lru_cache(maxsize=None)
+def _gauss(n: int) -> tuple[np.ndarray, np.ndarray]:
+    return np.polynomial.legendre.leggauss(n)       # an eigenvalue problem: O(n^3), cached
 
 
 def unit(v) -> np.ndarray:
@@ -33,8 +39,9 @@ def fresnel(cos_i, eta: float) -> np.ndarray:
     c = np.asarray(cos_i, float)
     s2t = (1.0 - c * c) / (eta * eta)
     ct = np.sqrt(np.maximum(0.0, 1.0 - s2t))
-    rs = (c - eta * ct) / (c + eta * ct)
-    rp = (eta * c - ct) / (eta * c + ct)
+    with np.errstate(divide="ignore", invalid="ignore"):     # c = ct = 0: total reflection
+        rs = (c - eta * ct) / (c + eta * ct)
+        rp = (eta * c - ct) / (eta * c + ct)
     return np.where(s2t >= 1.0, 1.0, 0.5 * (rs * rs + rp * rp))
 
 
@@ -104,8 +111,8 @@ class GGX:
         """int f |cos_i| dwi (float64 quadrature in normal space, module doc)."""
         nf, co, eta = self.side
         so = math.sqrt(max(0.0, 1.0 - co * co))
-        xt, wt = np.polynomial.legendre.leggauss(nt)
-        xp, wpw = np.polynomial.legendre.leggauss(nphi)
+        xt, wt = _gauss(nt)
+        xp, wpw = _gauss(nphi)
         t = 0.5 * (xt + 1.0)
         phi = 0.5 * math.pi * (xp + 1.0)
         a2 = self.alpha * self.alpha
