@@ -9,7 +9,8 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled \
+        experiment-microfacet ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -52,6 +53,9 @@ experiment-uniform: $(RUNTIME)
 
 experiment-presampled: $(RUNTIME)
 	$(DRT) experiment presampled
+
+experiment-microfacet: $(RUNTIME)
+	$(DRT) experiment microfacet
 
 experiment-all: $(RUNTIME)
 	$(DRT) experiment all
