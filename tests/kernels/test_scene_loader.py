@@ -23,7 +23,7 @@ from drtlab.kernels.scene_file import (
 from drtlab.kernels.scene import Scene
 
 BUILTINS = ["aa-edges", "cornell-box", "displaced-sphere", "dof", "drt-showcase", "glossy",
-            "motion-blur", "soft-shadows", "sphere-grid", "translucency", "veach-mis"]
+            "glossy-ggx", "motion-blur", "soft-shadows", "sphere-grid", "translucency", "veach-mis"]
 
 
 def normal(shape) -> np.ndarray:
@@ -47,7 +47,7 @@ def materials_of(scene: Scene, kind: str):
 # Built-in scenes
 # ---------------------------------------------------------------------------------------------------
 
-def test_builtin_names_are_the_eleven_scenes():
+def test_builtin_names_are_the_twelve_scenes():
     assert builtin_names() == BUILTINS
     descriptions = builtin_descriptions()
     assert sorted(descriptions) == BUILTINS
