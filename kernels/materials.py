@@ -196,8 +196,8 @@ def plastic_coat_probability(co: float, ior: float) -> float:
 #                    transmission albedo (1 - F) D G2 |wi.wm| (wo.wm) / (|cos_o| (wi.wm + wo.wm/eta)^2
 #                                 eta^2),  wm = +-normalize(wo + eta wi) on wo's side (Walter et al.
 #                    2007; the 1/eta^2 of radiance as the other dielectrics); back-facing wm -> 0.
-# Single scattering only: the energy of light that would scatter more than once among the facets
-# is lost (~ up to 40% at alpha = 1, grazing).
+# Single scattering only: light that would scatter more than once among the facets is lost (a white
+# ggx keeps 0.988 at alpha 0.1, 0.688 at 0.5, 0.307 at 1, normal incidence; SCENE_FORMAT.md).
 # Sampling a normal: "vndf" draws wm with density G1(wo) D(wm) max(0, wo.wm) / cos_o (Dupuy &
 # Benyoub 2023's spherical caps, the density of Heitz 2018), "d" with D(wm) cos(theta_m); the lobe
 # strategy then reflects (ggx) or picks reflection with probability F(wo.wm), else refracts, and
