@@ -9,7 +9,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -58,6 +58,9 @@ experiment-environment: $(RUNTIME)
 
 experiment-filters: $(RUNTIME)
 	$(DRT) experiment filters
+
+experiment-microfacet: $(RUNTIME)
+	$(DRT) experiment microfacet
 
 experiment-all: $(RUNTIME)
 	$(DRT) experiment all

@@ -14,11 +14,12 @@ from drtlab.experiments.tools import lobes as L
 
 def cmd_lobe(args) -> int:
     out = args.out if args.out is not None else L.default_out_dir(args.kind, args.exponent,
-                                                                  args.ior, args.strategy)
+                                                                  args.ior, args.strategy,
+                                                                  args.roughness)
     fields.writable_location(out, "--out", folder=True)
     result = L.analyse(args.kind, exponent=args.exponent, ior=args.ior, albedo=args.albedo,
                        incident=args.incident, strategy=args.strategy, samples=args.samples,
-                       seed=args.seed)
+                       seed=args.seed, roughness=args.roughness)
     L.write_lobe(result, out, argv=sys.argv)
     S = result.summary
     print(f"wrote {out}/: {', '.join(L.FILES)}")
@@ -49,6 +50,8 @@ def add_lobe_command(sub) -> None:
     p.add_argument("--exponent", type=flag(L.check_exponent), default=20.0, metavar="E",
                    help=f"Phong exponent of {', '.join(L.USES_EXPONENT)}, in [0, "
                         f"{L.MAX_EXPONENT:g}]")
+    p.add_argument("--roughness", type=flag(L.check_roughness), default=0.2, metavar="A",
+                   help=f"GGX alpha of {', '.join(L.USES_ROUGHNESS)}, in [0.001, 1]")
     p.add_argument("--ior", type=flag(L.check_ior), default=1.5, metavar="I",
                    help=f"index of refraction of {', '.join(L.USES_IOR)}, in [0.1, 10], not 1")
     p.add_argument("--albedo", type=flag(L.check_albedo), default="0.8,0.8,0.8",
@@ -58,12 +61,13 @@ def add_lobe_command(sub) -> None:
                    help=f"incident angles from the normal in degrees, 1 to {L.MAX_ANGLES} in "
                         f"[0, {L.MAX_INCIDENT:g}]")
     p.add_argument("--strategy", choices=L.STRATEGIES, default="importance",
-                   help="sample_bsdf's strategy: importance (cosine / Phong lobes / Fresnel) or "
-                        "uniform (hemisphere, sphere for transmission)")
+                   help="sample_bsdf's strategy: importance (cosine / Phong lobes / Fresnel; GGX: "
+                        "visible normals), importance-ggxd (GGX normals from D cos) or uniform "
+                        "(hemisphere, sphere for transmission)")
     p.add_argument("--samples", type=int_flag(L.MIN_SAMPLES, L.MAX_SAMPLES),
                    default=L.DEFAULT_SAMPLES, metavar="N", help="samples per incident angle")
     p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="root seed (angle i uses S + 7919 i)")
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
-                   help="output folder (default: results/lobes/KIND[_nE][_iorI]_STRATEGY)")
+                   help="output folder (default: results/lobes/KIND[_nE][_aA][_iorI]_STRATEGY)")
     p.set_defaults(func=cmd_lobe)

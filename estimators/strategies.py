@@ -8,6 +8,10 @@ in variance. Fields are compile-time switches read by the kernel factory.
     light.environment  how next-event estimation samples an environment light (scenes without one
                 compile it out): "uniform" over the sphere, "cosine" about the shading normal,
                 "image": by the radiance image (piecewise-constant 2D, kernels/environment_map.py)
+    microfacet  how "lobe" samples a GGX microfacet normal: "vndf", the distribution of normals
+                visible from wo (Dupuy & Benyoub 2023's spherical caps, the same density as Heitz
+                2018), or "d", the full distribution D weighted by cos(theta_m) (Walter et al. 2007);
+                all else equal, so a study isolates the choice (no effect on other kinds)
 A strategy's `combine` follows from `light`: "nee" (light samples without MIS): emitters count only
 through light samples after a non-delta bounce; "bsdf" (no light sampling): only through scattered
 rays; "mis" (light samples with MIS): both, power heuristic (Veach 1995).
@@ -40,6 +44,7 @@ class Strategy:
     description: str
     direction: str
     light: LightSampling | None = None
+    microfacet: str = "vndf"
 
     @property
     def combine(self) -> str:
@@ -89,4 +94,9 @@ STRATEGIES = {s.name: s for s in (
              "lobe", LightSampling("solid_angle", "power", mis=True, environment="uniform")),
     Strategy("env-cosine", "as importance, but the environment sampled by cosine about the normal",
              "lobe", LightSampling("solid_angle", "power", mis=True, environment="cosine")),
+    Strategy("importance-ggxd", "as importance, but GGX normals drawn from D cos (not the visible "
+             "normals)", "lobe", LightSampling("solid_angle", "power", mis=True), microfacet="d"),
+    Strategy("bsdf-ggxd", "as bsdf, but GGX normals drawn from D cos (not the visible normals)",
+             "lobe", None, microfacet="d"),
 )}
+MICROFACET_SAMPLING = ("vndf", "d")

@@ -24,7 +24,7 @@ from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.filters import BOX, filter_cdf
-from drtlab.kernels.material_kinds import MATERIAL_CODE
+from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
@@ -101,7 +101,7 @@ class MaterialData:
     albedo: wp.array(dtype=wp.vec3)
     albedo2: wp.array(dtype=wp.vec3)
     checker: wp.array(dtype=wp.vec2)
-    exponent: wp.array(dtype=float)
+    exponent: wp.array(dtype=float)            # the lobe shape: Phong exponent or GGX alpha
     ior: wp.array(dtype=float)
     emission: wp.array(dtype=wp.vec3)
 
@@ -276,6 +276,11 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     q.group = arr(groups.group_of, int, (1,))
 
 
+def _shape_parameter(material) -> float:
+    key = KIND_BY_NAME[material.kind].shape_key
+    return getattr(material, key) if key is not None else material.exponent
+
+
 def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m = sd.materials
     m.kind = arr([MATERIAL_CODE[x.kind] for x in materials], int, (1,))
@@ -284,7 +289,8 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
                     wp.vec3, (1, 3))
     m.checker = arr([x.checker if x.checker is not None else (0, 0) for x in materials],
                     wp.vec2, (1, 2))
-    m.exponent = arr([x.exponent for x in materials], float, (1,))
+    # One shape parameter per material: the Phong exponent or GGX alpha (MaterialKind.shape_key).
+    m.exponent = arr([_shape_parameter(x) for x in materials], float, (1,))
     m.ior = arr([x.ior for x in materials], float, (1,))
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
 

@@ -10,11 +10,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
+# GGX alpha in [ROUGHNESS_MIN, 1]: below 1e-3 the surface is a mirror to float32 (the lobe's peak
+# density 1 / (pi alpha^2) passes 3e5 and its width the precision of a direction near the normal).
+ROUGHNESS_MIN = 1e-3
+
+
 @dataclass(frozen=True)
 class MaterialKind:
     name: str
     delta: bool = False         # light leaves in one or two directions only: no density to sample
     phong: bool = False         # a modified-Phong lobe of the material's `exponent`
+    microfacet: bool = False    # a GGX (Trowbridge-Reitz) microfacet surface of the material's
+                                # `roughness` (isotropic alpha) with Smith masking-shadowing
     transmits: bool = False     # light crosses the surface, refracted at the material's `ior`
     coat: bool = False          # a dielectric coat of index `ior` (> 1) over a diffuse base
     checker: bool = False       # may alternate two albedos (`albedo2`, `checker`)
@@ -37,8 +44,14 @@ class MaterialKind:
         no-op."""
         return (("kind",) + (() if self.emitter else ("albedo",))
                 + (("albedo2", "checker") if self.checker else ())
-                + (("exponent",) if self.phong else ()) + (("ior",) if self.ior else ())
-                + ("emission",))
+                + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
+                + (("ior",) if self.ior else ()) + ("emission",))
+
+    @property
+    def shape_key(self) -> str | None:
+        """The Material field the kernels receive as the lobe's shape parameter (their `exponent`
+        argument): the Phong exponent, or GGX's alpha; None for kinds without a lobe shape."""
+        return "exponent" if self.phong else "roughness" if self.microfacet else None
 
 
 # New kinds go at the end: a kind's code is its place here, and the codes of the existing ones stay
@@ -51,6 +64,8 @@ KINDS = (
     MaterialKind("glossy_dielectric", phong=True, transmits=True),
     MaterialKind("emitter", emitter=True),
     MaterialKind("plastic", phong=True, coat=True, checker=True),
+    MaterialKind("ggx", microfacet=True, checker=True),
+    MaterialKind("ggx_dielectric", microfacet=True, transmits=True),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -41,6 +41,8 @@ class Material:
     checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters
     exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric,
                                                 # plastic's coat)
+    roughness: float = 0.1                      # GGX alpha (ggx, ggx_dielectric), in
+                                                # [material_kinds.ROUGHNESS_MIN, 1]
     ior: float = 1.5                            # dielectric, glossy_dielectric, plastic's coat
                                                 # (outside is vacuum)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))  # emitted radiance

@@ -17,7 +17,7 @@ from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
 from drtlab.kernels.environment_map import parse_environment
 from drtlab.kernels.filters import BOX, FILTER_NAMES
-from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS
+from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
 from drtlab.kernels.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
 from drtlab.kernels.transforms import parse_transform, transform_quad, transform_sphere
@@ -239,6 +239,10 @@ def _parse_material(name: str, value: Any) -> Material:
     m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
     if spec.phong:
         m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
+    if spec.microfacet:
+        m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
+                             f"in [{ROUGHNESS_MIN:g}, 1] (GGX alpha)",
+                             lambda x: ROUGHNESS_MIN <= x <= 1.0)
     if spec.transmits:
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
     if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all

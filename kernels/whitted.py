@@ -15,9 +15,9 @@ from drtlab.kernels.environment import env_radiance
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
-from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GLOSSY, GLOSSY_DIELECTRIC,
-                                      MIRROR, PLASTIC, emitted, interface, refract_dir,
-                                      Bsdf, surface_albedo)
+from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
+                                      GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted,
+                                      interface, refract_dir, surface_albedo)
 
 
 def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
@@ -123,8 +123,8 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if cos_o < 0.0:
                     nf = -ns
                 co = wp.abs(cos_o)
-                # Non-delta kinds end the ray with their direct light (plastic as glossy).
-                if kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC:
+                # Non-delta kinds end the ray with their direct light (plastic and ggx as glossy).
+                if kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC or kind == GGX:
                     direct = wp.vec3(0.0)
                     if wp.static(AREA_CENTRES):
                         direct += light_centres(sd, kind, albedo, sd.materials.exponent[m],
@@ -138,7 +138,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if kind == MIRROR:
                     beta = wp.cw_mul(beta, albedo)
                 if wp.static(SPLITS > 0):
-                    if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC:
+                    if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
                         it = interface(ns, wo, sd.materials.ior[m])
                         eta = it.eta
                         F = it.F

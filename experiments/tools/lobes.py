@@ -49,10 +49,12 @@ DELTA_KINDS = kinds_where(lambda k: k.delta)        # all light leaves in one or
 NO_SCATTER_KINDS = kinds_where(lambda k: k.emitter)  # sample_bsdf never returns a direction
 LOBE_KINDS = kinds_where(lambda k: not (k.delta or k.emitter))
 USES_EXPONENT = kinds_where(lambda k: k.phong)
+USES_ROUGHNESS = kinds_where(lambda k: k.microfacet)
 USES_IOR = kinds_where(lambda k: k.ior and k.name in LOBE_KINDS)
 # Lobes below the surface too: a full circle.
 TRANSMITS = kinds_where(lambda k: k.transmits and k.name in LOBE_KINDS)
-STRATEGIES = ("importance", "uniform")
+# importance-ggxd: GGX normals from D cos instead of the visible normals (Strategy.microfacet).
+STRATEGIES = ("importance", "importance-ggxd", "uniform")
 
 DEFAULT_INCIDENT = (0.0, 30.0, 60.0, 80.0)
 MAX_INCIDENT = 89.0
@@ -99,6 +101,12 @@ def check_exponent(text: str, field_name: str = "--exponent") -> float:
                   lambda v: 0.0 <= v <= MAX_EXPONENT)
 
 
+def check_roughness(text: str, field_name: str = "--roughness") -> float:
+    from drtlab.kernels.material_kinds import ROUGHNESS_MIN
+    return _float(text, field_name, f"in [{ROUGHNESS_MIN:g}, 1] (GGX alpha)",
+                  lambda v: ROUGHNESS_MIN <= v <= 1.0)
+
+
 def check_ior(text: str, field_name: str = "--ior") -> float:
     return _float(text, field_name, "in [0.1, 10], not 1 (index of refraction inside / outside)",
                   lambda v: 0.1 <= v <= 10.0 and v != 1.0)
@@ -130,10 +138,13 @@ def check_incident(text: str, field_name: str = "--incident") -> tuple[float, ..
     return tuple(vals)
 
 
-def default_out_dir(kind: str, exponent: float, ior: float, strategy: str) -> Path:
+def default_out_dir(kind: str, exponent: float, ior: float, strategy: str,
+                    roughness: float = 0.2) -> Path:
     parts = [kind]
     if kind in USES_EXPONENT:
         parts.append(f"n{exponent:g}")
+    if kind in USES_ROUGHNESS:
+        parts.append(f"a{roughness:g}")
     if kind in USES_IOR:
         parts.append(f"ior{ior:g}")
     parts.append(strategy)
@@ -177,6 +188,20 @@ class LobeResult:
 
 
 def _chi2_domain(C, kind, strategy, exponent, wo):
+    """(domain, ires) of the chi-square test; `exponent` is the lobe's shape (GGX: alpha). See
+    _phong_domain; a GGX lobe of alpha is about as wide as a Phong lobe of n = 2 / alpha^2, and
+    importance-sampled GGX reflection with alpha < 0.1 uses the zoomed cap (8 alpha about the
+    mirror direction, as tests/kernels/test_ggx.py)."""
+    if kind in USES_ROUGHNESS:
+        if kind not in TRANSMITS and strategy != "uniform" and exponent < 0.1:
+            refl = 2.0 * wo[2] * np.array(NORMAL) - wo
+            return C.CapDomain(refl, 1.0 - math.cos(8.0 * exponent)), 8
+        n = 2.0 / (exponent * exponent) if strategy != "uniform" else 0.0
+        return C.SphericalDomain((0.0, 1.0, 0.0)), int(np.clip(math.ceil(0.9 * math.sqrt(n)), 4, 16))
+    return _phong_domain(C, kind, strategy, exponent, wo)
+
+
+def _phong_domain(C, kind, strategy, exponent, wo):
     """(domain, ires) of the chi-square test. The sphere's grid has its pole at +y, out of the plane
     of incidence, so that no lobe (all centred in that plane) sits at a pole of (cos, phi), where
     the midpoint rule in cos underestimates a Phong lobe's mass by ~ n^2 (h / ires)^2 / 24 (4e-4 at
@@ -193,13 +218,16 @@ def _chi2_domain(C, kind, strategy, exponent, wo):
 def analyse(kind: str, *, exponent: float = 20.0, ior: float = 1.5,
             albedo=(0.8, 0.8, 0.8), incident=DEFAULT_INCIDENT, strategy: str = "importance",
             samples: int = DEFAULT_SAMPLES, seed: int = 0, pdf_scale: float = 1.0,
-            pdf_exponent: float | None = None) -> LobeResult:
+            pdf_exponent: float | None = None, roughness: float = 0.2) -> LobeResult:
     """Lobes, sampled densities, chi-square tests and albedos of one material (see the module
-    docstring). `pdf_scale` / `pdf_exponent` alter only the claimed pdf (negative controls)."""
+    docstring). `pdf_scale` / `pdf_exponent` alter only the claimed pdf (negative controls;
+    `pdf_exponent` is the claimed lobe shape: the exponent, or GGX's alpha)."""
     from drtlab.experiments.stats import chi2 as C
     t0 = time.perf_counter()
     check_kind(kind)
-    ad = C.BSDFAdapter(strategy == "importance")
+    if kind in USES_ROUGHNESS:
+        exponent = float(roughness)          # the kernels' lobe shape parameter (GGX alpha)
+    ad = C.BSDFAdapter(strategy != "uniform", "d" if strategy == "importance-ggxd" else "vndf")
     m = len(incident)
     level = C.sidak(FAMILY_ALPHA, m)
     half = 180.0 if kind in TRANSMITS else 90.0
@@ -278,6 +306,7 @@ def analyse(kind: str, *, exponent: float = 20.0, ior: float = 1.5,
     result.summary = {
         "kind": kind, "strategy": strategy,
         "exponent": float(exponent) if kind in USES_EXPONENT else None,
+        "roughness": float(exponent) if kind in USES_ROUGHNESS else None,
         "ior": float(ior) if kind in USES_IOR else None,
         "albedo": list(albedo), "samples": int(samples), "seed": int(seed),
         "claimed_pdf": {"scale": float(pdf_scale), "exponent": claimed_n},
@@ -309,6 +338,7 @@ def lobe_png(result: LobeResult) -> bytes:
     fig = plt.figure(figsize=(12.5, (3.9 if full else 3.4) * rows + 0.7))
     gs = fig.add_gridspec(rows, 2, width_ratios=(1.15, 1.0))
     params = [f"n = {S['exponent']:g}" if S["exponent"] is not None else None,
+              f"α = {S['roughness']:g}" if S.get("roughness") is not None else None,
               f"ior = {S['ior']:g}" if S["ior"] is not None else None,
               "albedo " + ",".join(f"{a:g}" for a in S["albedo"]),
               f"{S['strategy']} sampling", f"N = {S['samples']:,}"]
@@ -398,7 +428,7 @@ def _manifest(result: LobeResult, argv) -> dict:
     return {"what": "drtlab lobe", "command": argv if argv is not None else sys.argv,
             "finished": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
             "version": __version__, "code_version": CODE_VERSION, "git": git_info(),
-            "material": {k: S[k] for k in ("kind", "exponent", "ior", "albedo")},
+            "material": {k: S[k] for k in ("kind", "exponent", "roughness", "ior", "albedo")},
             "strategy": S["strategy"], "samples": S["samples"],
             "seeds": {"scheme": "incident angle i: seed + 7919 i (mod 2^32); sample j's random "
                                 "numbers uniform(seed_i, j, 0|1|2) (experiments/stats/chi2/adapters.py)",

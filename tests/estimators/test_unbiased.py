@@ -17,7 +17,10 @@ its per-pixel randomised twin `presampled_random` (in the matrix like any other 
 Coverage. Full tier (DRTLAB_TEST_TIER=full): all combinations, RUNS x SPP = 32 x 128 (the
 reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt, path} x the three
 presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
-point sets on cornell-box and veach-mis, minus the HEAVY combinations (62 combinations), plus each
+point sets with the four strategies that sample no GGX lobe differently on cornell-box and veach-mis,
+minus the HEAVY combinations (62 + 6 combinations), plus independent+importance-ggxd (GGX normals
+from D instead of the visible normals, against the visible-normal reference) on glossy-ggx with
+both integrators (FAST_GGX: the D sampler's only scene), plus each
 of the seven other point sets (lhs, cmj, halton, sobol, zsobol, pmj02, presampled_random) with the
 importance strategy, plus the environment's two other samplers (env-uniform, env-cosine: they differ
 from importance only where a scene has an environment) with independent points on the environment
@@ -42,7 +45,8 @@ stats_util) found these, handled openly rather than by widening alpha:
     (~ 3e-8 per path at n = 3000): no affordable budget tests glossy (exponents 100 ... 10^4),
     drt-showcase (200, 150) or translucency (30 ... 3000) under it. Those tests render the same
     scene - the same kernel variant, the same code paths - with the lobe exponents lowered to 10,
-    which the test id says ("-exponents-lowered-to-10"). High exponents are tested with lobe
+    which the test id says ("-exponents-lowered-to-10"); glossy-ggx's roughness is raised to 0.3
+    (alpha 0.02 ... 0.2 -> 0.3, "-roughness-raised-to-0.3"). High exponents are tested with lobe
     sampling (everywhere here, and by test_hard_cases up to 10^6).
 
 Whitted is deterministic and biased (regular grid, lens centre, point-like lights): it is labelled
@@ -88,6 +92,8 @@ FAST_MODERN = (("cornell-box", "path"), ("drt-showcase", "drt"))
 FAST_MODERN_STRATEGY = "importance"
 # Strategies that differ from importance only in how they sample an environment light.
 ENV_STRATEGIES = ("env-uniform", "env-cosine")
+# The D-cos GGX sampler on the scene with GGX lobes, against the visible-normal reference.
+FAST_GGX = ("glossy-ggx", "independent+importance-ggxd")
 M_TESTS = 12 * 2 * 54
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
@@ -97,6 +103,9 @@ HEAVY = {
     ("veach-mis", None, "uniform"),     # NEE-only light sampling on the 10^3/10^4 plates (Veach's
     ("veach-mis", None, "light"),       # point: light samples rarely land in a sharp lobe)
     ("translucency", None, "uniform"),  # two uniform-sphere hits of a transmission lobe per pane
+    ("glossy-ggx", "path", "light"),    # as glossy
+    ("glossy-ggx", None, "bsdf"),       # scattered rays alone must find the small sphere light
+    ("glossy-ggx", None, "bsdf-ggxd"),
 }
 # Uniform-strategy direction sampling of lobes with exponent >= 30 is untestable in an affordable
 # budget (module doc): the same scene (same kernel variant) with those exponents lowered to 10.
@@ -104,6 +113,7 @@ LOWERED = {
     ("glossy", "uniform"): {f"materials.gloss{n}.exponent": 10.0 for n in (100, 1000, 10000)},
     ("drt-showcase", "uniform"): {"materials.gold.exponent": 10.0, "materials.frost.exponent": 10.0},
     ("translucency", "uniform"): {f"materials.frost{n}.exponent": 10.0 for n in (30, 300, 3000)},
+    ("glossy-ggx", "uniform"): {f"materials.{m}.roughness": 0.3 for m in ("ggx002", "ggx008", "ggx02")},
 }
 
 
@@ -117,6 +127,8 @@ def in_fast_tier(scene: str, integrator: str, sampler: str) -> bool:
         return True
     if spec.strategy.name in ENV_STRATEGIES:
         return scene == "environment" and spec.pointset.name == "independent"
+    if spec.strategy.microfacet != "vndf":
+        return (scene, sampler) == FAST_GGX
     if spec.pointset.name in FAST_ALL_POINTSETS:
         return scene in FAST_ALL_SAMPLERS
     return (scene, integrator) in FAST_MODERN and spec.strategy.name == FAST_MODERN_STRATEGY
@@ -160,7 +172,8 @@ def matrix():
         for integrator in UNBIASED:
             for sampler in SAMPLERS:
                 fast = in_fast_tier(scene, integrator, sampler)
-                lowered = "-exponents-lowered-to-10" if overrides_for(scene, sampler) else ""
+                lowered = (("-roughness-raised-to-0.3" if scene == "glossy-ggx"
+                            else "-exponents-lowered-to-10") if overrides_for(scene, sampler) else "")
                 marks = []
                 if not fast:
                     marks = [pytest.mark.slow, pytest.mark.skipif(
@@ -176,7 +189,7 @@ def matrix():
 def test_matrix_is_the_whole_product():
     assert len(matrix()) == M_TESTS == len(SCENES) * len(UNBIASED) * len(SAMPLERS)
     assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf",
-                                                  *ENV_STRATEGIES}
+                                                  *ENV_STRATEGIES, "importance-ggxd", "bsdf-ggxd"}
     assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.unbiased_pointsets()) \
         == set(registry.POINTSETS) - {"presampled"} == {
         "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
@@ -185,9 +198,9 @@ def test_matrix_is_the_whole_product():
     fast = [p.values for p in matrix() if not p.marks]
     modern = [c for c in fast if parse_sampler(c[2]).pointset.name not in FAST_ALL_POINTSETS]
     # 62 preset cases of the nine effect scenes, 12 of displaced-sphere and sphere-grid (3 presets x
-    # 2 integrators each), the 14 modern point-set cases, and the environment scene's 6 preset and 4
-    # environment-sampler cases.
-    assert len(fast) == 62 + 12 + 14 + 10 and len(modern) == 14
+    # 2 integrators each), 6 + 2 of glossy-ggx (the presets, FAST_GGX), the 14 modern point-set
+    # cases, and the environment scene's 6 preset and 4 environment-sampler cases.
+    assert len(fast) == 62 + 12 + 8 + 14 + 10 and len(modern) == 14
 
 
 def test_biased_integrators_are_labelled_and_excluded():

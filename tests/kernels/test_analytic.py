@@ -78,6 +78,8 @@ def in_fast_furnace(sampler: str, integrator: str) -> bool:
     spec = registry.parse_sampler(sampler)
     if spec.strategy.name in ENV_STRATEGIES:
         return False
+    if spec.strategy.microfacet != "vndf":
+        return False        # differs from its twin on GGX lobes only, which no furnace here has
     return (spec.pointset.name in FAST_ALL_POINTSETS
             or (spec.strategy.name, integrator) == FAST_MODERN)
 

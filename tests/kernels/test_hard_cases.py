@@ -11,7 +11,8 @@ last test) prints the worst relative error of every case and the total non-finit
 The matrix:
   grazing camera rays (88.5-89.5 deg on the plane), grazing light (a sphere light on the horizon, a
   vertical quad light seen at <= 10 deg elevation); glossy exponents 0, 1, 10^3, 10^6 (white
-  furnace, modified-Phong albedo by quadrature); IOR 1.0001, 1.5, 3: a slab before an emitter
+  furnace, modified-Phong albedo by quadrature); GGX alpha 0.001, 0.02, 1 (white furnace, both
+  microfacet samplers, albedo by quadrature); IOR 1.0001, 1.5, 3: a slab before an emitter
   (Le (1 - F) / (1 + F)) and a glass cube in a furnace (= 1, total internal reflection at the side
   faces); sphere and quad lights of size 10^-4 ... 10^2 at equal power (Le ~ 1 / size^2); scene
   scales 10^-3 ... 10^4 (furnace and lit plane: self-intersection offsets must scale); rays through
@@ -25,7 +26,7 @@ The matrix:
   black environment (exactly 0, test_black_environment).
 
 Samplers: `importance` and `stratified` (uniform strategy) where the uniform strategy has a testable
-variance. It is left out for Phong exponents 10^3 and 10^6 (uniform hemisphere directions hit a lobe
+variance. It is left out for GGX alpha < 0.5 and Phong exponents 10^3 and 10^6 (uniform hemisphere directions hit a lobe
 of solid angle ~2 pi / n: the estimate is a handful of huge values) and replaced by
 stratified+importance in the closed boxes (next-event estimation alone has infinite variance where
 two emitting walls meet, see scene_util.furnace_box); SAMPLERS_NOTE says so in the summary.
@@ -54,6 +55,8 @@ RUNS = tier(8, 16)
 SPP = tier(64, 256)
 BOTH = ("importance", "stratified")
 IMPORTANCE = ("importance",)
+# GGX lobes: normals from the visible normals (importance) and from D cos (importance-ggxd).
+GGX_SAMPLERS = ("importance", "independent+importance-ggxd")
 # Closed diffuse boxes: NEE-only sampling (the uniform strategy) has infinite variance where two
 # emitting walls meet (see scene_util.furnace_box); the stratified point set is tested with MIS.
 MIS_BOTH = ("importance", "stratified+importance")
@@ -132,6 +135,12 @@ CASES = {
                                                                name=f"glossy-exponent-{e:g}"),
                                   BOTH if e < 100 else IMPORTANCE)
        for e in (0.0, 1.0, 1e3, 1e6)},
+    # GGX conductors at roughness extremes (white furnace, albedo by quadrature: single scattering
+    # loses up to ~70% at alpha = 1): visible-normal and D sampling; grazing at the silhouette.
+    **{f"ggx-alpha-{a:g}": (lambda a=a: su.sphere_furnace("ggx", roughness=a, depth=3,
+                                                         name=f"ggx-alpha-{a:g}"),
+                            GGX_SAMPLERS + (("stratified",) if a >= 0.5 else ()))
+       for a in (0.001, 0.02, 1.0)},
     **{f"slab-ior-{ior:g}": (lambda ior=ior: su.slab(ior), BOTH) for ior in (1.0001, 1.5, 3.0)},
     **{f"glass-cube-tir-ior-{ior:g}": (lambda ior=ior: su.cube_furnace(ior), BOTH)
        for ior in (1.0001, 1.5, 3.0)},

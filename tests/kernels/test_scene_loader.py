@@ -23,7 +23,8 @@ from drtlab.kernels.scene_file import (
 from drtlab.kernels.scene import Scene
 
 BUILTINS = ["aa-edges", "cornell-box", "displaced-sphere", "dof", "drt-showcase", "environment",
-            "glossy", "motion-blur", "soft-shadows", "sphere-grid", "translucency", "veach-mis"]
+            "glossy", "glossy-ggx", "motion-blur", "soft-shadows", "sphere-grid", "translucency",
+            "veach-mis"]
 
 
 def normal(shape) -> np.ndarray:

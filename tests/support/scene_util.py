@@ -29,6 +29,7 @@ import numpy as np
 
 from drtlab.kernels.scene_file import scene_from_dict
 
+import ggx_util
 from scene_pieces import camera_dict, camera_rays, gauss01, inward_box_quads, quad, scene_dict, sphere
 # Estimate is part of this module's interface: ClosedForm.region_truth returns one.
 from stats_util import Estimate, region_values
@@ -274,11 +275,13 @@ def phong_albedo(cos_o: np.ndarray, exponent: float, n_quad: int = 400) -> np.nd
 
 
 def sphere_furnace(kind: str, *, exponent=None, ior=None, albedo=1.0, res=(16, 12), depth=8,
-                   roulette=False, integrator="path", n_pix=6, name=None) -> ClosedForm:
+                   roulette=False, integrator="path", n_pix=6, name=None,
+                   roughness=None) -> ClosedForm:
     """One sphere (radius 1 at the origin) in a uniform background of radiance 1, viewed so that every
     pixel sees the sphere. Truth: 1 for lossless kinds (diffuse/mirror/dielectric with albedo 1);
     the modified-Phong directional albedo for glossy (reflected rays never return to a convex
-    sphere). glossy_dielectric has no closed form here: truth is None (energy bound only)."""
+    sphere; ggx: its albedo by tests/support/ggx_util.py's quadrature at `roughness`).
+    glossy_dielectric has no closed form here: truth is None (energy bound only)."""
     mat = {"kind": kind}
     if kind != "emitter":
         mat["albedo"] = [albedo] * 3
@@ -286,6 +289,8 @@ def sphere_furnace(kind: str, *, exponent=None, ior=None, albedo=1.0, res=(16, 1
         mat["exponent"] = float(exponent)
     if ior is not None:
         mat["ior"] = float(ior)
+    if roughness is not None:
+        mat["roughness"] = float(roughness)
     cam = camera_dict((0.0, 0.0, 4.0), (0.0, 0.0, 0.0), 16.0)
     d = scene_dict(f"{kind} sphere furnace", cam, {"m": mat}, [sphere((0, 0, 0), 1.0, "m")], res=res,
                    integrator=integrator, max_depth=depth, background=(1.0, 1.0, 1.0),
@@ -304,6 +309,12 @@ def sphere_furnace(kind: str, *, exponent=None, ior=None, albedo=1.0, res=(16, 1
         table_a = phong_albedo(table_c, exponent)
         A = np.interp(cos_o, table_c, table_a)
         truth = 3.0 * np.sum(A * w, axis=-1) * albedo
+    elif kind == "ggx":
+        table_c = np.linspace(0.0, 1.0, 257) ** 0.5
+        normal = np.array([0.0, 0.0, 1.0])
+        table_a = [ggx_util.GGX(normal, np.array([math.sqrt(1.0 - c * c), 0.0, c]), roughness)
+                   .albedo_value(512, 256) if c > 0 else 0.0 for c in table_c]
+        truth = 3.0 * np.sum(np.interp(cos_o, table_c, table_a) * w, axis=-1) * albedo
     elif kind in ("diffuse", "mirror", "dielectric") and albedo == 1.0:
         truth = np.full(cos_o.shape[:2], 3.0)
     else:

@@ -171,7 +171,8 @@ ALL_KINDS = frozenset(MATERIAL_KINDS)
 
 
 def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick: bool = False,
-                    meshes: bool = False, faults: frozenset = frozenset()) -> tuple:
+                    meshes: bool = False, faults: frozenset = frozenset(),
+                    microfacet: str = "vndf") -> tuple:
     """(features, strategy) to build one sampling routine from, as the kernel factories take them:
     every material kind, spheres and quads (and meshes), the given strategy and faults."""
     features = Features(integrator="path", lens=False, motion=False, spheres=True, quads=True,
@@ -181,7 +182,7 @@ def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick: b
     light = LightSampling("solid_angle" if solid_angle else "area",
                           "power" if power_pick else "uniform")
     return features, Strategy("chi2", "a chi-square adapter's routine",
-                              "lobe" if lobe else "uniform", light)
+                              "lobe" if lobe else "uniform", light, microfacet=microfacet)
 
 
 @dataclass
@@ -198,15 +199,18 @@ class BSDFSamples:
 class BSDFAdapter:
     """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
-    n, wo); u_lobe, u.x, u.y of thread i are `uniform(seed, i, 0|1|2)`."""
+    n, wo), `exponent` the lobe's shape (GGX: alpha); u_lobe, u.x, u.y of thread i are
+    `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
+    (Strategy.microfacet)."""
 
     _kernels: dict = {}
 
-    def __init__(self, lobe: bool):
+    def __init__(self, lobe: bool, microfacet: str = "vndf"):
         self.lobe = bool(lobe)
-        if self.lobe not in BSDFAdapter._kernels:
-            BSDFAdapter._kernels[self.lobe] = _make_bsdf_kernel(self.lobe)
-        self.kernel = BSDFAdapter._kernels[self.lobe]
+        key = (self.lobe, microfacet)
+        if key not in BSDFAdapter._kernels:
+            BSDFAdapter._kernels[key] = _make_bsdf_kernel(self.lobe, microfacet)
+        self.kernel = BSDFAdapter._kernels[key]
 
     def _launch(self, mode, case, n, seed, pts=None):
         wp = _wp()
@@ -247,11 +251,11 @@ class BSDFAdapter:
         return pdf
 
 
-def _make_bsdf_kernel(lobe: bool):
+def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf"):
     wp = _wp()
     from drtlab.kernels.materials import make_bsdf
 
-    b = make_bsdf(*_routine_variant(lobe=lobe))
+    b = make_bsdf(*_routine_variant(lobe=lobe, microfacet=microfacet))
     sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")

@@ -85,6 +85,21 @@ def test_diffuse_uniform_strategy_passes():
     assert abs(mean - 0.5) < 5.0 * se
 
 
+@pytest.mark.parametrize("kind,strategy,alpha", [("ggx", "importance", 0.05),
+                                                  ("ggx", "importance-ggxd", 0.3),
+                                                  ("ggx_dielectric", "importance", 0.3)])
+def test_ggx_lobes_pass_with_both_normal_samplers(kind, strategy, alpha):
+    """GGX lobes beside their sampled densities: the visible-normal and the D sampler pass (the
+    narrow alpha = 0.05 lobe on the zoomed cap); a claimed alpha 10% high is rejected."""
+    res = L.analyse(kind, roughness=alpha, incident=(30.0, 75.0), strategy=strategy,
+                    samples=SAMPLES, seed=3)
+    assert res.summary["passed"] and res.summary["roughness"] == alpha, res.summary
+    assert all(r["pdf_consistency_max_rel_err"] < 1e-4 for r in res.summary["incident"])
+    wrong = L.analyse(kind, roughness=alpha, incident=(30.0,), strategy=strategy,
+                      samples=SAMPLES, seed=3, pdf_exponent=1.1 * alpha)
+    assert not wrong.summary["passed"]
+
+
 @pytest.mark.parametrize("wrong", [{"pdf_scale": 1.1}, {"pdf_exponent": 22.0}],
                          ids=["pdf-10pct-high", "exponent-10pct-off"])
 def test_negative_control_wrong_pdf_is_rejected(wrong):
@@ -116,6 +131,8 @@ def test_negative_control_wrong_pdf_is_rejected(wrong):
     (["glossy", "--strategy", "bogus"], "--strategy", "importance"),
     (["glossy", "--samples", "10"], "--samples", "10000"),
     (["glossy", "--seed", "-1"], "--seed", "integer"),
+    (["ggx", "--roughness", "0"], "--roughness", "[0.001, 1]"),
+    (["ggx", "--roughness", "2"], "--roughness", "GGX alpha"),
 ])
 def test_bad_input_is_one_line_exit_2(argv, field, words, tmp_path, capsys):
     run_bad(["lobe", *argv, "--out", str(tmp_path / "out")], field, tmp_path, capsys)
