@@ -151,7 +151,7 @@ def test_scenes_lists_all_builtins(capsys):
     captured = capsys.readouterr()
     assert captured.err == ""
     names = first_words(captured.out)
-    assert len(builtin_names()) == 12
+    assert len(builtin_names()) == 13
     assert names == builtin_names()
 
 

@@ -351,8 +351,8 @@ def builtin_cases():
             for integrator in ("drt", "path") for sampler in PRESETS]
 
 
-def test_there_are_twelve_builtins():
-    assert len(builtin_names()) == 12
+def test_there_are_thirteen_builtins():
+    assert len(builtin_names()) == 13
 
 
 @pytest.mark.parametrize("name,integrator,sampler", builtin_cases())

@@ -48,7 +48,7 @@ def materials_of(scene: Scene, kind: str):
 # Built-in scenes
 # ---------------------------------------------------------------------------------------------------
 
-def test_builtin_names_are_the_twelve_scenes():
+def test_builtin_names_are_the_thirteen_scenes():
     assert builtin_names() == BUILTINS
     descriptions = builtin_descriptions()
     assert sorted(descriptions) == BUILTINS
