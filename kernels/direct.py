@@ -8,6 +8,7 @@ make_bsdf and make_lights) returns DirectLighting, Warp functions:
     next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, dt) -> beta times one
         area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
     hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
+        (light_pdf at the hit's point and, on a mesh, its face)
 """
 from typing import NamedTuple
 
@@ -114,7 +115,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
         w = float(1.0)
         if prev_delta == 0:
             if wp.static(MIS):
-                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, dt)
+                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, h.index, dt)
                 w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
             elif wp.static(not COUNT_HITS):
                 w = 0.0

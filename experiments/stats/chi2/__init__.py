@@ -58,7 +58,7 @@ experiments/stats/hypothesis_tests.py, so `from drtlab.experiments.stats import 
 C.ChiSquareTest(...)` is the way to use the harness.
 """
 from drtlab.experiments.stats.chi2.domains import (CapDomain, ConeDomain, Domain, PlanarDomain,
-                                             SphericalDomain, orthonormal_frame)
+                                             RectangleDomain, SphericalDomain, orthonormal_frame)
 from drtlab.experiments.stats.chi2.harness import (ALPHA, POOL_THRESHOLD, ChiSquareResult, ChiSquareTest,
                                              PdfFunc, SampleFunc, pooled_chi2, relative_error,
                                              run_chi2)
@@ -71,7 +71,8 @@ from drtlab.experiments.stats.chi2.mesh_adapter import MeshLightAdapter, MeshLig
 
 __all__ = [
     # domains
-    "Domain", "SphericalDomain", "CapDomain", "ConeDomain", "PlanarDomain", "orthonormal_frame",
+    "Domain", "SphericalDomain", "CapDomain", "ConeDomain", "PlanarDomain", "RectangleDomain",
+    "orthonormal_frame",
     # harness
     "ALPHA", "POOL_THRESHOLD", "sidak", "pooled_chi2", "ChiSquareResult", "ChiSquareTest",
     "SampleFunc", "PdfFunc", "run_chi2", "relative_error",
