@@ -18,7 +18,7 @@ from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integ
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
-from drtlab.kernels.features import FAULTS, MESH_FAULTS, Features, features_of
+from drtlab.kernels.features import FAULTS, MESH_FAULTS, SPHERICAL_FAULTS, Features, features_of
 from drtlab.kernels.scene import Scene
 from drtlab.warp_runtime import warp as _wp
 
@@ -219,7 +219,7 @@ def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None,
                       faults=(), variance=False) -> RenderStats:
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
 
-    `faults` (names from features.FAULTS or MESH_FAULTS) compiles a deliberately wrong estimator: tests use it as
+    `faults` (names from features.FAULTS, MESH_FAULTS or SPHERICAL_FAULTS) compiles a deliberately wrong estimator: tests use it as
     the negative control that a statistical test must reject. Never set it for real renders.
     `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
     """
@@ -259,9 +259,9 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
 
     wp = _wp()
     if faults:
-        unknown = sorted(set(faults) - set(FAULTS + MESH_FAULTS))
+        unknown = sorted(set(faults) - set(FAULTS + MESH_FAULTS + SPHERICAL_FAULTS))
         if unknown:
-            raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(FAULTS + MESH_FAULTS)}")
+            raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(FAULTS + MESH_FAULTS + SPHERICAL_FAULTS)}")
         features = replace(features, faults=frozenset(faults))
     if variance:
         features = replace(features, moments=True)

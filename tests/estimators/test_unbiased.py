@@ -6,8 +6,8 @@ RES = 32 x 24, each reduced to 12 region values (8 x 8-pixel regions, mean of R 
 reference is REF_RUNS renders with the `importance` sampler (independent points, MIS) at REF_SPP and
 other seeds. Per region a Welch t -> equal-p normal deviate; X = sum z^2 ~ chi-square(12) under
 "no bias". Multiple-test correction: Sidak over the full matrix, m = 11 scenes x 2 integrators x
-36 samplers (9 unbiased point sets x 4 strategies) = 792, so each test runs at alpha_test =
-1 - 0.99^(1/792) = 1.27e-5 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
+45 samplers (9 unbiased point sets x 5 strategies) = 990, so each test runs at alpha_test =
+1 - 0.99^(1/990) = 1.02e-5 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
 a subset of the matrix at the same alpha_test (its family-wise rate is then below 0.01 too).
 
 Point sets biased by design (PointSet.biased: `presampled`, Cook's fixed table) are not in the
@@ -17,13 +17,13 @@ its per-pixel randomised twin `presampled_random` (in the matrix like any other 
 Coverage. Full tier (DRTLAB_TEST_TIER=full): all combinations, RUNS x SPP = 32 x 128 (the
 reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt, path} x the three
 presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
-point sets on cornell-box and veach-mis, minus the HEAVY combinations (62 combinations), plus each
+point sets on cornell-box and veach-mis, minus the HEAVY combinations (70 combinations), plus each
 of the seven other point sets (lhs, cmj, halton, sobol, zsobol, pmj02, presampled_random) with the
 importance strategy
 on two representative scene x integrator pairs (FAST_MODERN): cornell-box with path tracing (to
 depth 8, through every per-bounce dimension) and drt-showcase with drt (lens, shutter time, glossy
 reflection and transmission, area light): 14 combinations, 14 kernel variants (a variant costs a
-few seconds to compile; the full tier runs the other 610). The presets' kernel variants are shared
+few seconds to compile; the full tier runs the rest). The presets' kernel variants are shared
 with the other test files (test_render compiles the same built-in x preset variants), and the new
 sets' cornell-box path variants with test_analytic's white furnace.
 
@@ -84,7 +84,7 @@ FAST_ALL_POINTSETS = ("independent", "stratified")     # every strategy on FAST_
 # (scene, integrator) on which the other point sets run in the fast tier, with FAST_MODERN_STRATEGY.
 FAST_MODERN = (("cornell-box", "path"), ("drt-showcase", "drt"))
 FAST_MODERN_STRATEGY = "importance"
-M_TESTS = 11 * 2 * 36
+M_TESTS = 11 * 2 * 45
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 # (scene, integrator or None for both, strategy): heavy-tailed estimators, HEAVY_SPP (module doc).
@@ -169,7 +169,8 @@ def matrix():
 
 def test_matrix_is_the_whole_product():
     assert len(matrix()) == M_TESTS == len(SCENES) * len(UNBIASED) * len(SAMPLERS)
-    assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf"}
+    assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "importance-area",
+                                                  "light", "bsdf"}
     assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.unbiased_pointsets()) \
         == set(registry.POINTSETS) - {"presampled"} == {
         "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
@@ -178,8 +179,9 @@ def test_matrix_is_the_whole_product():
     fast = [p.values for p in matrix() if not p.marks]
     modern = [c for c in fast if parse_sampler(c[2]).pointset.name not in FAST_ALL_POINTSETS]
     # 62 preset cases of the nine effect scenes, 12 of displaced-sphere and sphere-grid (3 presets x
-    # 2 integrators each), and the 14 modern point-set cases.
-    assert len(fast) == 62 + 12 + 14 and len(modern) == 14
+    # 2 integrators each), the 14 modern point-set cases, and importance-area with the independent
+    # and stratified sets on cornell-box and veach-mis (8).
+    assert len(fast) == 62 + 12 + 14 + 8 and len(modern) == 14
 
 
 def test_biased_integrators_are_labelled_and_excluded():

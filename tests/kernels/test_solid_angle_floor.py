@@ -1,0 +1,127 @@
+"""Unbiasedness of solid-angle rectangle sampling on both sides of its fallback thresholds, against
+a closed form (kernels/lights.py: SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION).
+
+Scene: a Lambertian plane (albedo rho) seen from above (path, max_depth 2: direct light only) under
+two one-sided rectangle lights facing down, both outside the view and unshadowed: a small one
+0.15 above the plane (pixels near it see it with Omega above SPHERICAL_MIN, far ones below) and a
+large one 0.05 above it (near pixels see it above SPHERICAL_MIN_ELEVATION, far ones below, at solid
+angles well above SPHERICAL_MIN). Every pixel is rho / pi x sum_i E_i, E_i by Lambert's polygon
+formula averaged over the pixel (closed_forms_util), shared with no renderer code. Rendered with
+`importance` (solid angle, MIS: the fallback's pdf must reach the MIS weights of BSDF hits),
+`light` (solid angle, next-event estimation only) and `importance-area` (area, MIS).
+
+Statistics (stats_util): RUNS renders, BLOCK x BLOCK regions, Welch t per region against the exact
+value -> chi-square; ALPHA = 0.01, Sidak over the M_TESTS clean comparisons. Negative control
+(same level, must be rejected): the renders with features.SPHERICAL_LINEAR (the spherical
+rectangle's second coordinate linear, density still claimed 1 / Omega).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drtlab.experiments.stats import chi2 as C
+from drtlab.kernels.features import SPHERICAL_LINEAR
+from drtlab.kernels.lights import SPHERICAL_MAX, SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION
+from drtlab.kernels.scene_file import scene_from_dict
+
+import closed_forms_util as cu
+from stats_util import ALPHA, compare, render_estimate
+
+RES = (16, 16)
+BLOCK = 2
+RUNS = 12
+SPP = 64
+RHO = 0.6
+SAMPLERS = ("importance", "independent+light", "independent+importance-area")
+M_TESTS = len(SAMPLERS)
+ALPHA_TEST = C.sidak(ALPHA, M_TESTS)
+CAM = {"position": [0.0, 3.0, 0.0], "look_at": [0.0, 0.0, 0.0], "up": [0.0, 0.0, -1.0], "fov": 60.0}
+# (centre, size (x, z), height, Le)
+LIGHTS = [((2.2, 0.0), (0.2, 0.2), 0.15, 80.0), ((-2.8, 0.0), (2.0, 2.0), 0.05, 3.0)]
+
+
+def corners(light):
+    (cx, cz), (sx, sz), h, _ = light
+    q0 = np.array([cx - sx / 2, h, cz - sz / 2])
+    eu, ev = np.array([sx, 0.0, 0.0]), np.array([0.0, 0.0, sz])     # eu x ev = -y: emits down
+    return q0, eu, ev
+
+
+def scene():
+    mats = {"plane": {"kind": "diffuse", "albedo": [RHO] * 3}}
+    shapes = [{"kind": "quad", "material": "plane", "origin": [-20.0, 0.0, 20.0],
+               "edge_u": [40.0, 0.0, 0.0], "edge_v": [0.0, 0.0, -40.0]}]
+    for i, light in enumerate(LIGHTS):
+        mats[f"light{i}"] = {"kind": "emitter", "emission": [light[3]] * 3}
+        q0, eu, ev = corners(light)
+        shapes.append({"kind": "quad", "material": f"light{i}", "origin": q0.tolist(),
+                       "edge_u": eu.tolist(), "edge_v": ev.tolist()})
+    return scene_from_dict(cu.scene_dict("rectangle lights near a plane", CAM, mats, shapes, RES,
+                                         max_depth=2), name="solid-angle-floor")
+
+
+def plane_points():
+    o, d, w = cu.pinhole_rays(CAM, *RES)
+    t = -o[1] / d[..., 1]
+    assert np.all(t > 0)
+    return o + d * t[..., None], w
+
+
+def solid_angle_and_elevation(x, light):
+    """(Omega, elevation sine over the farthest corner) of `light` from points x, float64."""
+    q0, eu, ev = corners(light)
+    vs = [q0 - x, q0 + eu - x, q0 + eu + ev - x, q0 + ev - x]
+
+    def tri(a, b, c):
+        la, lb, lc = (np.linalg.norm(v, axis=-1) for v in (a, b, c))
+        dot = lambda p, q: np.sum(p * q, axis=-1)
+        return 2 * np.arctan2(np.abs(dot(a, np.cross(b, c))),
+                              la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la)
+    omega = tri(vs[0], vs[1], vs[2]) + tri(vs[0], vs[2], vs[3])
+    reach = np.max([np.linalg.norm(v, axis=-1) for v in vs], axis=0)
+    return omega, (light[2] - x[..., 1]) / reach
+
+
+def exact_image():
+    x, w = plane_points()
+    n = np.array([0.0, 1.0, 0.0])
+    o, d, _ = cu.pinhole_rays(CAM, *RES)
+    E = 0.0
+    for light in LIGHTS:
+        q0, eu, ev = corners(light)
+        assert not cu.ray_hits_parallelogram(o, d, q0, eu, ev).any()
+        E = E + cu.polygon_irradiance(x, n, [q0, q0 + eu, q0 + eu + ev, q0 + ev], light[3])
+    return 3.0 * RHO / math.pi * np.sum(E * w, axis=-1)
+
+
+def test_pixels_lie_on_both_sides_of_each_threshold():
+    x, _ = plane_points()
+    om0, el0 = solid_angle_and_elevation(x, LIGHTS[0])
+    om1, el1 = solid_angle_and_elevation(x, LIGHTS[1])
+    assert np.all(el0 > SPHERICAL_MIN_ELEVATION)
+    assert np.mean(om0 > SPHERICAL_MIN) > 0.2 and np.mean(om0 < SPHERICAL_MIN) > 0.2
+    assert np.all((om1 > SPHERICAL_MIN) & (om1 < SPHERICAL_MAX))
+    assert np.mean(el1 > SPHERICAL_MIN_ELEVATION) > 0.2 and np.mean(el1 < SPHERICAL_MIN_ELEVATION) > 0.2
+
+
+@pytest.mark.parametrize("sampler", SAMPLERS)
+def test_rectangle_lights_near_a_plane(sampler):
+    exact = cu.exact_regions(exact_image(), BLOCK)
+    est = render_estimate(scene(), sampler, "path", SPP, RUNS, ("solid-angle-floor", sampler),
+                          block=BLOCK)
+    assert est.nonfinite == 0 and est.negative == 0
+    c = compare(est, exact, ALPHA_TEST)
+    print(f"\n{sampler}: {c.summary()}")
+    assert not c.rejected, c.summary()
+
+
+def test_negative_control_linear_map_is_rejected():
+    exact = cu.exact_regions(exact_image(), BLOCK)
+    est = render_estimate(scene(), "independent+light", "path", SPP, RUNS, ("solid-angle-floor", "fault"),
+                          block=BLOCK, faults=(SPHERICAL_LINEAR,))
+    c = compare(est, exact, ALPHA_TEST)
+    print(f"\nnegative control (spherical_linear): {c.summary()}")
+    assert c.rejected, c.summary()
