@@ -10,7 +10,9 @@ last test) prints the worst relative error of every case and the total non-finit
 
 The matrix:
   grazing camera rays (88.5-89.5 deg on the plane), grazing light (a sphere light on the horizon, a
-  vertical quad light seen at <= 10 deg elevation); glossy exponents 0, 1, 10^3, 10^6 (white
+  vertical quad light seen at <= 10 deg elevation); a rectangle light very close above the receivers
+  (solid angles up to ~2 pi) and one nearly in their plane (both sides of the solid-angle sampling
+  thresholds of kernels/lights.py); glossy exponents 0, 1, 10^3, 10^6 (white
   furnace, modified-Phong albedo by quadrature); IOR 1.0001, 1.5, 3: a slab before an emitter
   (Le (1 - F) / (1 + F)) and a glass cube in a furnace (= 1, total internal reflection at the side
   faces); sphere and quad lights of size 10^-4 ... 10^2 at equal power (Le ~ 1 / size^2); scene
@@ -102,6 +104,22 @@ def _meshed(cf: su.ClosedForm) -> su.ClosedForm:
     return dataclasses.replace(cf, name=cf.name + "-mesh", scene=dict(cf.scene, shapes=shapes))
 
 
+def _rect_light_close():
+    # A 2 x 2 light facing down 0.12 above the receivers the camera (at 0.1, below it) looks at: solid
+    # angles up to ~2 pi, on both sides of kernels/lights.py's SPHERICAL_MAX.
+    return su.light_over_plane("quad", light_pos=(0.0, 0.12, -0.3), size=2.0, le=2.0, bg=0.01,
+                               cam_pos=(0.0, 0.1, 0.6), look=(0.0, 0.0, -0.3), fov=8.0,
+                               name="rect-light-close")
+
+
+def _rect_light_nearly_in_plane():
+    # A light facing down 0.03 above the plane, 3-5 units from the receivers: they lie nearly in its
+    # plane (elevation sines 0.006-0.01, both sides of SPHERICAL_MIN_ELEVATION).
+    return su.light_over_plane("quad", light_pos=(-4.0, 0.03, 0.0), size=1.0, le=3000.0, bg=0.01,
+                               cam_pos=(0.0, 3.0, 0.5), look=(0.0, 0.0, 0.0), fov=30.0,
+                               name="rect-light-nearly-in-plane")
+
+
 LENS_KW = dict(light_pos=(-0.7, 0.15, 0.0), size=0.05, le=400.0, bg=0.05, fov=12.0, checker=True)
 # Distance from the camera (0, 2.2, 3) to the look-at point (0.1, 0, 0) on the plane.
 OBJECT_DISTANCE = math.dist((0.0, 2.2, 3.0), (0.1, 0.0, 0.0))
@@ -110,6 +128,8 @@ CASES = {
     "grazing-camera": (_grazing_camera, BOTH),
     "grazing-sphere-light": (_grazing_sphere_light, BOTH),
     "grazing-quad-light": (_grazing_quad_light, BOTH),
+    "rect-light-close": (_rect_light_close, BOTH),
+    "rect-light-nearly-in-plane": (_rect_light_nearly_in_plane, BOTH),
     **{f"glossy-exponent-{e:g}": (lambda e=e: su.sphere_furnace("glossy", exponent=e, depth=3,
                                                                name=f"glossy-exponent-{e:g}"),
                                   BOTH if e < 100 else IMPORTANCE)
