@@ -9,7 +9,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-lights ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -52,6 +52,9 @@ experiment-uniform: $(RUNTIME)
 
 experiment-presampled: $(RUNTIME)
 	$(DRT) experiment presampled
+
+experiment-lights: $(RUNTIME)
+	$(DRT) experiment lights
 
 experiment-all: $(RUNTIME)
 	$(DRT) experiment all
