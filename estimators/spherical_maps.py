@@ -37,6 +37,8 @@ class SphericalRect:
     z0: float
     x1: float
     y1: float
+    l00: float              # |(x0, y0, z0)|, |(x0, y1, z0)|: corner distances the map reuses
+    l01: float
     solid_angle: float      # 0 when x is not strictly in front (z0 >= 0): nothing to sample
 
 
@@ -67,14 +69,22 @@ def spherical_rect(x: wp.vec3, q0: wp.vec3, u: wp.vec3, v: wp.vec3) -> Spherical
     r.y1 = r.y0 + eyl
     r.solid_angle = 0.0
     if r.z0 < 0.0:
-        # Two triangles (v00, v10, v11) and (v00, v11, v01); each triple product is z0 |u| |v|.
-        triple = r.z0 * exl * eyl
-        v00 = wp.vec3(r.x0, r.y0, r.z0)
-        v10 = wp.vec3(r.x1, r.y0, r.z0)
-        v11 = wp.vec3(r.x1, r.y1, r.z0)
-        v01 = wp.vec3(r.x0, r.y1, r.z0)
-        r.solid_angle = tri_solid_angle(triple, v00, v10, v11) + tri_solid_angle(triple, v00, v11,
-                                                                                  v01)
+        # Two triangles (v00, v10, v11) and (v00, v11, v01), each of triple product |z0| |u| |v|:
+        # Omega / 2 = atan2(T, den1) + atan2(T, den2), summed as one atan2 (the sum is at most pi).
+        z2 = r.z0 * r.z0
+        r.l00 = wp.sqrt(r.x0 * r.x0 + r.y0 * r.y0 + z2)
+        l10 = wp.sqrt(r.x1 * r.x1 + r.y0 * r.y0 + z2)
+        l11 = wp.sqrt(r.x1 * r.x1 + r.y1 * r.y1 + z2)
+        r.l01 = wp.sqrt(r.x0 * r.x0 + r.y1 * r.y1 + z2)
+        d00_10 = r.x0 * r.x1 + r.y0 * r.y0 + z2
+        d00_11 = r.x0 * r.x1 + r.y0 * r.y1 + z2
+        d10_11 = r.x1 * r.x1 + r.y0 * r.y1 + z2
+        d00_01 = r.x0 * r.x0 + r.y0 * r.y1 + z2
+        d11_01 = r.x0 * r.x1 + r.y1 * r.y1 + z2
+        t = -r.z0 * exl * eyl
+        den1 = r.l00 * l10 * l11 + d00_10 * l11 + d00_11 * l10 + d10_11 * r.l00
+        den2 = r.l00 * l11 * r.l01 + d00_11 * r.l01 + d00_01 * l11 + d11_01 * r.l00
+        r.solid_angle = 2.0 * wp.atan2(t * (den1 + den2), den1 * den2 - t * t)
     return r
 
 
@@ -113,17 +123,28 @@ def make_spherical_maps(linear: bool = False) -> SphericalMaps:
         """A point of the rectangle (r.solid_angle > 0) whose direction from x is uniform in the
         solid angle the rectangle subtends."""
         z0 = r.z0
-        # Unit normals of the planes through x and each edge; Urena's internal angles g2, g3.
-        n0 = wp.normalize(wp.vec3(0.0, z0, -r.y0))
-        n2 = wp.normalize(wp.vec3(0.0, -z0, r.y1))
-        n3 = wp.normalize(wp.vec3(z0, 0.0, -r.x0))
-        g2 = angle_between(-n2, n3)
-        g3 = angle_between(-n3, n0)
-        b0 = n0[2]
-        b1 = n2[2]
-        # The sub-rectangle of solid angle u0 S ends at xu (angles taken mod 2 pi).
-        au = u[0] * r.solid_angle - g2 - g3
-        fu = (wp.cos(au) * b0 - b1) / wp.sin(au)
+        z2 = z0 * z0
+        # Urena's au = u0 S - g2 - g3 (angles mod 2 pi), g2, g3 the internal angles at the corners
+        # (x0, y1) and (x0, y0), taken through their cosines and sines, which are algebraic in the
+        # corners: cos g2 = x0 y1 / (r2 r3), sin g2 = |z0| |v01| / (r2 r3), and likewise g3.
+        r0 = wp.sqrt(z2 + r.y0 * r.y0)
+        r2 = wp.sqrt(z2 + r.y1 * r.y1)
+        r3 = wp.sqrt(z2 + r.x0 * r.x0)
+        c2 = r.x0 * r.y1 / (r2 * r3)
+        s2 = -z0 * r.l01 / (r2 * r3)
+        c3 = -r.x0 * r.y0 / (r3 * r0)
+        s3 = -z0 * r.l00 / (r3 * r0)
+        c23 = c2 * c3 - s2 * s3
+        s23 = s2 * c3 + c2 * s3
+        a = u[0] * r.solid_angle
+        ca = wp.cos(a)
+        sa = wp.sin(a)
+        cos_au = ca * c23 + sa * s23
+        sin_au = sa * c23 - ca * s23
+        b0 = -r.y0 / r0
+        b1 = r.y1 / r2
+        # The sub-rectangle of solid angle u0 S ends at xu.
+        fu = (cos_au * b0 - b1) / sin_au
         cu = 1.0 / wp.sqrt(fu * fu + b0 * b0)
         if fu < 0.0:
             cu = -cu
@@ -133,13 +154,13 @@ def make_spherical_maps(linear: bool = False) -> SphericalMaps:
         if wp.static(LINEAR):
             yv = r.y0 + u[1] * (r.y1 - r.y0)
         else:
-            dd2 = xu * xu + z0 * z0
+            dd2 = xu * xu + z2
             h0 = r.y0 / wp.sqrt(dd2 + r.y0 * r.y0)
             h1 = r.y1 / wp.sqrt(dd2 + r.y1 * r.y1)
             hv = h0 + u[1] * (h1 - h0)
             yv = r.y1
             if hv * hv < 1.0 - 1.0e-6:
-                yv = hv * wp.sqrt(dd2) / wp.sqrt(1.0 - hv * hv)
+                yv = hv * wp.sqrt(dd2 / (1.0 - hv * hv))
             yv = wp.clamp(yv, r.y0, r.y1)
         return x + r.ex * xu + r.ey * yv + r.ez * z0
 
@@ -153,13 +174,15 @@ def make_spherical_maps(linear: bool = False) -> SphericalMaps:
         c = wp.normalize(p2 - x)
         n_ab = safe_normalize(wp.cross(a, b))
         n_ca = safe_normalize(wp.cross(c, a))
-        alpha = angle_between(n_ab, -n_ca)
-        # Arvo: the sub-triangle a b c' of area u0 A (alpha + beta' + gamma' = pi + u0 A).
-        ap = PI + u[0] * solid_angle
-        cos_alpha = wp.cos(alpha)
-        sin_alpha = wp.sin(alpha)
-        sin_phi = -wp.sin(ap) * cos_alpha + wp.cos(ap) * sin_alpha
-        cos_phi = -wp.cos(ap) * cos_alpha - wp.sin(ap) * sin_alpha
+        # The angle alpha at a, through its cosine and sine (between n_ab and -n_ca).
+        cos_alpha = -wp.dot(n_ab, n_ca)
+        sin_alpha = wp.length(wp.cross(n_ab, n_ca))
+        # Arvo: the sub-triangle a b c' of area u0 A (alpha + beta' + gamma' = pi + u0 A); with
+        # ap = pi + u0 A, sin ap = -sin(u0 A) and cos ap = -cos(u0 A).
+        sin_ap = -wp.sin(u[0] * solid_angle)
+        cos_ap = -wp.cos(u[0] * solid_angle)
+        sin_phi = -sin_ap * cos_alpha + cos_ap * sin_alpha
+        cos_phi = -cos_ap * cos_alpha - sin_ap * sin_alpha
         k1 = cos_phi - cos_alpha
         k2 = sin_phi + sin_alpha * wp.dot(a, b)
         cos_bp = ((k2 * cos_phi - k1 * sin_phi) * cos_alpha - k2) / (

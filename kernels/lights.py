@@ -79,11 +79,11 @@ class Corners:
 
 
 @wp.func
-def spherical_ok(omega: float, height: float, reach: float) -> int:
-    """Whether a flat light of solid angle omega, whose plane is `height` from x and whose farthest
-    corner is `reach` from x, is sampled by solid angle (the thresholds above)."""
+def spherical_ok(omega: float, height2: float, reach2: float) -> int:
+    """Whether a flat light of solid angle omega, whose plane is sqrt(height2) from x and whose
+    farthest corner is sqrt(reach2) from x, is sampled by solid angle (the thresholds above)."""
     if omega >= wp.static(SPHERICAL_MIN) and omega <= wp.static(SPHERICAL_MAX):
-        if height >= wp.static(SPHERICAL_MIN_ELEVATION) * reach:
+        if height2 >= wp.static(SPHERICAL_MIN_ELEVATION * SPHERICAL_MIN_ELEVATION) * reach2:
             return 1
     return 0
 
@@ -91,19 +91,21 @@ def spherical_ok(omega: float, height: float, reach: float) -> int:
 @wp.func
 def rect_ok(r: SphericalRect) -> int:
     reach2 = wp.max(r.x0 * r.x0, r.x1 * r.x1) + wp.max(r.y0 * r.y0, r.y1 * r.y1) + r.z0 * r.z0
-    return spherical_ok(r.solid_angle, -r.z0, wp.sqrt(reach2))
+    return spherical_ok(r.solid_angle, r.z0 * r.z0, reach2)
 
 
 @wp.func
 def triangle_ok(x: wp.vec3, a: wp.vec3, b: wp.vec3, c: wp.vec3, omega: float) -> int:
-    n = wp.normalize(wp.cross(b - a, c - a))
-    reach = wp.max(wp.length(a - x), wp.max(wp.length(b - x), wp.length(c - x)))
-    return spherical_ok(omega, wp.abs(wp.dot(a - x, n)), reach)
+    n = wp.cross(b - a, c - a)
+    h = wp.dot(a - x, n)
+    reach2 = wp.max(wp.length_sq(a - x), wp.max(wp.length_sq(b - x), wp.length_sq(c - x)))
+    return spherical_ok(omega, h * h, reach2 * wp.dot(n, n))
 
 
 @wp.func
 def is_rectangle(u: wp.vec3, v: wp.vec3) -> int:
-    if wp.abs(wp.dot(u, v)) <= wp.static(RECTANGLE_COS) * wp.length(u) * wp.length(v):
+    uv = wp.dot(u, v)
+    if uv * uv <= wp.static(RECTANGLE_COS * RECTANGLE_COS) * wp.dot(u, u) * wp.dot(v, v):
         return 1
     return 0
 
