@@ -21,7 +21,7 @@ terrain of 72 triangles seen from below (every face spherical-triangle sampled) 
 (every face below SPHERICAL_MIN: area). Negative controls (must be rejected at the same level):
 features.SPHERICAL_LINEAR (the maps' second coordinate linear) on the rectangle from below and on
 the terrain; features.SPHERICAL_MIS_AREA (light_pdf ignoring the spherical density) by the pdf
-consistency check.
+consistency check. From behind the light and from its plane: no valid sample, no NaN.
 """
 from __future__ import annotations
 
@@ -260,3 +260,14 @@ def test_negative_control_triangle_linear_map_is_rejected():
                    sample_count=N, res=res, seed=seed_of("tri-linear"), test_count=N_TESTS, ires=12)
     print("negative control:", r.summary())
     assert r.rejected and r.p_value < LEVEL, r.summary()
+
+
+@pytest.mark.parametrize("name,x", [("behind", np.array([0.2, 1.5, 0.1])),
+                                    ("in-plane", np.array([0.2, 1.0, 0.1])),
+                                    ("in-plane-outside", np.array([3.0, 1.0, 0.1]))])
+def test_hidden_rectangle_light_gives_no_sample(name, x):
+    # From behind a one-sided light, or exactly in its plane, nothing is sampled (no NaN, no
+    # negative or infinite pdf), as area sampling would find every point facing away.
+    _, _, s = rect_samples(x, name)
+    assert not s.valid.any(), f"{s.valid.sum()} valid samples from {name}"
+    assert np.isfinite(s.pdf).all() and (s.pdf >= 0).all()
