@@ -47,6 +47,13 @@ from drtlab.kernels.intersection.motion import Motion
 SPHERICAL_MIN = 3.0e-4
 SPHERICAL_MAX = 6.22
 SPHERICAL_MIN_ELEVATION = 0.01
+# A rectangle is sampled by solid angle only where, besides, A cos_l / d^2 at its centre (its solid
+# angle while it is small; no sqrt, no atan2) is at least SPHERICAL_PAYS sr: below, area sampling's
+# variance is nearly as low (cos_l / d^2 varies little over the light) and the spherical rectangle's
+# extra cost per light sample (~100-250 ns on one CPU thread) does not pay it back. Measured by
+# experiments/bench/light_switch.py (a square light over a plane: per-pixel variance x ns/sample of
+# area against solid angle, crossing 1 here). Points below it skip the spherical rectangle entirely.
+SPHERICAL_PAYS = 4.0e-3
 # A quad is a rectangle (spherical-rectangle sampling applies) when the cosine of the angle between
 # its edges is below this: float32 edges of rotated boxes are ~1e-7 off; the sampled rectangle then
 # differs from the quad by a sliver of relative area below it.
@@ -220,6 +227,20 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
     wrong_jacobian = LIGHT_JACOBIAN in f.faults
     MIS_AREA = SPHERICAL_MIS_AREA in f.faults
     maps = make_spherical_maps(linear=SPHERICAL_LINEAR in f.faults)
+    # Read when the kernel is built (experiments/bench/light_switch.py sets it to 0 to measure
+    # solid angle on both sides of it).
+    PAYS = SPHERICAL_PAYS
+
+    @wp.func
+    def rect_pays(x: wp.vec3, q0: wp.vec3, u: wp.vec3, v: wp.vec3, n: wp.vec3, area: float) -> int:
+        """Whether A cos_l / d^2 at the centre of the rectangle q0 + s u + t v (unit normal n, area
+        A) seen from x reaches SPHERICAL_PAYS: tested before, and deciding whether, the spherical
+        rectangle is built."""
+        c = q0 + (u + v) * 0.5 - x
+        d2 = wp.dot(c, c)
+        if area * wp.abs(wp.dot(c, n)) >= wp.static(PAYS) * d2 * wp.sqrt(d2):
+            return 1
+        return 0
     to_rect = maps.square_to_spherical_rect
     flat_area, sample_triangle, face_solid_angle_pdf = _make_mesh_lights(
         f.meshes, MESH_PDF_HIGH_10PCT in f.faults, motion.mesh_shift, SOLID_ANGLE,
@@ -273,8 +294,10 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                 if k != MESH:
                     uu = sd.quads.u[s]
                     vv = sd.quads.v[s]
-                    if is_rectangle(uu, vv) == 1:
-                        rect = spherical_rect(x, quad_origin(sd, s, dt), uu, vv)
+                    q0 = quad_origin(sd, s, dt)
+                    if is_rectangle(uu, vv) == 1 and rect_pays(
+                            x, q0, uu, vv, sd.quads.normal[s], sd.quads.area[s]) == 1:
+                        rect = spherical_rect(x, q0, uu, vv)
                         if rect_ok(rect) == 1:
                             sa_pdf = 1.0 / rect.solid_angle
                 if sa_pdf > 0.0:
@@ -333,7 +356,8 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                 vv = sd.quads.v[s]
                 ny = sd.quads.normal[s]
                 if wp.static(SOLID_ANGLE):
-                    if is_rectangle(uu, vv) == 1:
+                    if is_rectangle(uu, vv) == 1 and rect_pays(
+                            x, q0, uu, vv, ny, sd.quads.area[s]) == 1:
                         rect = spherical_rect(x, q0, uu, vv)
                         if rect_ok(rect) == 1:
                             y = to_rect(rect, x, u)

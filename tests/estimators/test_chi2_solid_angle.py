@@ -9,12 +9,14 @@ over the N_TESTS tests of this module. Besides the chi-square test, each case ch
 
 * the pdf a sample carries equals light_pdf evaluated on its own at the same point (what MIS uses);
 * that pdf is the exact density in float64: 1 / Omega (Van Oosterom and Strackee's formula, written
-  here again) where kernels/lights.py's rule says solid angle (Omega in [SPHERICAL_MIN,
-  SPHERICAL_MAX], elevation >= SPHERICAL_MIN_ELEVATION), the area density d^2 / (cos A) elsewhere
-  (the fallback) - so both sides of each threshold are checked against their own density.
+  here again) where kernels/lights.py's rule says solid angle (A cos_l / d^2 at the centre >=
+  SPHERICAL_PAYS, Omega in [SPHERICAL_MIN, SPHERICAL_MAX], elevation >= SPHERICAL_MIN_ELEVATION),
+  the area density d^2 / (cos A) elsewhere (the fallback) - so both sides of each threshold are
+  checked against their own density.
 
-Cases: a 2 x 2 rectangle light seen from below its centre, obliquely, far below with Omega twice
-and half SPHERICAL_MIN, nearly edge-on from 3 units away at twice and half SPHERICAL_MIN_ELEVATION
+Cases: a 2 x 2 rectangle light seen from below its centre, obliquely, far below with A cos_l / d^2
+twice and half SPHERICAL_PAYS (for a rectangle it is reached before SPHERICAL_MIN, which the mesh
+cases straddle), nearly edge-on from 3 and 2 units away at twice and half SPHERICAL_MIN_ELEVATION
 and at 1e-3 below its plane (a shading point nearly in the light's plane), very close under it
 (Omega ~ 6.04 sr) and closer still (Omega > SPHERICAL_MAX: area); a
 terrain of 72 triangles seen from below (every face spherical-triangle sampled) and a far icosphere
@@ -34,7 +36,8 @@ from scipy import optimize
 
 from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.features import SPHERICAL_LINEAR, SPHERICAL_MIS_AREA
-from drtlab.kernels.lights import SPHERICAL_MAX, SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION
+from drtlab.kernels.lights import (SPHERICAL_MAX, SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION,
+                                   SPHERICAL_PAYS)
 
 from mesh_util import chi2_domain, facing_mass, light_scene, mesh
 
@@ -77,37 +80,52 @@ def rect_elevation(x) -> float:
     return (1.0 - x[1]) / reach(x, [Q0, Q0 + U, Q0 + U + V, Q0 + V])
 
 
+def rect_pays_measure(x) -> float:
+    """A cos_l / d^2 at the light's centre (kernels/lights.py's rect_pays)."""
+    c = Q0 + 0.5 * (U + V) - x
+    n = np.cross(U, V)
+    return float(abs(c @ n) / np.linalg.norm(c) ** 3)
+
+
 def spherical_side(omega: float, elevation: float) -> bool:
-    """kernels/lights.py's rule, written again: solid angle where this holds, area elsewhere."""
+    """kernels/lights.py's rule for a triangle, written again: solid angle where this holds, area
+    elsewhere."""
     return SPHERICAL_MIN <= omega <= SPHERICAL_MAX and elevation >= SPHERICAL_MIN_ELEVATION
 
 
-def steep_point(omega: float) -> np.ndarray:
-    """x = (0.3, 1 - h, 0.2) far below the light, with Omega = omega."""
-    h = optimize.brentq(lambda h: rect_solid_angle(np.array([0.3, 1.0 - h, 0.2])) - omega,
+def rect_spherical_side(x) -> bool:
+    """The rule for a rectangle: the triangle's, and the switch SPHERICAL_PAYS."""
+    return (rect_pays_measure(x) >= SPHERICAL_PAYS
+            and spherical_side(rect_solid_angle(x), rect_elevation(x)))
+
+
+def steep_point(measure: float) -> np.ndarray:
+    """x = (0.3, 1 - h, 0.2) far below the light, with A cos_l / d^2 at its centre = measure."""
+    h = optimize.brentq(lambda h: rect_pays_measure(np.array([0.3, 1.0 - h, 0.2])) - measure,
                         1.0, 1e4, xtol=1e-12)
     return np.array([0.3, 1.0 - h, 0.2])
 
 
-def edge_on_point(elevation: float) -> np.ndarray:
-    """x = (3, 1 - h, 0.3): 3 units beside the light's centre, h below its plane, at this elevation."""
-    h = optimize.brentq(lambda h: rect_elevation(np.array([3.0, 1.0 - h, 0.3])) - elevation,
+def edge_on_point(elevation: float, beside: float) -> np.ndarray:
+    """x = (beside, 1 - h, 0.3): beside the light's centre, h below its plane, at this elevation."""
+    h = optimize.brentq(lambda h: rect_elevation(np.array([beside, 1.0 - h, 0.3])) - elevation,
                         1e-12, 1.0, xtol=1e-15)
-    return np.array([3.0, 1.0 - h, 0.3])
+    return np.array([beside, 1.0 - h, 0.3])
 
 
 RECT_CASES = {
     "below": np.array([0.0, 0.0, 0.0]),
     "oblique": np.array([0.5, -0.3, 2.0]),
-    "far-above-min": steep_point(2.0 * SPHERICAL_MIN),
-    "far-below-min": steep_point(0.5 * SPHERICAL_MIN),
-    "edge-on-above-elevation": edge_on_point(2.0 * SPHERICAL_MIN_ELEVATION),
-    "edge-on-below-elevation": edge_on_point(0.5 * SPHERICAL_MIN_ELEVATION),
+    "far-above-pays": steep_point(2.0 * SPHERICAL_PAYS),
+    "far-below-pays": steep_point(0.5 * SPHERICAL_PAYS),
+    "edge-on-above-elevation": edge_on_point(2.0 * SPHERICAL_MIN_ELEVATION, 3.0),
+    # 2 units beside, not 3: there A cos_l / d^2 still reaches SPHERICAL_PAYS at this elevation.
+    "edge-on-below-elevation": edge_on_point(0.5 * SPHERICAL_MIN_ELEVATION, 2.0),
     "grazing": np.array([3.0, 1.0 - 1e-3, 0.3]),
     "close": np.array([0.3, 0.96, 0.2]),
     "closer-than-max": np.array([0.3, 0.999, 0.2]),
 }
-SPHERICAL_CASES = {"below", "oblique", "far-above-min", "edge-on-above-elevation", "close"}
+SPHERICAL_CASES = {"below", "oblique", "far-above-pays", "edge-on-above-elevation", "close"}
 
 _uploads: dict = {}
 
@@ -121,7 +139,7 @@ def uploaded(name, d):
 def exact_rect_pdf(x, s) -> np.ndarray:
     """The density the samples should carry: 1 / Omega on the spherical side, d^2 / (cos A) else."""
     om = rect_solid_angle(x)
-    if spherical_side(om, rect_elevation(x)):
+    if rect_spherical_side(x):
         return np.full(len(s.dist), 1.0 / om)
     n = np.cross(U, V) / np.linalg.norm(np.cross(U, V))
     cos_l = np.abs(s.wi.astype(np.float64) @ n)
@@ -135,12 +153,16 @@ def rect_samples(x, name, faults=()):
 
 
 def test_cases_straddle_the_thresholds():
-    side = {k: spherical_side(rect_solid_angle(x), rect_elevation(x)) for k, x in RECT_CASES.items()}
+    side = {k: rect_spherical_side(x) for k, x in RECT_CASES.items()}
     assert {k for k, v in side.items() if v} == SPHERICAL_CASES
     om = {k: rect_solid_angle(x) for k, x in RECT_CASES.items()}
-    assert om["far-above-min"] > SPHERICAL_MIN > om["far-below-min"]
+    pays = {k: rect_pays_measure(x) for k, x in RECT_CASES.items()}
+    assert pays["far-above-pays"] > SPHERICAL_PAYS > pays["far-below-pays"]
+    assert om["far-below-pays"] > SPHERICAL_MIN                # area-sampled for the switch alone
     assert SPHERICAL_MIN < om["close"] < SPHERICAL_MAX < om["closer-than-max"]
-    assert om["edge-on-below-elevation"] > SPHERICAL_MIN      # area-sampled for its elevation alone
+    assert pays["closer-than-max"] > SPHERICAL_PAYS
+    # Area-sampled for its elevation alone:
+    assert om["edge-on-below-elevation"] > SPHERICAL_MIN and pays["edge-on-below-elevation"] > SPHERICAL_PAYS
     assert RECT_CASES["grazing"][1] > 0.998                   # nearly in the light's plane
 
 

@@ -113,9 +113,10 @@ def _rect_light_close():
 
 
 def _rect_light_nearly_in_plane():
-    # A light facing down 0.03 above the plane, 3-5 units from the receivers: they lie nearly in its
-    # plane (elevation sines 0.006-0.01, both sides of SPHERICAL_MIN_ELEVATION).
-    return su.light_over_plane("quad", light_pos=(-4.0, 0.03, 0.0), size=1.0, le=3000.0, bg=0.01,
+    # A 3 x 3 light facing down 0.055 above the plane, 3-5 units from the receivers: they lie nearly
+    # in its plane (elevation sines 0.008-0.012, both sides of SPHERICAL_MIN_ELEVATION), most of
+    # them above SPHERICAL_PAYS (so that the elevation threshold is what decides there).
+    return su.light_over_plane("quad", light_pos=(-4.0, 0.055, 0.0), size=3.0, le=180.0, bg=0.01,
                                cam_pos=(0.0, 3.0, 0.5), look=(0.0, 0.0, 0.0), fov=30.0,
                                name="rect-light-nearly-in-plane")
 

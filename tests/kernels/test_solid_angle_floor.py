@@ -1,11 +1,12 @@
 """Unbiasedness of solid-angle rectangle sampling on both sides of its fallback thresholds, against
-a closed form (kernels/lights.py: SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION).
+a closed form (kernels/lights.py: SPHERICAL_PAYS, SPHERICAL_MIN_ELEVATION; for a rectangle the
+switch SPHERICAL_PAYS is reached before the precision floor SPHERICAL_MIN).
 
 Scene: a Lambertian plane (albedo rho) seen from above (path, max_depth 2: direct light only) under
 two one-sided rectangle lights facing down, both outside the view and unshadowed: a small one
-0.15 above the plane (pixels near it see it with Omega above SPHERICAL_MIN, far ones below) and a
-large one 0.05 above it (near pixels see it above SPHERICAL_MIN_ELEVATION, far ones below, at solid
-angles well above SPHERICAL_MIN). Every pixel is rho / pi x sum_i E_i, E_i by Lambert's polygon
+0.15 above the plane (pixels near it see it with A cos_l / d^2 above SPHERICAL_PAYS, far ones
+below) and a large one 0.05 above it (near pixels see it above SPHERICAL_MIN_ELEVATION, far ones
+below, most of both above SPHERICAL_PAYS). Every pixel is rho / pi x sum_i E_i, E_i by Lambert's polygon
 formula averaged over the pixel (closed_forms_util), shared with no renderer code. Rendered with
 `importance` (solid angle, MIS: the fallback's pdf must reach the MIS weights of BSDF hits),
 `light` (solid angle, next-event estimation only) and `importance-area` (area, MIS).
@@ -24,7 +25,8 @@ import pytest
 
 from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.features import SPHERICAL_LINEAR
-from drtlab.kernels.lights import SPHERICAL_MAX, SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION
+from drtlab.kernels.lights import (SPHERICAL_MAX, SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION,
+                                   SPHERICAL_PAYS)
 from drtlab.kernels.scene_file import scene_from_dict
 
 import closed_forms_util as cu
@@ -40,7 +42,7 @@ M_TESTS = len(SAMPLERS)
 ALPHA_TEST = C.sidak(ALPHA, M_TESTS)
 CAM = {"position": [0.0, 3.0, 0.0], "look_at": [0.0, 0.0, 0.0], "up": [0.0, 0.0, -1.0], "fov": 60.0}
 # (centre, size (x, z), height, Le)
-LIGHTS = [((2.2, 0.0), (0.2, 0.2), 0.15, 80.0), ((-2.8, 0.0), (2.0, 2.0), 0.05, 3.0)]
+LIGHTS = [((2.1, 0.0), (0.4, 0.4), 0.15, 20.0), ((-3.3, 0.0), (3.0, 3.0), 0.05, 3.0)]
 
 
 def corners(light):
@@ -85,6 +87,13 @@ def solid_angle_and_elevation(x, light):
     return omega, (light[2] - x[..., 1]) / reach
 
 
+def pays_measure(x, light):
+    """A cos_l / d^2 at the light's centre from points x (kernels/lights.py's rect_pays)."""
+    q0, eu, ev = corners(light)
+    c = q0 + 0.5 * (eu + ev) - x
+    return np.abs(c @ np.cross(eu, ev)) / np.linalg.norm(c, axis=-1) ** 3
+
+
 def exact_image():
     x, w = plane_points()
     n = np.array([0.0, 1.0, 0.0])
@@ -101,10 +110,13 @@ def test_pixels_lie_on_both_sides_of_each_threshold():
     x, _ = plane_points()
     om0, el0 = solid_angle_and_elevation(x, LIGHTS[0])
     om1, el1 = solid_angle_and_elevation(x, LIGHTS[1])
-    assert np.all(el0 > SPHERICAL_MIN_ELEVATION)
-    assert np.mean(om0 > SPHERICAL_MIN) > 0.2 and np.mean(om0 < SPHERICAL_MIN) > 0.2
+    pays0, pays1 = pays_measure(x, LIGHTS[0]), pays_measure(x, LIGHTS[1])
+    assert np.all(el0 > SPHERICAL_MIN_ELEVATION) and np.all((om0 > SPHERICAL_MIN) & (om0 < SPHERICAL_MAX))
+    assert np.mean(pays0 > SPHERICAL_PAYS) > 0.2 and np.mean(pays0 < SPHERICAL_PAYS) > 0.2
     assert np.all((om1 > SPHERICAL_MIN) & (om1 < SPHERICAL_MAX))
-    assert np.mean(el1 > SPHERICAL_MIN_ELEVATION) > 0.2 and np.mean(el1 < SPHERICAL_MIN_ELEVATION) > 0.2
+    above = pays1 > SPHERICAL_PAYS      # the elevation threshold decides only where the switch says yes
+    assert np.mean(above & (el1 > SPHERICAL_MIN_ELEVATION)) > 0.2
+    assert np.mean(above & (el1 < SPHERICAL_MIN_ELEVATION)) > 0.2
 
 
 @pytest.mark.parametrize("sampler", SAMPLERS)
