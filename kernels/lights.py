@@ -10,8 +10,10 @@ AreaLights, Warp functions callable on their own:
 `strategy.solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it),
 the spherical rectangle of a rectangular quad light (box faces included) and, on a mesh light, the
 spherical triangle of the face picked by area (estimators/spherical_maps.py), each uniform in solid
-angle, where that solid angle lies in [SPHERICAL_MIN, SPHERICAL_MAX] and x is not nearly in the light's
-plane (SPHERICAL_MIN_ELEVATION; area sampling elsewhere, and for quads that are not rectangles); otherwise every flat light is area-sampled. `strategy.power_pick`
+angle, where that solid angle lies in [SPHERICAL_MIN, SPHERICAL_MAX], x is not nearly in the light's
+plane (SPHERICAL_MIN_ELEVATION) and, for a rectangle, where it pays per unit time: A cos_l / d^2 at
+its centre >= SPHERICAL_PAYS; area sampling elsewhere, and for quads that are not
+rectangles. Otherwise every flat light is area-sampled. `strategy.power_pick`
 picks lights proportionally to emitted power. The fault features.LIGHT_JACOBIAN in `features.faults`
 drops the cosine at the light. `features.meshes` compiles in emitting triangle meshes: a triangle
 picked with probability proportional to its area (MeshData.tri_cdf), then a uniform point on it (area
@@ -48,11 +50,15 @@ SPHERICAL_MIN = 3.0e-4
 SPHERICAL_MAX = 6.22
 SPHERICAL_MIN_ELEVATION = 0.01
 # A rectangle is sampled by solid angle only where, besides, A cos_l / d^2 at its centre (its solid
-# angle while it is small; no sqrt, no atan2) is at least SPHERICAL_PAYS sr: below, area sampling's
-# variance is nearly as low (cos_l / d^2 varies little over the light) and the spherical rectangle's
-# extra cost per light sample (~100-250 ns on one CPU thread) does not pay it back. Measured by
-# experiments/bench/light_switch.py (a square light over a plane: per-pixel variance x ns/sample of
-# area against solid angle, crossing 1 here). Points below it skip the spherical rectangle entirely.
+# angle while it is small, from one sqrt: no atan2) is at least SPHERICAL_PAYS sr. Below, area
+# sampling's variance is nearly as low (cos_l / d^2 varies little over the light) and does not pay
+# for the spherical rectangle's cost (solid angle costs 2.1x area's ns per sample where every pixel
+# uses it, direct light of a square light over a plane, one CPU thread). Calibrated by
+# experiments/bench/light_switch.py: per pixel, variance ratio area / solid angle over that cost
+# ratio, binned by Omega, crosses 1 at ~4e-3 sr (0.75 at 1.8-4.1e-3, 1.12 at 4.1-6.9e-3; the
+# variance ratio alone rises to ~15 at 0.3-0.5 sr and is still 4.3 at 3.6 sr). The spread of
+# cos_l / d^2 over the light (farthest corner over nearest point) predicts it worse: not monotone.
+# Points below it skip the spherical rectangle entirely. Triangles keep SPHERICAL_MIN alone.
 SPHERICAL_PAYS = 4.0e-3
 # A quad is a rectangle (spherical-rectangle sampling applies) when the cosine of the angle between
 # its edges is below this: float32 edges of rotated boxes are ~1e-7 off; the sampled rectangle then
