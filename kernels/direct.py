@@ -5,10 +5,13 @@ make_bsdf and make_lights) returns DirectLighting, Warp functions:
     direct_delta_lights(sd, kind, albedo, exponent, ior, p, n, ns, wo, dt) -> point and directional
         light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
         sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
-    next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, dt) -> beta times one
-        area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
-    hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
-        (light_pdf at the hit's point and, on a mesh, its face)
+    next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, bounce, dt) -> beta
+        times one area-light sample's estimate (MIS-weighted when the strategy combines by MIS) at
+        h, the path vertex of bounce index `bounce` (0: the camera ray's hit)
+    hit_weight(sd, h, prev_delta, prev_pdf, prev_p, prev_bounce, dt) -> weight of an emitter a
+        scattered ray hits (light_pdf at the hit's point and, on a mesh, its face, from prev_p, the
+        vertex of bounce index prev_bounce that scattered it: which density its light sample used
+        depends on that index, lights.SPHERICAL_MAX_BOUNCE)
 """
 from typing import NamedTuple
 
@@ -80,9 +83,9 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     @wp.func
     def next_event(sd: SceneData, beta: wp.vec3, kind: int, albedo: wp.vec3, exponent: float,
                    ior: float, h: Hit, wo: wp.vec3, u_light: float, u_point: wp.vec2,
-                   dt: float) -> wp.vec3:
+                   bounce: int, dt: float) -> wp.vec3:
         li = pick_light(sd, u_light)
-        ls = sample_light(sd, li, h.p, u_point, dt)
+        ls = sample_light(sd, li, h.p, u_point, bounce, dt)
         if ls.valid == 1:
             ns = h.n
             if wp.static(MESHES):
@@ -109,13 +112,13 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
 
     @wp.func
     def hit_weight(sd: SceneData, h: Hit, prev_delta: int, prev_pdf: float, prev_p: wp.vec3,
-                   dt: float) -> float:
+                   prev_bounce: int, dt: float) -> float:
         # Camera rays and delta bounces see emitters at full weight; after a non-delta bounce
         # MIS weighs the hit against light sampling, NEE alone counts it through light samples.
         w = float(1.0)
         if prev_delta == 0:
             if wp.static(MIS):
-                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, h.index, dt)
+                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, h.index, prev_bounce, dt)
                 w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
             elif wp.static(not COUNT_HITS):
                 w = 0.0

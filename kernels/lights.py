@@ -32,7 +32,7 @@ from drtlab.estimators.spherical_maps import (SphericalRect, make_spherical_maps
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import MESH, SPHERE, SceneData
 from drtlab.kernels.features import (LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, SPHERICAL_LINEAR,
-                                     SPHERICAL_MIS_AREA, Features)
+                                     SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX, Features)
 from drtlab.kernels.intersection.motion import Motion
 
 # Solid-angle sampling of a rectangle or triangle only where the solid angle Omega (sr) it subtends
@@ -60,6 +60,9 @@ SPHERICAL_MIN_ELEVATION = 0.01
 # cos_l / d^2 over the light (farthest corner over nearest point) predicts it worse: not monotone.
 # Points below it skip the spherical rectangle entirely. Triangles keep SPHERICAL_MIN alone.
 SPHERICAL_PAYS = 4.0e-3
+# ...and only from path vertices of bounce index <= SPHERICAL_MAX_BOUNCE (0: the camera ray's hit).
+# MEASUREMENT_PLACEHOLDER
+SPHERICAL_MAX_BOUNCE = 0
 # A quad is a rectangle (spherical-rectangle sampling applies) when the cosine of the angle between
 # its edges is below this: float32 edges of rotated boxes are ~1e-7 off; the sampled rectangle then
 # differs from the quad by a sliver of relative area below it.
@@ -232,16 +235,22 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
     MESHES = f.meshes
     wrong_jacobian = LIGHT_JACOBIAN in f.faults
     MIS_AREA = SPHERICAL_MIS_AREA in f.faults
+    MIS_FIRST_VERTEX = SPHERICAL_MIS_FIRST_VERTEX in f.faults
     maps = make_spherical_maps(linear=SPHERICAL_LINEAR in f.faults)
-    # Read when the kernel is built (experiments/bench/light_switch.py sets it to 0 to measure
+    # Read when the kernel is built (experiments/bench/light_switch.py sets PAYS to 0 to measure
     # solid angle on both sides of it).
     PAYS = SPHERICAL_PAYS
+    MAX_BOUNCE = SPHERICAL_MAX_BOUNCE
 
     @wp.func
-    def rect_pays(x: wp.vec3, q0: wp.vec3, u: wp.vec3, v: wp.vec3, n: wp.vec3, area: float) -> int:
-        """Whether A cos_l / d^2 at the centre of the rectangle q0 + s u + t v (unit normal n, area
-        A) seen from x reaches SPHERICAL_PAYS: tested before, and deciding whether, the spherical
-        rectangle is built."""
+    def rect_pays(x: wp.vec3, q0: wp.vec3, u: wp.vec3, v: wp.vec3, n: wp.vec3, area: float,
+                  bounce: int) -> int:
+        """Whether the rectangle q0 + s u + t v (unit normal n, area A) is worth solid-angle
+        sampling from x, a vertex of bounce index `bounce`: bounce <= SPHERICAL_MAX_BOUNCE and
+        A cos_l / d^2 at its centre reaches SPHERICAL_PAYS. Tested before, and deciding whether,
+        the spherical rectangle is built."""
+        if bounce > wp.static(MAX_BOUNCE):
+            return 0
         c = q0 + (u + v) * 0.5 - x
         d2 = wp.dot(c, c)
         if area * wp.abs(wp.dot(c, n)) >= wp.static(PAYS) * d2 * wp.sqrt(d2):
@@ -271,8 +280,9 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
 
     @wp.func
     def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, prim: int,
-                  dt: float) -> float:
-        """Solid-angle density (light choice included) of light sampling producing point y from x."""
+                  bounce: int, dt: float) -> float:
+        """Solid-angle density (light choice included) of light sampling producing point y from x,
+        a path vertex of bounce index `bounce` (rect_pays)."""
         k = sd.lights.shape_kind[li]
         s = sd.lights.shape[li]
         d = y - x
@@ -301,8 +311,11 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                     uu = sd.quads.u[s]
                     vv = sd.quads.v[s]
                     q0 = quad_origin(sd, s, dt)
+                    b = bounce
+                    if wp.static(MIS_FIRST_VERTEX):
+                        b = 0
                     if is_rectangle(uu, vv) == 1 and rect_pays(
-                            x, q0, uu, vv, sd.quads.normal[s], sd.quads.area[s]) == 1:
+                            x, q0, uu, vv, sd.quads.normal[s], sd.quads.area[s], b) == 1:
                         rect = spherical_rect(x, q0, uu, vv)
                         if rect_ok(rect) == 1:
                             sa_pdf = 1.0 / rect.solid_angle
@@ -311,7 +324,8 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
         return pdf * light_pick_pmf(sd, li)
 
     @wp.func
-    def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, dt: float) -> LightSample:
+    def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, bounce: int,
+                     dt: float) -> LightSample:
         ls = LightSample()
         ls.valid = 0
         k = sd.lights.shape_kind[li]
@@ -363,7 +377,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                 ny = sd.quads.normal[s]
                 if wp.static(SOLID_ANGLE):
                     if is_rectangle(uu, vv) == 1 and rect_pays(
-                            x, q0, uu, vv, ny, sd.quads.area[s]) == 1:
+                            x, q0, uu, vv, ny, sd.quads.area[s], bounce) == 1:
                         rect = spherical_rect(x, q0, uu, vv)
                         if rect_ok(rect) == 1:
                             y = to_rect(rect, x, u)

@@ -11,10 +11,17 @@ formula averaged over the pixel (closed_forms_util), shared with no renderer cod
 `importance` (solid angle, MIS: the fallback's pdf must reach the MIS weights of BSDF hits),
 `light` (solid angle, next-event estimation only) and `importance-area` (area, MIS).
 
+The same plane seen through a mirror (MIRROR_CAM: the camera below a horizontal mirror whose image of
+it is CAM, so every pixel is RHO_MIRROR x the direct image flipped left-right; path, max_depth 3):
+its points are then path vertices of bounce index 1, past SPHERICAL_MAX_BOUNCE, where `importance`
+samples the lights by area and the MIS weight of a BSDF hit must use the area density too, although
+the same points seen directly (bounce 0) use solid angle.
+
 Statistics (stats_util): RUNS renders, BLOCK x BLOCK regions, Welch t per region against the exact
 value -> chi-square; ALPHA = 0.01, Sidak over the M_TESTS clean comparisons. Negative control
 (same level, must be rejected): the renders with features.SPHERICAL_LINEAR (the spherical
-rectangle's second coordinate linear, density still claimed 1 / Omega).
+rectangle's second coordinate linear, density still claimed 1 / Omega) and, through the mirror,
+features.SPHERICAL_MIS_FIRST_VERTEX (light_pdf claiming a first vertex's density at every vertex).
 """
 from __future__ import annotations
 
@@ -24,9 +31,9 @@ import numpy as np
 import pytest
 
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.features import SPHERICAL_LINEAR
-from drtlab.kernels.lights import (SPHERICAL_MAX, SPHERICAL_MIN, SPHERICAL_MIN_ELEVATION,
-                                   SPHERICAL_PAYS)
+from drtlab.kernels.features import SPHERICAL_LINEAR, SPHERICAL_MIS_FIRST_VERTEX
+from drtlab.kernels.lights import (SPHERICAL_MAX, SPHERICAL_MAX_BOUNCE, SPHERICAL_MIN,
+                                   SPHERICAL_MIN_ELEVATION, SPHERICAL_PAYS)
 from drtlab.kernels.scene_file import scene_from_dict
 
 import closed_forms_util as cu
@@ -38,9 +45,14 @@ RUNS = 12
 SPP = 64
 RHO = 0.6
 SAMPLERS = ("importance", "independent+light", "independent+importance-area")
-M_TESTS = len(SAMPLERS)
+M_TESTS = len(SAMPLERS) + 1        # + `importance` through the mirror
 ALPHA_TEST = C.sidak(ALPHA, M_TESTS)
 CAM = {"position": [0.0, 3.0, 0.0], "look_at": [0.0, 0.0, 0.0], "up": [0.0, 0.0, -1.0], "fov": 60.0}
+# Its image in the mirror y = MIRROR_Y is CAM (right = forward x up flips: columns reversed).
+MIRROR_Y = 2.5
+MIRROR_CAM = {"position": [0.0, 2.0, 0.0], "look_at": [0.0, 3.0, 0.0], "up": [0.0, 0.0, -1.0],
+              "fov": 60.0}
+RHO_MIRROR = 0.9
 # (centre, size (x, z), height, Le)
 LIGHTS = [((2.1, 0.0), (0.4, 0.4), 0.15, 20.0), ((-3.3, 0.0), (3.0, 3.0), 0.05, 3.0)]
 
@@ -52,15 +64,23 @@ def corners(light):
     return q0, eu, ev
 
 
-def scene():
+def scene(mirror=False):
     mats = {"plane": {"kind": "diffuse", "albedo": [RHO] * 3}}
     shapes = [{"kind": "quad", "material": "plane", "origin": [-20.0, 0.0, 20.0],
                "edge_u": [40.0, 0.0, 0.0], "edge_v": [0.0, 0.0, -40.0]}]
+    if mirror:      # facing down (edge_u x edge_v = -y), above the lights: it sees only their backs
+        mats["mirror"] = {"kind": "mirror", "albedo": [RHO_MIRROR] * 3}
+        shapes.append({"kind": "quad", "material": "mirror", "origin": [-4.0, MIRROR_Y, -4.0],
+                       "edge_u": [8.0, 0.0, 0.0], "edge_v": [0.0, 0.0, 8.0]})
     for i, light in enumerate(LIGHTS):
         mats[f"light{i}"] = {"kind": "emitter", "emission": [light[3]] * 3}
         q0, eu, ev = corners(light)
         shapes.append({"kind": "quad", "material": f"light{i}", "origin": q0.tolist(),
                        "edge_u": eu.tolist(), "edge_v": ev.tolist()})
+    if mirror:
+        return scene_from_dict(cu.scene_dict("rectangle lights near a plane, through a mirror",
+                                             MIRROR_CAM, mats, shapes, RES, max_depth=3),
+                               name="solid-angle-floor-mirror")
     return scene_from_dict(cu.scene_dict("rectangle lights near a plane", CAM, mats, shapes, RES,
                                          max_depth=2), name="solid-angle-floor")
 
@@ -136,4 +156,29 @@ def test_negative_control_linear_map_is_rejected():
                           block=BLOCK, faults=(SPHERICAL_LINEAR,))
     c = compare(est, exact, ALPHA_TEST)
     print(f"\nnegative control (spherical_linear): {c.summary()}")
+    assert c.rejected, c.summary()
+
+
+def mirror_image():
+    return RHO_MIRROR * exact_image()[:, ::-1]
+
+
+def test_rectangle_lights_near_a_plane_at_the_second_vertex():
+    assert SPHERICAL_MAX_BOUNCE < 1     # else the plane's vertices sample as at bounce 0 (above)
+    exact = cu.exact_regions(mirror_image(), BLOCK)
+    est = render_estimate(scene(mirror=True), "importance", "path", SPP, RUNS,
+                          ("solid-angle-floor", "mirror"), block=BLOCK)
+    assert est.nonfinite == 0 and est.negative == 0
+    c = compare(est, exact, ALPHA_TEST)
+    print(f"\nimportance through a mirror: {c.summary()}")
+    assert not c.rejected, c.summary()
+
+
+def test_negative_control_first_vertex_density_at_the_second_is_rejected():
+    exact = cu.exact_regions(mirror_image(), BLOCK)
+    est = render_estimate(scene(mirror=True), "importance", "path", SPP, RUNS,
+                          ("solid-angle-floor", "mirror-fault"), block=BLOCK,
+                          faults=(SPHERICAL_MIS_FIRST_VERTEX,))
+    c = compare(est, exact, ALPHA_TEST)
+    print(f"\nnegative control (spherical_mis_first_vertex): {c.summary()}")
     assert c.rejected, c.summary()

@@ -296,7 +296,8 @@ class LightSamples:
 class LightAdapter:
     """`make_lights` with motion compiled out on an uploaded SceneData, seen from a point x.
 
-    Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)). The claimed density of a
+    Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)) from a first vertex (bounce
+    index 0, where lights.SPHERICAL_MAX_BOUNCE allows solid angle). The claimed density of a
     direction w is the sum over lights of light_pdf(li, x, y, ny) where y is the nearest point at
     which the ray x + t w meets light li's shape and ny its normal (spheres: outward; quads: their
     normal), counted only where that point faces x (a one-sided quad seen from behind, or a sphere
@@ -405,7 +406,7 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
                         face = sd.meshes.face0[s] + mh.face
             if t < 1.0e30:
                 if wp.dot(ny, w) < 0.0:
-                    total += light_pdf(sd, li, x, x + w * t, ny, face, 0.0)
+                    total += light_pdf(sd, li, x, x + w * t, ny, face, 0, 0.0)
         return total
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -419,7 +420,8 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
         if mode == 0:
             i = wp.uint32(tid)
             li = pick_light(sd, uniform(seed, i, 0))
-            ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0.0)
+            ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0,
+                              0.0)
             out_light[tid] = li
             out_pmf[tid] = pick_pmf(sd, li)
             out_valid[tid] = ls.valid
@@ -440,7 +442,7 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
                     ny = face_normal(sd, ls.prim)
                     out_face[tid] = ls.prim
                 # The pdf of the same point evaluated on its own, as MIS does from a BSDF hit.
-                out_pdf_eval[tid] = light_pdf(sd, li, x, y, ny, ls.prim, 0.0)
+                out_pdf_eval[tid] = light_pdf(sd, li, x, y, ny, ls.prim, 0, 0.0)
         else:
             out_pdf_eval[tid] = direction_pdf(sd, x, wp.normalize(pts[tid]))
 
