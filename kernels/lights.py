@@ -3,23 +3,24 @@
 `make_lights(features, strategy, motion=motion)` (motion from intersection/motion.py) returns
 AreaLights, Warp functions callable on their own:
     pick_light(sd, u) -> light index;  light_pick_pmf(sd, li) -> its probability
-    sample_light(sd, li, x, u, dt) -> LightSample (direction, distance, radiance, solid-angle pdf
-        including the light choice)
-    light_pdf(sd, li, x, y, ny, prim, dt) -> the density sample_light has of proposing point y (on
-        face `prim` of a mesh light; ignored for other shapes) from x
+    sample_light(sd, li, x, u, bounce, dt) -> LightSample (direction, distance, radiance,
+        solid-angle pdf including the light choice) from x, a path vertex of bounce index `bounce`
+    light_pdf(sd, li, x, y, ny, prim, bounce, dt) -> the density sample_light has of proposing
+        point y (on face `prim` of a mesh light; ignored for other shapes) from x at that bounce
 `strategy.solid_angle` samples the cone a sphere light subtends (area sampling when x is inside it),
 the spherical rectangle of a rectangular quad light (box faces included) and, on a mesh light, the
 spherical triangle of the face picked by area (estimators/spherical_maps.py), each uniform in solid
 angle, where that solid angle lies in [SPHERICAL_MIN, SPHERICAL_MAX], x is not nearly in the light's
 plane (SPHERICAL_MIN_ELEVATION) and, for a rectangle, where it pays per unit time: A cos_l / d^2 at
-its centre >= SPHERICAL_PAYS; area sampling elsewhere, and for quads that are not
-rectangles. Otherwise every flat light is area-sampled. `strategy.power_pick`
-picks lights proportionally to emitted power. The fault features.LIGHT_JACOBIAN in `features.faults`
-drops the cosine at the light. `features.meshes` compiles in emitting triangle meshes: a triangle
+its centre >= SPHERICAL_PAYS and x is a path vertex of bounce index <= SPHERICAL_MAX_BOUNCE (0: the
+camera ray's hit); area sampling elsewhere, and for quads that are not rectangles. Otherwise every
+flat light is area-sampled. `strategy.power_pick` picks lights proportionally to emitted power.
+The fault features.LIGHT_JACOBIAN in `features.faults` drops the cosine at the light. `features.meshes` compiles in emitting triangle meshes: a triangle
 picked with probability proportional to its area (MeshData.tri_cdf), then a uniform point on it (area
 sampling: the density is 1 / (the mesh's area) everywhere on it) or its spherical triangle; the fault
 features.MESH_PDF_HIGH_10PCT claims a density 10% too high. features.SPHERICAL_LINEAR compiles the
-spherical maps' wrong variant, features.SPHERICAL_MIS_AREA a light_pdf that ignores them.
+spherical maps' wrong variant, features.SPHERICAL_MIS_AREA a light_pdf that ignores them,
+features.SPHERICAL_MIS_FIRST_VERTEX one that ignores SPHERICAL_MAX_BOUNCE.
 """
 from typing import NamedTuple
 
@@ -60,8 +61,17 @@ SPHERICAL_MIN_ELEVATION = 0.01
 # cos_l / d^2 over the light (farthest corner over nearest point) predicts it worse: not monotone.
 # Points below it skip the spherical rectangle entirely. Triangles keep SPHERICAL_MIN alone.
 SPHERICAL_PAYS = 4.0e-3
-# ...and only from path vertices of bounce index <= SPHERICAL_MAX_BOUNCE (0: the camera ray's hit).
-# MEASUREMENT_PLACEHOLDER
+# ...and only from a path vertex of bounce index (tracers' depth: delta bounces count) at most
+# SPHERICAL_MAX_BOUNCE, 0: the camera ray's hit. Later vertices sample by area: their light sample's
+# variance is mostly swamped by the path's, so the map's cost buys little there. Measured by
+# experiments/bench/light_bounce.py (one thread; efficiency = (var x ns) of importance-area over
+# importance's, 96 x 72 pixels) on the lights study's Cornell box with a 1.4 x 1.4 light under
+# path tracing: every vertex costs 1.64x area's ns per sample for a 1.35x lower variance
+# (efficiency 0.82); bounces 0-1, 1.27x for 1.28x (1.00); bounce 0 only, 1.15x for 1.20x (1.04).
+# The built-in Cornell box: 0.62 -> 0.86 (1.62x -> 1.17x the cost, variance equal either way).
+# drt samples lights at its first hit only (soft-shadows: 1.6x either way). sample_light and
+# light_pdf take the index of the vertex that samples (for light_pdf: the vertex that scattered
+# the ray) so that MIS sees the density used there.
 SPHERICAL_MAX_BOUNCE = 0
 # A quad is a rectangle (spherical-rectangle sampling applies) when the cosine of the angle between
 # its edges is below this: float32 edges of rotated boxes are ~1e-7 off; the sampled rectangle then
@@ -140,8 +150,8 @@ def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
 class AreaLights(NamedTuple):
     pick_light: wp.Function         # (sd, u) -> light index
     light_pick_pmf: wp.Function     # (sd, li) -> the probability pick_light picks li
-    sample_light: wp.Function       # (sd, li, x, u, dt) -> LightSample
-    light_pdf: wp.Function          # (sd, li, x, y, ny, dt) -> sample_light's density of y
+    sample_light: wp.Function       # (sd, li, x, u, bounce, dt) -> LightSample
+    light_pdf: wp.Function          # (sd, li, x, y, ny, prim, bounce, dt) -> density of y
 
 
 def _make_mesh_lights(meshes: bool, mesh_fault: bool, mesh_shift, solid_angle: bool,
