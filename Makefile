@@ -9,7 +9,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet experiment-lights ground-truth clean bench-compare
 
 venv: $(STAMP)
 
@@ -61,6 +61,9 @@ experiment-filters: $(RUNTIME)
 
 experiment-microfacet: $(RUNTIME)
 	$(DRT) experiment microfacet
+
+experiment-lights: $(RUNTIME)
+	$(DRT) experiment lights
 
 experiment-all: $(RUNTIME)
 	$(DRT) experiment all

@@ -28,7 +28,9 @@ ENVIRONMENT_SAMPLERS = ("uniform", "cosine", "image")
 class LightSampling:
     """Next-event estimation: which light, which point on it, and whether MIS weights it."""
     point: str          # "area": uniform area on the chosen light; "solid_angle": uniform in the
-                        # cone a sphere light subtends (rectangles stay area-sampled)
+                        # solid angle the light subtends (a sphere's cone, a rectangle's spherical
+                        # rectangle, a mesh face's spherical triangle; kernels/lights.py has the
+                        # thresholds below which flat lights fall back to area)
     pick: str           # "uniform" over lights or "power" (proportional to emitted power)
     mis: bool = False   # combine with scattered-ray hits by the power heuristic
     environment: str = "image"  # the environment's sampler: "uniform" | "cosine" | "image"
@@ -85,6 +87,8 @@ STRATEGIES = {s.name: s for s in (
     Strategy("importance", "BSDF-lobe and solid-angle light sampling (an environment: by its image) "
              "combined by MIS (power heuristic)",
              "lobe", LightSampling("solid_angle", "power", mis=True)),
+    Strategy("importance-area", "as importance, but lights sampled by area (to compare with solid angle)",
+             "lobe", LightSampling("area", "power", mis=True)),
     Strategy("light", "light sampling only (solid angle), BSDF-lobe continuation",
              "lobe", LightSampling("solid_angle", "power")),
     Strategy("bsdf", "BSDF-lobe sampling only, emitters found by scattered rays",

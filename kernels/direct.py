@@ -5,9 +5,13 @@ make_bsdf and make_lights) returns DirectLighting, Warp functions:
     direct_delta_lights(sd, kind, albedo, exponent, ior, p, n, ns, wo, dt) -> point and directional
         light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
         sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
-    next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, dt) -> beta times one
-        area-light sample's estimate (MIS-weighted when the strategy combines by MIS)
-    hit_weight(sd, h, prev_delta, prev_pdf, prev_p, dt) -> weight of an emitter a scattered ray hits
+    next_event(sd, beta, kind, albedo, exponent, ior, h, wo, u_light, u_point, bounce, dt) -> beta
+        times one area-light sample's estimate (MIS-weighted when the strategy combines by MIS) at
+        h, the path vertex of bounce index `bounce` (0: the camera ray's hit)
+    hit_weight(sd, h, prev_delta, prev_pdf, prev_p, prev_bounce, dt) -> weight of an emitter a
+        scattered ray hits (light_pdf at the hit's point and, on a mesh, its face, from prev_p, the
+        vertex of bounce index prev_bounce that scattered it: which density its light sample used
+        depends on that index, lights.SPHERICAL_MAX_BOUNCE)
 With an environment (`environment`: kernels/environment_lighting.py) the light choice u_light first
 picks it with probability env_pick (u_light < env_pick), else an area light with u_light rescaled to
 [0, 1); the area lights' densities then carry the factor 1 - env_pick.
@@ -85,7 +89,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     @wp.func
     def next_event(sd: SceneData, beta: wp.vec3, kind: int, albedo: wp.vec3, exponent: float,
                    ior: float, h: Hit, wo: wp.vec3, u_light: float, u_point: wp.vec2,
-                   dt: float) -> wp.vec3:
+                   bounce: int, dt: float) -> wp.vec3:
         ul = u_light
         share = float(1.0)      # the area lights' share of the light choice
         if wp.static(ENV):
@@ -96,7 +100,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
             ul = (ul - pe) / (1.0 - pe)
             share = 1.0 - pe
         li = pick_light(sd, ul)
-        ls = sample_light(sd, li, h.p, u_point, dt)
+        ls = sample_light(sd, li, h.p, u_point, bounce, dt)
         if wp.static(ENV):
             ls.pdf = ls.pdf * share
         if ls.valid == 1:
@@ -125,13 +129,13 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
 
     @wp.func
     def hit_weight(sd: SceneData, h: Hit, prev_delta: int, prev_pdf: float, prev_p: wp.vec3,
-                   dt: float) -> float:
+                   prev_bounce: int, dt: float) -> float:
         # Camera rays and delta bounces see emitters at full weight; after a non-delta bounce
         # MIS weighs the hit against light sampling, NEE alone counts it through light samples.
         w = float(1.0)
         if prev_delta == 0:
             if wp.static(MIS):
-                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, dt)
+                pl = light_pdf(sd, h.light, prev_p, h.p, h.n, h.index, prev_bounce, dt)
                 if wp.static(ENV):
                     pl = pl * (1.0 - env_pick(sd.environment))
                 w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)

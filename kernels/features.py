@@ -23,6 +23,16 @@ MESH_FAULTS = (MESH_PDF_HIGH_10PCT,)
 FILTER_NO_SIGN = "filter_no_sign"
 FILTER_RADIUS_HIGH_10PCT = "filter_radius_high_10pct"
 FILTER_FAULTS = (FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT)
+# Faults of solid-angle light sampling (estimators/spherical_maps.py), controlled in
+# tests/estimators/test_chi2_solid_angle.py and (SPHERICAL_MIS_FIRST_VERTEX)
+# tests/kernels/test_solid_angle_floor.py.
+SPHERICAL_LINEAR = "spherical_linear"        # the maps' second coordinate linear, not area-preserving
+SPHERICAL_MIS_AREA = "spherical_mis_area"    # light_pdf claims the area density where sample_light
+                                             # used the solid-angle one (MIS weights not summing to 1)
+# light_pdf claims the density of a first vertex (lights.SPHERICAL_MAX_BOUNCE ignored) whatever
+# vertex sampled: solid angle where a later vertex used area
+SPHERICAL_MIS_FIRST_VERTEX = "spherical_mis_first_vertex"
+SPHERICAL_FAULTS = (SPHERICAL_LINEAR, SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX)
 
 # Scenes with at least this many spheres find them through a wp.Bvh of their bounding boxes instead
 # of a loop over all of them. `make bench` measures the crossover (experiments/bench/primitives.py,

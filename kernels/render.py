@@ -18,7 +18,8 @@ from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integ
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
-from drtlab.kernels.features import FAULTS, FILTER_FAULTS, MESH_FAULTS, Features, features_of
+from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, SPHERICAL_FAULTS, Features,
+                                      features_of)
 from drtlab.kernels.filters import BOX, FILTERS
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene import Scene
@@ -253,7 +254,7 @@ def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None,
                       faults=(), variance=False) -> RenderStats:
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
 
-    `faults` (names from features.FAULTS or MESH_FAULTS) compiles a deliberately wrong estimator: tests use it as
+    `faults` (names from features.FAULTS, MESH_FAULTS or SPHERICAL_FAULTS) compiles a deliberately wrong estimator: tests use it as
     the negative control that a statistical test must reject. Never set it for real renders.
     `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
     """
@@ -296,7 +297,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
 
     wp = _wp()
     if faults:
-        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS
+        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS + SPHERICAL_FAULTS
         unknown = sorted(set(faults) - set(allowed))
         if unknown:
             raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(allowed)}")

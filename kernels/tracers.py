@@ -87,7 +87,8 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if wp.static(AREA):
                 if h.light >= 0:
                     L += wp.cw_mul(beta, emitted(sd, h, wo)) * hit_weight(sd, h, prev_delta,
-                                                                          prev_pdf, prev_p, dt)
+                                                                          prev_pdf, prev_p,
+                                                                          depth - 1, dt)
             if last_segment == 1:
                 break
             if sd.max_depth >= 0 and depth + 1 >= sd.max_depth:
@@ -124,7 +125,8 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                                    spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
                                spp)
-                    L += next_event(sd, beta, kind, albedo, exponent, ior, h, wo, ul, up, dt)
+                    L += next_event(sd, beta, kind, albedo, exponent, ior, h, wo, ul, up, depth,
+                                    dt)
                 if wp.static(DELTA_LIGHTS):
                     L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior,
                                                              h.p, h.n, ns, wo, dt))

@@ -5,9 +5,9 @@ Test (tests/support/stats_util.py has the details): RUNS independent renders at 
 RES = 32 x 24, each reduced to 12 region values (8 x 8-pixel regions, mean of R + G + B); the
 reference is REF_RUNS renders with the `importance` sampler (independent points, MIS) at REF_SPP and
 other seeds. Per region a Welch t -> equal-p normal deviate; X = sum z^2 ~ chi-square(12) under
-"no bias". Multiple-test correction: Sidak over the full matrix, m = 12 scenes x 2 integrators x
-54 samplers (9 unbiased point sets x 6 strategies) = 1296, so each test runs at alpha_test =
-1 - 0.99^(1/1296) = 7.8e-6 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
+"no bias". Multiple-test correction: Sidak over the full matrix, m = 13 scenes x 2 integrators x
+81 samplers (9 unbiased point sets x 9 strategies) = 2106, so each test runs at alpha_test =
+1 - 0.99^(1/2106) = 4.8e-6 and the family-wise false-alarm rate of the whole matrix is <= 0.01. The fast tier runs
 a subset of the matrix at the same alpha_test (its family-wise rate is then below 0.01 too).
 
 Point sets biased by design (PointSet.biased: `presampled`, Cook's fixed table) are not in the
@@ -17,10 +17,11 @@ its per-pixel randomised twin `presampled_random` (in the matrix like any other 
 Coverage. Full tier (DRTLAB_TEST_TIER=full): all combinations, RUNS x SPP = 32 x 128 (the
 reference 32 x 512). Fast tier, 12 x 32 (reference 12 x 128): every scene x {drt, path} x the three
 presets (uniform, stratified, importance) plus the 8 samplers of the independent and stratified
-point sets with the four strategies that sample no GGX lobe differently on cornell-box and veach-mis,
-minus the HEAVY combinations (62 + 6 combinations), plus independent+importance-ggxd (GGX normals
-from D instead of the visible normals, against the visible-normal reference) on glossy-ggx with
-both integrators (FAST_GGX: the D sampler's only scene), plus each
+point sets with the five strategies that sample no GGX lobe differently (importance-area among
+them) on cornell-box and veach-mis, minus the HEAVY combinations (62 + 6 + 8 combinations), plus
+independent+importance-ggxd (GGX normals from D instead of the visible normals, against the
+visible-normal reference) on glossy-ggx with both integrators (FAST_GGX: the D sampler's only
+scene), plus each
 of the seven other point sets (lhs, cmj, halton, sobol, zsobol, pmj02, presampled_random) with the
 importance strategy, plus the environment's two other samplers (env-uniform, env-cosine: they differ
 from importance only where a scene has an environment) with independent points on the environment
@@ -28,7 +29,7 @@ scene (4 combinations; the FAST_ALL_SAMPLERS scenes run the original four strate
 on two representative scene x integrator pairs (FAST_MODERN): cornell-box with path tracing (to
 depth 8, through every per-bounce dimension) and drt-showcase with drt (lens, shutter time, glossy
 reflection and transmission, area light): 14 combinations, 14 kernel variants (a variant costs a
-few seconds to compile; the full tier runs the other 610). The presets' kernel variants are shared
+few seconds to compile; the full tier runs the rest). The presets' kernel variants are shared
 with the other test files (test_render compiles the same built-in x preset variants), and the new
 sets' cornell-box path variants with test_analytic's white furnace.
 
@@ -94,7 +95,7 @@ FAST_MODERN_STRATEGY = "importance"
 ENV_STRATEGIES = ("env-uniform", "env-cosine")
 # The D-cos GGX sampler on the scene with GGX lobes, against the visible-normal reference.
 FAST_GGX = ("glossy-ggx", "independent+importance-ggxd")
-M_TESTS = 12 * 2 * 54
+M_TESTS = 13 * 2 * 81
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 # (scene, integrator or None for both, strategy): heavy-tailed estimators, HEAVY_SPP (module doc).
@@ -188,8 +189,9 @@ def matrix():
 
 def test_matrix_is_the_whole_product():
     assert len(matrix()) == M_TESTS == len(SCENES) * len(UNBIASED) * len(SAMPLERS)
-    assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "light", "bsdf",
-                                                  *ENV_STRATEGIES, "importance-ggxd", "bsdf-ggxd"}
+    assert {strategy_of(s) for s in SAMPLERS} == {"uniform", "importance", "importance-area", "light",
+                                                  "bsdf", *ENV_STRATEGIES, "importance-ggxd",
+                                                  "bsdf-ggxd"}
     assert {parse_sampler(s).pointset.name for s in SAMPLERS} == set(registry.unbiased_pointsets()) \
         == set(registry.POINTSETS) - {"presampled"} == {
         "independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
@@ -199,8 +201,9 @@ def test_matrix_is_the_whole_product():
     modern = [c for c in fast if parse_sampler(c[2]).pointset.name not in FAST_ALL_POINTSETS]
     # 62 preset cases of the nine effect scenes, 12 of displaced-sphere and sphere-grid (3 presets x
     # 2 integrators each), 6 + 2 of glossy-ggx (the presets, FAST_GGX), the 14 modern point-set
-    # cases, and the environment scene's 6 preset and 4 environment-sampler cases.
-    assert len(fast) == 62 + 12 + 8 + 14 + 10 and len(modern) == 14
+    # cases, the environment scene's 6 preset and 4 environment-sampler cases, and importance-area
+    # with the independent and stratified sets on cornell-box and veach-mis (8).
+    assert len(fast) == 62 + 12 + 8 + 14 + 10 + 8 and len(modern) == 14
 
 
 def test_biased_integrators_are_labelled_and_excluded():

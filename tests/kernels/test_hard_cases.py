@@ -10,7 +10,9 @@ last test) prints the worst relative error of every case and the total non-finit
 
 The matrix:
   grazing camera rays (88.5-89.5 deg on the plane), grazing light (a sphere light on the horizon, a
-  vertical quad light seen at <= 10 deg elevation); glossy exponents 0, 1, 10^3, 10^6 (white
+  vertical quad light seen at <= 10 deg elevation); a rectangle light very close above the receivers
+  (solid angles up to ~2 pi), one nearly in their plane (both sides of the solid-angle sampling
+  thresholds of kernels/lights.py) and one standing over the view, hidden from half of it; glossy exponents 0, 1, 10^3, 10^6 (white
   furnace, modified-Phong albedo by quadrature); GGX alpha 0.001, 0.02, 1 (white furnace, both
   microfacet samplers, albedo by quadrature); IOR 1.0001, 1.5, 3: a slab before an emitter
   (Le (1 - F) / (1 + F)) and a glass cube in a furnace (= 1, total internal reflection at the side
@@ -123,6 +125,31 @@ def _meshed(cf: su.ClosedForm) -> su.ClosedForm:
     return dataclasses.replace(cf, name=cf.name + "-mesh", scene=dict(cf.scene, shapes=shapes))
 
 
+def _rect_light_close():
+    # A 2 x 2 light facing down 0.12 above the receivers the camera (at 0.1, below it) looks at: solid
+    # angles up to ~2 pi, on both sides of kernels/lights.py's SPHERICAL_MAX.
+    return su.light_over_plane("quad", light_pos=(0.0, 0.12, -0.3), size=2.0, le=2.0, bg=0.01,
+                               cam_pos=(0.0, 0.1, 0.6), look=(0.0, 0.0, -0.3), fov=8.0,
+                               name="rect-light-close")
+
+
+def _rect_light_nearly_in_plane():
+    # A 3 x 3 light facing down 0.055 above the plane, 3-5 units from the receivers: they lie nearly
+    # in its plane (elevation sines 0.008-0.012, both sides of SPHERICAL_MIN_ELEVATION), most of
+    # them above SPHERICAL_PAYS (so that the elevation threshold is what decides there).
+    return su.light_over_plane("quad", light_pos=(-4.0, 0.055, 0.0), size=3.0, le=180.0, bg=0.01,
+                               cam_pos=(0.0, 3.0, 0.5), look=(0.0, 0.0, 0.0), fov=30.0,
+                               name="rect-light-nearly-in-plane")
+
+
+def _rect_light_half_hidden():
+    # A vertical light facing +x standing over the middle of the view: receivers at x < 0 are behind
+    # it (hidden: no valid light sample, zero density for MIS), those near x = 0 see it edge-on.
+    return su.light_over_plane("quad", light_pos=(0.0, 0.6, 0.0), size=0.5, le=50.0, bg=0.01,
+                               quad_normal=(1.0, 0.0, 0.0), cam_pos=(0.0, 3.0, 0.5),
+                               look=(0.0, 0.0, 0.0), fov=30.0, name="rect-light-half-hidden")
+
+
 LENS_KW = dict(light_pos=(-0.7, 0.15, 0.0), size=0.05, le=400.0, bg=0.05, fov=12.0, checker=True)
 # Distance from the camera (0, 2.2, 3) to the look-at point (0.1, 0, 0) on the plane.
 OBJECT_DISTANCE = math.dist((0.0, 2.2, 3.0), (0.1, 0.0, 0.0))
@@ -131,6 +158,9 @@ CASES = {
     "grazing-camera": (_grazing_camera, BOTH),
     "grazing-sphere-light": (_grazing_sphere_light, BOTH),
     "grazing-quad-light": (_grazing_quad_light, BOTH),
+    "rect-light-close": (_rect_light_close, BOTH),
+    "rect-light-nearly-in-plane": (_rect_light_nearly_in_plane, BOTH),
+    "rect-light-half-hidden": (_rect_light_half_hidden, BOTH),
     **{f"glossy-exponent-{e:g}": (lambda e=e: su.sphere_furnace("glossy", exponent=e, depth=3,
                                                                name=f"glossy-exponent-{e:g}"),
                                   BOTH if e < 100 else IMPORTANCE)

@@ -59,7 +59,8 @@ experiments/stats/hypothesis_tests.py, so `from drtlab.experiments.stats import 
 C.ChiSquareTest(...)` is the way to use the harness.
 """
 from drtlab.experiments.stats.chi2.domains import (CapDomain, ConeDomain, Domain, LatLongDomain,
-                                             PlanarDomain, SphericalDomain, orthonormal_frame)
+                                             PlanarDomain, RectangleDomain, SphericalDomain,
+                                             orthonormal_frame)
 from drtlab.experiments.stats.chi2.harness import (ALPHA, POOL_THRESHOLD, ChiSquareResult, ChiSquareTest,
                                              PdfFunc, SampleFunc, pooled_chi2, relative_error,
                                              run_chi2)
@@ -73,7 +74,7 @@ from drtlab.experiments.stats.chi2.environment_adapter import EnvironmentAdapter
 
 __all__ = [
     # domains
-    "Domain", "SphericalDomain", "CapDomain", "ConeDomain", "PlanarDomain", "LatLongDomain",
+    "Domain", "SphericalDomain", "CapDomain", "ConeDomain", "PlanarDomain", "LatLongDomain", "RectangleDomain",
     "orthonormal_frame",
     # harness
     "ALPHA", "POOL_THRESHOLD", "sidak", "pooled_chi2", "ChiSquareResult", "ChiSquareTest",

@@ -300,7 +300,8 @@ class LightSamples:
 class LightAdapter:
     """`make_lights` with motion compiled out on an uploaded SceneData, seen from a point x.
 
-    Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)). The claimed density of a
+    Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)) from a first vertex (bounce
+    index 0, where lights.SPHERICAL_MAX_BOUNCE allows solid angle). The claimed density of a
     direction w is the sum over lights of light_pdf(li, x, y, ny) where y is the nearest point at
     which the ray x + t w meets light li's shape and ny its normal (spheres: outward; quads: their
     normal), counted only where that point faces x (a one-sided quad seen from behind, or a sphere
@@ -314,8 +315,9 @@ class LightAdapter:
     _SAMPLES = LightSamples
     _EXTRA: tuple = ()          # names of the kept outputs past LightSamples' (the face: unused)
 
-    def __init__(self, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False):
-        key = (bool(solid_angle), bool(power_pick), bool(wrong_jacobian))
+    def __init__(self, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False,
+                 faults=()):
+        key = (bool(solid_angle), bool(power_pick), bool(wrong_jacobian), frozenset(faults))
         kernels = type(self)._kernels
         if key not in kernels:
             kernels[key] = self._build(*key)
@@ -360,7 +362,7 @@ def face_normal(sd: SceneData, face: int) -> wp.vec3:
 
 
 def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
-                      meshes: bool = False, mesh_fault: bool = False):
+                      faults=frozenset(), meshes: bool = False, mesh_fault: bool = False):
     """The light-sampling kernel of LightAdapter (spheres and quads) and, with `meshes`, of
     chi2.mesh_adapter.MeshLightAdapter (mesh lights too; `mesh_fault` compiles its negative control).
     The mesh branches are compiled out without `meshes`."""
@@ -371,7 +373,7 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
     from drtlab.kernels.intersection.motion import make_motion
     from drtlab.kernels.lights import make_lights
 
-    faults = {LIGHT_JACOBIAN} if wrong_jacobian else set()
+    faults = set(faults) | ({LIGHT_JACOBIAN} if wrong_jacobian else set())
     if mesh_fault:
         faults.add(MESH_PDF_HIGH_10PCT)
     motion = make_motion(moving=False)
@@ -390,6 +392,7 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
             s = sd.lights.shape[li]
             t = float(1.0e30)
             ny = wp.vec3(0.0)
+            face = int(0)
             if k == SPHERE:
                 c = sd.spheres.center[s]
                 t = hit_sphere(x, w, c, sd.spheres.radius[s], 1.0e30)
@@ -404,9 +407,10 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
                     if mh.mesh >= 0:
                         t = mh.t
                         ny = mh.n
+                        face = sd.meshes.face0[s] + mh.face
             if t < 1.0e30:
                 if wp.dot(ny, w) < 0.0:
-                    total += light_pdf(sd, li, x, x + w * t, ny, 0.0)
+                    total += light_pdf(sd, li, x, x + w * t, ny, face, 0, 0.0)
         return total
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -420,7 +424,8 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
         if mode == 0:
             i = wp.uint32(tid)
             li = pick_light(sd, uniform(seed, i, 0))
-            ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0.0)
+            ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0,
+                              0.0)
             out_light[tid] = li
             out_pmf[tid] = pick_pmf(sd, li)
             out_valid[tid] = ls.valid
@@ -441,7 +446,7 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
                     ny = face_normal(sd, ls.prim)
                     out_face[tid] = ls.prim
                 # The pdf of the same point evaluated on its own, as MIS does from a BSDF hit.
-                out_pdf_eval[tid] = light_pdf(sd, li, x, y, ny, 0.0)
+                out_pdf_eval[tid] = light_pdf(sd, li, x, y, ny, ls.prim, 0, 0.0)
         else:
             out_pdf_eval[tid] = direction_pdf(sd, x, wp.normalize(pts[tid]))
 

@@ -3,7 +3,8 @@
 `LightAdapter` does for spheres and quads, on a SceneData that may hold all three.
 
 Sampling: li = pick_light(u0), then sample_light(li, x, (u1, u2)); a mesh light picks a triangle by
-area and a uniform point on it. The claimed density of a direction w is the sum over lights of
+area and a uniform point on it (area sampling) or one uniform in its solid angle (solid angle
+sampling, kernels/lights.py). The claimed density of a direction w is the sum over lights of
 light_pdf(li, x, y, ny) at the nearest point y where the ray x + t w meets the light (a mesh: by the
 renderer's own mesh ray query, ny the face normal), counted only where y faces x. That is the
 sampler's density exactly when each direction meets a light at most once facing x: spheres, quads,
@@ -31,9 +32,11 @@ class MeshLightAdapter(LightAdapter):
     _SAMPLES = MeshLightSamples
     _EXTRA = ("face",)
 
-    def __init__(self, solid_angle: bool = True, power_pick: bool = True, mesh_fault: bool = False):
-        super().__init__(solid_angle, power_pick, mesh_fault)
+    def __init__(self, solid_angle: bool = True, power_pick: bool = True, mesh_fault: bool = False,
+                 faults=()):
+        super().__init__(solid_angle, power_pick, mesh_fault, faults)
 
     @staticmethod
-    def _build(solid_angle: bool, power_pick: bool, mesh_fault: bool):
-        return make_light_kernel(solid_angle, power_pick, False, meshes=True, mesh_fault=mesh_fault)
+    def _build(solid_angle: bool, power_pick: bool, mesh_fault: bool, faults=frozenset()):
+        return make_light_kernel(solid_angle, power_pick, False, faults, meshes=True,
+                                 mesh_fault=mesh_fault)
