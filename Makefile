@@ -41,32 +41,10 @@ test-full: venv
 bench: venv
 	$(PY) -m drtlab.experiments.bench
 
-experiment-stratified: $(RUNTIME)
-	$(DRT) experiment stratified
-
-experiment-importance: $(RUNTIME)
-	$(DRT) experiment importance
-
-experiment-uniform: $(RUNTIME)
-	$(DRT) experiment uniform
-
-experiment-presampled: $(RUNTIME)
-	$(DRT) experiment presampled
-
-experiment-environment: $(RUNTIME)
-	$(DRT) experiment environment
-
-experiment-filters: $(RUNTIME)
-	$(DRT) experiment filters
-
-experiment-microfacet: $(RUNTIME)
-	$(DRT) experiment microfacet
-
-experiment-lights: $(RUNTIME)
-	$(DRT) experiment lights
-
-experiment-all: $(RUNTIME)
-	$(DRT) experiment all
+# The built-in studies (experiments/studies/NAME.toml), one target each.
+STUDIES := stratified importance uniform presampled environment filters microfacet lights all
+$(addprefix experiment-,$(STUDIES)): experiment-%: $(RUNTIME)
+	$(DRT) experiment $*
 
 experiment-integrands: $(RUNTIME)
 	$(PY) -m drtlab.experiments.integrands

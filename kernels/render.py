@@ -87,27 +87,35 @@ def _variant_key(features: Features, spec: SamplerSpec, device: str) -> tuple:
 
 def get_kernel(features: Features, spec: SamplerSpec, device: str):
     """The compiled kernel for (features, sampler); compiled once per process, cached on disk."""
-    wp = _wp()
     if features.whitted:
         # Whitted reads no sampler: one variant serves every sampler name.
         spec = parse_sampler("uniform")
     features = features.code_key()
-    key = _variant_key(features, spec, device)
+
+    def build():
+        from drtlab.kernels.render_kernel import build_kernel
+        return build_kernel(features, spec.pointset, spec.strategy)
+
+    return _compiled_once(_variant_key(features, spec, device), build, device)
+
+
+def _compiled_once(key, build, device: str):
+    """(kernel, compile seconds) of `key`, built by `build()` and loaded once per process (0.0
+    seconds when it was already): one lock per key, so a kernel compiles once and different ones
+    at once (Warp runs its codegen under its own lock and the native compile, mostly, unlocked)."""
+    wp = _wp()
     with _lock:
         entry = _kernels.get(key)
         if entry is not None:
             return entry[0], 0.0
         variant_lock = _compiling.setdefault(key, threading.Lock())
-    # One lock per variant: a variant compiles once, different variants at once (Warp runs its
-    # codegen under its own lock and the native compile, most of the time, unlocked).
     with variant_lock:
         with _lock:
             entry = _kernels.get(key)
         if entry is not None:
             return entry[0], 0.0
-        from drtlab.kernels.render_kernel import build_kernel
         with _factory_lock:
-            kernel = build_kernel(features, spec.pointset, spec.strategy)
+            kernel = build()
         t0 = time.perf_counter()
         wp.load_module(kernel.module, device=device)
         entry = (kernel, time.perf_counter() - t0)
@@ -118,27 +126,11 @@ def get_kernel(features: Features, spec: SamplerSpec, device: str):
 
 def get_gather(features: Features, device: str):
     """The splatting gather kernel of `features.filter` (kernels/splat.py); one per filter."""
-    wp = _wp()
-    key = ("gather", features.filter, device)
-    with _lock:
-        entry = _kernels.get(key)
-        if entry is not None:
-            return entry[0], 0.0
-        variant_lock = _compiling.setdefault(key, threading.Lock())
-    with variant_lock:
-        with _lock:
-            entry = _kernels.get(key)
-        if entry is not None:
-            return entry[0], 0.0
+    def build():
         from drtlab.kernels.splat import make_gather
-        with _factory_lock:
-            kernel = make_gather(features)
-        t0 = time.perf_counter()
-        wp.load_module(kernel.module, device=device)
-        entry = (kernel, time.perf_counter() - t0)
-        with _lock:
-            _kernels[key] = entry
-        return entry
+        return make_gather(features)
+
+    return _compiled_once(("gather", features.filter, device), build, device)
 
 
 def render_features(scene: Scene, integrator: str, spec: SamplerSpec) -> Features:

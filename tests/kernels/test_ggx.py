@@ -28,7 +28,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from drtlab.errors import InputError
 from drtlab.experiments.stats import chi2 as C
@@ -37,6 +36,7 @@ from drtlab.kernels.scene_file import scene_from_dict
 import ggx_util as gu
 import scene_util as su
 from stats_util import ALPHA, compare, render_estimate, seed_for
+from bsdf_checks import assert_albedo_with_controls, assert_consistent
 
 N = 1_000_000
 ALBEDO_SAMPLES = 1 << 20
@@ -214,15 +214,6 @@ def chi2_setup(kind, alpha, ior, theta, below, cap):
     return case, C.SphericalDomain(NORMAL), (101, 202)
 
 
-def assert_consistent(s: C.BSDFSamples, label: str, tol: float = 1e-4):
-    v = s.valid & ~s.delta
-    assert v.any() and not s.delta.any(), label
-    assert C.relative_error(s.pdf[v], s.pdf_eval[v]).max() <= tol, f"{label}: pdf vs pdf_bsdf"
-    err = C.relative_error(s.weight[v], s.f_eval[v] / s.pdf[v][:, None])
-    assert err.max() <= tol, f"{label}: weight vs eval_bsdf / pdf"
-    assert np.all(s.pdf[v] > 0) and np.all(np.isfinite(s.weight[v])) and np.all(s.weight[v] >= 0)
-
-
 @pytest.mark.parametrize("kind,sampler,alpha,ior,theta,below,cap", CHI2_CASES,
                          ids=[f"{c[0]}-{c[1]}-a={c[2]:g}-ior={c[3]:g}-wo={'-' if c[5] else ''}"
                               f"{c[4]:g}deg" for c in CHI2_CASES])
@@ -269,16 +260,8 @@ def mean_weight(sampler: str, case, key) -> tuple[float, float]:
                          ids=[c[0] for c in ALBEDO_CASES])
 def test_directional_albedo(cid, kind, sampler, alpha, ior, theta, below, albedo, controls):
     model = model_of(kind, alpha, ior, theta, below, albedo)
-    ref = model.albedo_value()
     mean, se = mean_weight(sampler, case_of(kind, alpha, ior, theta, below, albedo), cid)
-    z_crit = stats.norm.isf(LEVEL / 2)
-    z = (mean - ref) / se
-    print(f"{cid}: albedo {ref:.6f}, mean weight {mean:.6f} +- {se:.2e}, z = {z:.2f}")
-    assert abs(z) < z_crit, f"{cid}: albedo {ref:.6f} vs {mean:.6f} +- {se:.2e}: z = {z:.2f}"
-    for name, change in controls.items():
-        wrong = dataclasses.replace(model, **change).albedo_value()
-        assert abs(wrong - ref) / se >= z_crit + stats.norm.isf(0.01), f"{cid}/{name}: design"
-        assert abs(mean - wrong) / se >= z_crit, f"{cid}: negative control '{name}' not rejected"
+    assert_albedo_with_controls(cid, model, mean, se, controls, LEVEL)
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -22,7 +22,6 @@ of this module, LEVEL = 1 - 0.99^(1 / M_TESTS); every negative control is judged
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -38,6 +37,7 @@ import plastic_util as pu
 import scene_util as su
 from scene_pieces import camera_rays
 from stats_util import ALPHA, compare, render_estimate, seed_for
+from bsdf_checks import assert_albedo_with_controls, assert_consistent
 
 N = 1_000_000
 ALBEDO_SAMPLES = 1 << 20
@@ -179,15 +179,6 @@ def chi2_setup(lobe, exponent, ior, theta, below, cap):
     return case, model, C.SphericalDomain(NORMAL), (101, 202)
 
 
-def assert_consistent(s: C.BSDFSamples, label: str, tol: float = 1e-4):
-    v = s.valid & ~s.delta
-    assert v.any() and not s.delta.any(), label
-    assert C.relative_error(s.pdf[v], s.pdf_eval[v]).max() <= tol, f"{label}: pdf vs pdf_bsdf"
-    err = C.relative_error(s.weight[v], s.f_eval[v] / s.pdf[v][:, None])
-    assert err.max() <= tol, f"{label}: weight vs eval_bsdf / pdf"
-    assert np.all(s.pdf[v] > 0) and np.all(np.isfinite(s.weight[v])) and np.all(s.weight[v] >= 0)
-
-
 @pytest.mark.parametrize("lobe,exponent,ior,theta,below,cap", CHI2_CASES,
                          ids=[f"{'lobe' if c[0] else 'uniform'}-n={c[1]:g}-ior={c[2]:g}-"
                               f"wo={'-' if c[4] else ''}{c[3]:g}deg" for c in CHI2_CASES])
@@ -251,16 +242,8 @@ def mean_weight(lobe: bool, case, key) -> tuple[float, float]:
                          ids=[c[0] for c in ALBEDO_CASES])
 def test_directional_albedo(cid, lobe, exponent, ior, theta, below, albedo, controls):
     model = pu.Plastic(NORMAL, wo_at(theta, below), exponent, ior, albedo)
-    ref = model.albedo_value()
     mean, se = mean_weight(lobe, case_of(exponent, ior, theta, below, albedo), cid)
-    z_crit = stats.norm.isf(LEVEL / 2)
-    z = (mean - ref) / se
-    print(f"{cid}: albedo {ref:.6f}, mean weight {mean:.6f} +- {se:.2e}, z = {z:.2f}")
-    assert abs(z) < z_crit, f"{cid}: albedo {ref:.6f} vs {mean:.6f} +- {se:.2e}: z = {z:.2f}"
-    for name, change in controls.items():
-        wrong = dataclasses.replace(model, **change).albedo_value()
-        assert abs(wrong - ref) / se >= z_crit + stats.norm.isf(0.01), f"{cid}/{name}: design"
-        assert abs(mean - wrong) / se >= z_crit, f"{cid}: negative control '{name}' not rejected"
+    assert_albedo_with_controls(cid, model, mean, se, controls, LEVEL)
 
 
 @pytest.mark.parametrize("exponent,ior,theta", ENERGY_CASES)

@@ -1,0 +1,32 @@
+"""Checks every BSDF sampler's samples must pass (tests/kernels/test_plastic.py, test_ggx.py)."""
+import dataclasses
+
+import numpy as np
+from scipy import stats
+
+from drtlab.experiments.stats import chi2 as C
+
+
+def assert_consistent(s: C.BSDFSamples, label: str, tol: float = 1e-4):
+    """No delta lobe; each valid sample's pdf is pdf_bsdf's and its weight eval_bsdf / pdf."""
+    v = s.valid & ~s.delta
+    assert v.any() and not s.delta.any(), label
+    assert C.relative_error(s.pdf[v], s.pdf_eval[v]).max() <= tol, f"{label}: pdf vs pdf_bsdf"
+    err = C.relative_error(s.weight[v], s.f_eval[v] / s.pdf[v][:, None])
+    assert err.max() <= tol, f"{label}: weight vs eval_bsdf / pdf"
+    assert np.all(s.pdf[v] > 0) and np.all(np.isfinite(s.weight[v])) and np.all(s.weight[v] >= 0)
+
+
+def assert_albedo_with_controls(cid: str, model, mean: float, se: float, controls: dict, level: float):
+    """The samples' mean weight `mean` (standard error `se`) is the model's directional albedo at
+    two-sided `level`; each control (a dataclasses.replace of the model: a deliberately wrong one)
+    is far enough from the truth to be detectable, and is rejected."""
+    ref = model.albedo_value()
+    z_crit = stats.norm.isf(level / 2)
+    z = (mean - ref) / se
+    print(f"{cid}: albedo {ref:.6f}, mean weight {mean:.6f} +- {se:.2e}, z = {z:.2f}")
+    assert abs(z) < z_crit, f"{cid}: albedo {ref:.6f} vs {mean:.6f} +- {se:.2e}: z = {z:.2f}"
+    for name, change in controls.items():
+        wrong = dataclasses.replace(model, **change).albedo_value()
+        assert abs(wrong - ref) / se >= z_crit + stats.norm.isf(0.01), f"{cid}/{name}: design"
+        assert abs(mean - wrong) / se >= z_crit, f"{cid}: negative control '{name}' not rejected"
