@@ -115,6 +115,10 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     spec = SamplerSpec(POINTSET if pointset is None else pointset, STRATEGIES[strat])
     sampler = spec.name
     scene = _resolve_scene(scene, res)
+    from drtlab.estimators.registry import parse_integrator
+    if parse_integrator(integrator if integrator is not None else scene.integrator).name == "whitted":
+        raise InputError("integrator", "whitted draws no random numbers (a fixed grid), so it has no "
+                                       "variance to decompose; use drt or path")
     codes = [0, CODE_B] + [1 + GROUPS.index(g) for g in names]
     kw = dict(sampler=spec, integrator=integrator, threads=threads, device=device)
     # The pilot: samples of seed + n (never a base below), indices 0 ... PILOT_SPP - 1.

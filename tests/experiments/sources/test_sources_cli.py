@@ -39,6 +39,8 @@ def test_python_api_returns_one_row_per_group():
     (["sources", "dof", "--res", "0x4"], "--res"),
     (["sources", "dof", "--strategy", "magic"], "--strategy"),
     (["sources", "dof", "--metric", "rmse"], "--metric"),
+    (["sources", "dof", "--integrator", "whitted"], "integrator"),
+    (["sources", "dof", "--integrator", "kajiya"], "integrator"),
 ])
 def test_bad_input(argv, field, tmp_path, capsys):
     run_bad(argv + ["--out", str(tmp_path / "o")], field, tmp_path, capsys)
