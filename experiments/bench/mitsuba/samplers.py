@@ -17,11 +17,11 @@ import math
 import numpy as np
 from scipy.stats import norm
 
-from drtlab.experiments.bench.mitsuba.render import WARMUP_SEED, WARMUP_SPP, drtlab_render, log, mitsuba_render
+from drtlab.experiments.bench.mitsuba.render import (STRATEGY, WARMUP_SEED, WARMUP_SPP, drtlab_render, log,
+                                                     mitsuba_render)
 from drtlab.experiments.bench.mitsuba.stats import agreement, emitter_mask, timing_summary
 
 PAIRS = (("stratified", "stratified"), ("cmj", "multijitter"), ("sobol", "ldsampler"))
-STRATEGY = "importance"          # BSDF + light sampling with MIS, as the main comparison
 SEED0 = 300                      # the pairs' seeds: apart from the main comparison's and the reference's
 Z90 = float(norm.ppf(0.95))      # a two-sided 90% interval
 METHOD = ("Every render of a pair uses the main comparison's settings (resolution, spp, depth, box "
