@@ -302,12 +302,11 @@ def emitter_powers(scene: Scene) -> list[float]:
 
 
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
-                arr: Callable) -> None:
+                power: list, arr: Callable) -> None:
     """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
     index = {id(s): i for group in (spheres, quads, meshes) for i, s in enumerate(group)}
     code = {"sphere": SPHERE, "quad": QUAD, "mesh": MESH}
     emitters = [scene.shapes[i] for i in scene.emitter_shapes()]
-    power = emitter_powers(scene)
     pmf = np.array(power) / np.sum(power) if power else np.zeros(0)
     cdf = np.cumsum(pmf) if power else np.zeros(0)
     lights = sd.lights
@@ -428,8 +427,9 @@ def _upload(scene: Scene, device: str) -> SceneData:
     sd.__dict__["_accel"] = (_put_meshes(sd, scene, meshes, arr, device, extent)
                              + _put_sphere_bvh(sd, scene, spheres, device, extent))
     _put_materials(sd, scene.materials, arr)
-    _put_lights(sd, scene, spheres, quads, meshes, arr)
-    sd.environment = environment_data(scene.environment, np.asarray(emitter_powers(scene)),
+    power = emitter_powers(scene)              # the area lights' pick and the environment's share
+    _put_lights(sd, scene, spheres, quads, meshes, power, arr)
+    sd.environment = environment_data(scene.environment, np.asarray(power),
                                       0.5 * extent, arr)
     _put_camera(sd, scene)
     _put_filter(sd, scene.camera.filter, arr)
