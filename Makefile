@@ -18,11 +18,18 @@ venv: $(STAMP)
 # uv (from PyPI) installs the same packages as pip in a fifth of the time (16 s against 75 s on a
 # 2-core box): a fresh clone's first command spends its time on the study, not on pip. Where uv
 # cannot be installed, pip does the same install.
-INSTALL = $(PY) -m pip install -q uv >/dev/null 2>&1 && $(PY) -m uv pip install -q --python $(PY)
+# Bytecode is compiled at install (site-packages by uv, drtlab's own folders by compileall): where
+# Python may not write it (PYTHONDONTWRITEBYTECODE, read-only installs) every `drtlab` command would
+# otherwise compile ~190 modules from source, 0.3 s of a 0.5 s start.
+INSTALL = $(PY) -m pip install -q uv >/dev/null 2>&1 && $(PY) -m uv pip install -q --compile-bytecode --python $(PY)
+# Targets refresh drtlab's bytecode first (0.1 s when nothing changed): an edited module is not
+# compiled again on every start.
+BYTECODE = $(PY) -m compileall -q -j 0 drtlab kernels estimators experiments >/dev/null
 
 $(RUNTIME): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(INSTALL) -e . || $(PY) -m pip install -q -e .
+	@$(BYTECODE)
 	@touch $(RUNTIME)
 
 $(STAMP): $(RUNTIME)
@@ -33,17 +40,21 @@ $(STAMP): $(RUNTIME)
 TEST_WORKERS ?= auto
 
 test: venv
+	@$(BYTECODE)
 	$(PY) -m pytest -q -n $(TEST_WORKERS)
 
 test-full: venv
+	@$(BYTECODE)
 	DRTLAB_TEST_TIER=full $(PY) -m pytest -q -n $(TEST_WORKERS)
 
 bench: venv
+	@$(BYTECODE)
 	$(PY) -m drtlab.experiments.bench
 
 # The built-in studies (experiments/studies/NAME.toml), one target each.
 STUDIES := stratified importance uniform presampled environment filters microfacet lights all
 $(addprefix experiment-,$(STUDIES)): experiment-%: $(RUNTIME)
+	@$(BYTECODE)
 	$(DRT) experiment $*
 
 experiment-integrands: $(RUNTIME)
