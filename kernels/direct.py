@@ -22,7 +22,7 @@ import warp as wp
 
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import MESH, SceneData
-from drtlab.kernels.features import DROP_COSINE, Features
+from drtlab.kernels.features import DROP_COSINE, REPEAT_SAMPLE_LIGHT, REPEAT_VISIBLE, Features
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.lights import AreaLights
@@ -46,6 +46,9 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     COUNT_HITS = strategy.counts_hits
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
     MESHES = f.meshes
+    # The profile's probes (features.REPEATS), folded into the estimate at 1e-30.
+    TWICE_SAMPLE_LIGHT = REPEAT_SAMPLE_LIGHT in f.faults
+    TWICE_VISIBLE = REPEAT_VISIBLE in f.faults
     visible = rays.visible
     eval_bsdf = bsdf.eval_bsdf
     pdf_bsdf = bsdf.pdf_bsdf
@@ -101,6 +104,10 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
             share = 1.0 - pe
         li = pick_light(sd, ul)
         ls = sample_light(sd, li, h.p, u_point, bounce, dt)
+        probe = float(0.0)
+        if wp.static(TWICE_SAMPLE_LIGHT):
+            probe += sample_light(sd, pick_light(sd, 1.0 - ul), h.p,
+                                  wp.vec2(u_point[1], u_point[0]), bounce, dt).pdf
         if wp.static(ENV):
             ls.pdf = ls.pdf * share
         if ls.valid == 1:
@@ -119,12 +126,19 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 if wp.static(MESHES):
                     if lk == MESH:
                         target = ls.prim        # visible() needs the face, not just the mesh
+                if wp.static(TWICE_VISIBLE):
+                    probe += float(visible(sd, so, -ls.wi, ls.dist, dt, lk, target)) * ls.dist
                 if visible(sd, so, ls.wi, ls.dist, dt, lk, target) == 1:
                     w = float(1.0)
                     if wp.static(MIS):
                         pb = pdf_bsdf(kind, exponent, ior, ns, wo, ls.wi)
                         w = ls.pdf * ls.pdf / (ls.pdf * ls.pdf + pb * pb)
-                    return wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
+                    est = wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
+                    if wp.static(TWICE_SAMPLE_LIGHT or TWICE_VISIBLE):
+                        est += wp.vec3(1.0e-30 * probe)
+                    return est
+        if wp.static(TWICE_SAMPLE_LIGHT or TWICE_VISIBLE):
+            return wp.vec3(1.0e-30 * probe)
         return wp.vec3(0.0)
 
     @wp.func

@@ -33,6 +33,20 @@ SPHERICAL_MIS_AREA = "spherical_mis_area"    # light_pdf claims the area density
 # vertex sampled: solid angle where a later vertex used area
 SPHERICAL_MIS_FIRST_VERTEX = "spherical_mis_first_vertex"
 SPHERICAL_FAULTS = (SPHERICAL_LINEAR, SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX)
+# Not faults but the profile's probes (`profile_kernels components`): the kernel does one part of a
+# sample's work twice, the second time on perturbed inputs folded into the radiance at 1e-30 (so the
+# compiler cannot drop it, and the image moves by no more than rounding); the extra time is what
+# that part costs inside a render, where a microbenchmark of it alone misleads (the caches, branch
+# history and register pressure of the whole kernel are absent). What each repeats:
+REPEAT_CAMERA = "repeat_camera"          # the camera ray's generation (pixel, lens, time draws)
+REPEAT_INTERSECT = "repeat_intersect"    # the nearest hit of a path's ray (reversed direction)
+REPEAT_NEXT_EVENT = "repeat_next_event"  # the whole light sample: pick, point, BSDF, shadow ray, MIS
+REPEAT_SAMPLE_LIGHT = "repeat_sample_light"  # the light pick and the point on it
+REPEAT_VISIBLE = "repeat_visible"        # the shadow ray (reversed direction)
+REPEAT_SAMPLE_BSDF = "repeat_sample_bsdf"    # the scattering direction and its weight
+REPEAT_DRAW = "repeat_draw"              # one 2D point-set draw per bounce
+REPEATS = (REPEAT_CAMERA, REPEAT_INTERSECT, REPEAT_NEXT_EVENT, REPEAT_SAMPLE_LIGHT, REPEAT_VISIBLE,
+           REPEAT_SAMPLE_BSDF, REPEAT_DRAW)
 
 # Scenes with at least this many spheres find them through a wp.Bvh of their bounding boxes instead
 # of a loop over all of them. `make bench` measures the crossover (experiments/bench/primitives.py,

@@ -18,8 +18,8 @@ from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integ
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.device_scene import upload
-from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, SPHERICAL_FAULTS, Features,
-                                      features_of)
+from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
+                                     Features, features_of)
 from drtlab.kernels.filters import BOX, FILTERS
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene import Scene
@@ -247,7 +247,8 @@ def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None,
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
 
     `faults` (names from features.FAULTS, MESH_FAULTS or SPHERICAL_FAULTS) compiles a deliberately wrong estimator: tests use it as
-    the negative control that a statistical test must reject. Never set it for real renders.
+    the negative control that a statistical test must reject; names from features.REPEATS compile
+    the profile's probes (`profile_kernels components`). Never set it for real renders.
     `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
     """
     seed = _check_seed(seed)
@@ -289,7 +290,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
 
     wp = _wp()
     if faults:
-        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS + SPHERICAL_FAULTS
+        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS + SPHERICAL_FAULTS + REPEATS
         unknown = sorted(set(faults) - set(allowed))
         if unknown:
             raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(allowed)}")

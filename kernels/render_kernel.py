@@ -27,7 +27,7 @@ from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import make_direct
 from drtlab.estimators import dimensions as dims
 from drtlab.kernels.environment_lighting import make_environment_lighting
-from drtlab.kernels.features import Features
+from drtlab.kernels.features import REPEAT_CAMERA, Features
 from drtlab.kernels.filter_sampling import make_pixel_filter
 from drtlab.kernels.filters import FILTERS
 from drtlab.kernels.intersection.motion import make_motion
@@ -79,6 +79,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
                        environment=environment)
     pixel_key = pointset.pixel_key
     count_word = pointset.count_word
+    TWICE_CAMERA = REPEAT_CAMERA in f.faults
 
     @wp.kernel(enable_backward=False, module="unique")
     def render_tile(sd: SceneData, index0: int, count: int, spp: int,
@@ -119,6 +120,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             else:
                 ray = sample_ray(sd, seed, pix, idx, word, px, py)
                 Ls = trace(sd, seed, pix, idx, word, ray.o, ray.d, ray.dt)
+                if wp.static(TWICE_CAMERA):     # the profile's probe (features.REPEATS)
+                    Ls += 1.0e-30 * sample_ray(sd, seed, pix, idx + wp.uint32(1), word, px, py).d
                 if wp.static(FIS):
                     Ls = Ls * ray.w
                 if wp.static(SPLAT):

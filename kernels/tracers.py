@@ -13,7 +13,9 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import DirectLighting
 from drtlab.kernels.environment_lighting import oriented
-from drtlab.kernels.features import DROP_COSINE, PDF_HIGH_10PCT, RR_NO_REWEIGHT, Features
+from drtlab.kernels.features import (DROP_COSINE, PDF_HIGH_10PCT, REPEAT_DRAW, REPEAT_INTERSECT,
+                                     REPEAT_NEXT_EVENT, REPEAT_SAMPLE_BSDF, RR_NO_REWEIGHT,
+                                     Features)
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR, Bsdf,
@@ -46,6 +48,11 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
     RR_REWEIGHT = RR_NO_REWEIGHT not in f.faults
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
     FAULT_PDF_HIGH = PDF_HIGH_10PCT in f.faults
+    # The profile's probes (features.REPEATS): compiled out of every other kernel.
+    TWICE_INTERSECT = REPEAT_INTERSECT in f.faults
+    TWICE_NEXT_EVENT = REPEAT_NEXT_EVENT in f.faults
+    TWICE_SAMPLE_BSDF = REPEAT_SAMPLE_BSDF in f.faults
+    TWICE_DRAW = REPEAT_DRAW in f.faults
     MESHES = f.meshes
     # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
     # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
@@ -76,6 +83,8 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
         last_segment = int(0)    # drt: after a diffuse scatter only the emission hit counts
         while True:
             h = intersect(sd, o, d, 1.0e30, dt)
+            if wp.static(TWICE_INTERSECT):
+                L += wp.vec3(1.0e-30 * wp.min(intersect(sd, o, -d, 1.0e30, dt).t, 1.0))
             if h.index < 0:
                 if wp.static(ENV):
                     L += wp.cw_mul(beta, env_escape(sd, d, prev_delta, prev_pdf, prev_n))
@@ -127,6 +136,9 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                                spp)
                     L += next_event(sd, beta, kind, albedo, exponent, ior, h, wo, ul, up, depth,
                                     dt)
+                    if wp.static(TWICE_NEXT_EVENT):
+                        L += 1.0e-30 * next_event(sd, beta, kind, albedo, exponent, ior, h, wo,
+                                                  1.0 - ul, wp.vec2(up[1], up[0]), depth, dt)
                 if wp.static(DELTA_LIGHTS):
                     L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior,
                                                              h.p, h.n, ns, wo, dt))
@@ -134,7 +146,13 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if wp.static(LOBE_CHOICE):
                 u_lobe = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LOBE_CHOICE)), spp)
             u_dir = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.DIRECTION)), spp)
+            if wp.static(TWICE_DRAW):
+                L += wp.vec3(1.0e-30 * get2d(seed, pix, idx + wp.uint32(1),
+                                             base + wp.uint32(wp.static(dims.DIRECTION)), spp)[0])
             s = sample_bsdf(kind, albedo, exponent, ior, ns, wo, u_lobe, u_dir)
+            if wp.static(TWICE_SAMPLE_BSDF):
+                L += 1.0e-30 * sample_bsdf(kind, albedo, exponent, ior, ns, wo, u_lobe,
+                                           wp.vec2(u_dir[1], u_dir[0])).weight
             if s.valid == 0:
                 break
             if wp.static(MESHES):

@@ -6,6 +6,7 @@
     python -m drtlab.experiments.bench.profile_kernels compile [--experiment stratified] [--threads 2]
     python -m drtlab.experiments.bench.profile_kernels images (--save F.npz | --compare F.npz)
     python -m drtlab.experiments.bench.profile_kernels pointsets [--sets stratified sobol ...] [--spp 64]
+    python -m drtlab.experiments.bench.profile_kernels components [--scene cornell-box ...] [--sampler ...]
 
 `rays` times the scene's intersection alone, on three ray populations built from the scene: camera
 rays (closest hit), cosine-distributed bounce rays from the camera rays' hit points (closest hit),
@@ -24,7 +25,11 @@ that a speed change left the images alone. `pointsets` times each point set's dr
 them (count word once per pixel, then per sample and bounce one get2d and one get1d at the tracer's
 dimensions): CPU ns per draw pair (one 2D + one 1D draw) and the ratio to `independent`'s, the sets
 taking turns within each of --repeats rounds (best round each) so that load from other jobs falls on
-all alike; --write stores them where `drtlab samplers` reads them (`estimators/draw_costs.py`).
+all alike; --write stores them where `drtlab samplers` reads them (`estimators/draw_costs.py`). `components` is
+the render's profile: what each part of a sample costs inside a whole render (features.REPEATS: a
+variant that does the part twice, less the plain variant), per sample and as a share of it; the
+second call sees perturbed inputs (a reversed ray, swapped coordinates), so a part's cost is that
+of a like call, not of the same one.
 """
 
 import os
@@ -255,6 +260,35 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_components(args) -> int:
+    """Where a render's time goes, per sample: each probe of features.REPEATS compiled into its own
+    variant, the variants taking turns in each of --repeats rounds (best round each, wall seconds
+    at --threads), a part's cost the probe variant's time less the plain one's."""
+    _setup()
+    from drtlab.kernels.features import REPEATS
+    from drtlab.kernels.render import render_with_stats
+    variants = {"plain": (), **{r.removeprefix("repeat_"): (r,) for r in REPEATS}}
+    for name in args.scene:
+        kw = dict(sampler=args.sampler, res=args.res, threads=args.threads, progress=False,
+                  integrator=args.integrator, tile=args.tile)
+        for faults in variants.values():
+            render_with_stats(name, spp=1, faults=faults, **kw)     # compiles, not timed
+        best = dict.fromkeys(variants, float("inf"))
+        for _ in range(args.repeats):
+            for part, faults in variants.items():
+                st = render_with_stats(name, spp=args.spp, faults=faults, **kw)
+                best[part] = min(best[part], st.render_seconds)
+        samples = st.width * st.height * args.spp
+        plain = best["plain"] * 1e9 / samples
+        print(f"{name}: {st.width}x{st.height}, {args.spp} spp, {args.sampler}, {st.threads} thread(s), "
+              f"best of {args.repeats}: {plain:.0f} ns/sample")
+        for part in variants:
+            if part != "plain":
+                ns = best[part] * 1e9 / samples - plain
+                print(f"  {part:14s} {ns:7.1f} ns/sample  {100 * ns / plain:5.1f}%", flush=True)
+    return 0
+
+
 def cmd_compile(args) -> int:
     import tempfile
     import warp as wp
@@ -415,7 +449,8 @@ def cmd_images(args) -> int:
 def _parser():
     from drtlab.cli_args import Parser, int_flag
     ap = Parser(prog="python -m drtlab.experiments.bench.profile_kernels")
-    ap.add_argument("mode", choices=("rays", "render", "check", "compile", "images", "pointsets"))
+    ap.add_argument("mode", choices=("rays", "render", "check", "compile", "images", "pointsets",
+                                    "components"))
     ap.add_argument("--save", default=None)
     ap.add_argument("--compare", default=None)
     ap.add_argument("--experiment", default="stratified")
@@ -434,7 +469,7 @@ def _parser():
     ap.add_argument("--pixels", type=int_flag(1, 1 << 24), default=4096)
     ap.add_argument("--repeats", type=int_flag(1, 1000), default=5)
     commands = {"rays": cmd_rays, "render": cmd_render, "check": cmd_check, "compile": cmd_compile,
-                "images": cmd_images, "pointsets": cmd_pointsets}
+                "images": cmd_images, "pointsets": cmd_pointsets, "components": cmd_components}
     ap.set_defaults(func=lambda args: commands[args.mode](args))
     return ap
 
