@@ -19,9 +19,10 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 
-from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, PI, frame_to_world, phong_lobe_pdf,
-                                     square_to_cosine_hemisphere, square_to_phong_lobe,
-                                     square_to_uniform_hemisphere, square_to_uniform_sphere)
+from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
+                                           sincos_turns, square_to_cosine_hemisphere,
+                                           square_to_phong_lobe, square_to_uniform_hemisphere,
+                                           square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import Features
@@ -335,10 +336,10 @@ def square_to_ggx_vndf(wo_l: wp.vec3, alpha: float, u: wp.vec2) -> wp.vec3:
     a uniform point on the spherical cap below the stretched wo's hemisphere, added to it and
     unstretched."""
     v = wp.normalize(wp.vec3(alpha * wo_l[0], alpha * wo_l[1], wo_l[2]))
-    phi = 2.0 * PI * u[0]
+    cs = sincos_turns(u[0])
     z = (1.0 - u[1]) * (1.0 + v[2]) - v[2]
     st = wp.sqrt(wp.max(1.0 - z * z, 0.0))
-    h = wp.vec3(st * wp.cos(phi), st * wp.sin(phi), z) + v
+    h = wp.vec3(st * cs[0], st * cs[1], z) + v
     return wp.normalize(wp.vec3(alpha * h[0], alpha * h[1], wp.max(h[2], 0.0)))
 
 
@@ -350,8 +351,8 @@ def square_to_ggx_d(alpha: float, u: wp.vec2) -> wp.vec3:
     q = (1.0 - u[0]) + a2 * u[0]
     c = wp.sqrt((1.0 - u[0]) / q)
     s = wp.sqrt(a2 * u[0] / q)
-    phi = 2.0 * PI * u[1]
-    return wp.vec3(s * wp.cos(phi), s * wp.sin(phi), c)
+    cs = sincos_turns(u[1])
+    return wp.vec3(s * cs[0], s * cs[1], c)
 
 
 def make_ggx_normals(vndf: bool):
