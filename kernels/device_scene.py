@@ -17,7 +17,8 @@ from functools import partial
 import numpy as np
 import warp as wp
 
-from drtlab.kernels.intersection.quad_records import quad_geometry, quad_groups
+from drtlab.kernels.intersection.quad_records import quad_geometry, quad_groups, vector_lanes
+from drtlab.kernels.intersection.quad_simd import quad_pack
 from drtlab.kernels.colour import luminance
 from drtlab.kernels.environment import EnvironmentData, environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
@@ -58,6 +59,11 @@ class QuadData:
     light: wp.array(dtype=int)
     group: wp.array(dtype=int)                 # its group in QuadGroupData
     count: int
+    # The CPU's vector test (Features.quad_simd): blocks of quad_simd.LANES quads
+    # (quad_simd.quad_pack of quad_records.vector_lanes), and per quad 1 if it is a lane there.
+    pack: wp.array(dtype=float)
+    blocks: int
+    lane: wp.array(dtype=int)
 
 
 @wp.struct
@@ -72,6 +78,8 @@ class QuadGroupData:
     rank: wp.array(dtype=int)
     faces: wp.array(dtype=int)                 # 6 per group: quad index by face slot, -1 none
     count: int
+    box: wp.array(dtype=int)                   # the groups the vector test leaves to slab tests
+    n_box: int
 
 
 @wp.struct
@@ -219,6 +227,19 @@ def _cached(key, make: Callable):
     return value
 
 
+def quad_grouping(quads: list, t_open: float):
+    """quad_records.quad_groups of the scene's quads (cached by their geometry)."""
+    return _cached(("groups", t_open, np.array([[s.origin, s.edge_u, s.edge_v, s.velocity]
+                                                for s in quads], dtype=np.float64).tobytes()),
+                   lambda: quad_groups(quads, t_open))
+
+
+def vector_lane_count(scene: Scene) -> int:
+    """How many quads of `scene` the CPU's vector test would hold (quad_records.vector_lanes)."""
+    quads = [s for s in scene.shapes if s.kind == "quad"]
+    return len(vector_lanes(quad_grouping(quads, float(scene.camera.shutter[0])))[0]) if quads else 0
+
+
 def _device_array(values, dtype, empty_shape, device: str):
     """`values` as a Warp array on `device`; an empty list becomes zeros of `empty_shape`."""
     a = np.asarray(values, dtype=np.int32 if dtype in (int, wp.vec3i) else np.float32)
@@ -259,9 +280,13 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     inputs = (q.origin, q.u, q.v)
     q.geom = _cached(("geom", *map(id, inputs)),
                      lambda: (quad_geometry(*inputs, device), inputs))[0]
-    groups = _cached(("groups", t_open, np.array([[s.origin, s.edge_u, s.edge_v, s.velocity]
-                                                  for s in quads], dtype=np.float64).tobytes()),
-                     lambda: quad_groups(quads, t_open))
+    groups = quad_grouping(quads, t_open)
+    lanes, boxes = vector_lanes(groups)
+    pack, q.blocks = quad_pack(lanes, *(np.array(rows, dtype=np.float64).reshape(-1, 3) for rows in (
+        [_at_time(s.origin, s.velocity, t_open) for s in quads], [s.edge_u for s in quads],
+        [s.edge_v for s in quads], [s.velocity for s in quads])))
+    q.pack = arr(pack, float, (1,))
+    q.lane = arr(np.isin(np.arange(len(quads)), lanes).astype(int), int, (1,))
     g = sd.quad_groups
     g.quad = arr(groups.quad, int, (1,))
     g.corner = arr(groups.corner, wp.vec3, (1, 3))
@@ -273,6 +298,8 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     g.rank = arr(groups.rank, int, (1,))
     g.faces = arr(groups.faces, int, (1,))
     g.count = len(groups.quad)
+    g.box = arr(boxes, int, (1,))
+    g.n_box = len(boxes)
     q.group = arr(groups.group_of, int, (1,))
 
 

@@ -56,6 +56,21 @@ REPEATS = (REPEAT_CAMERA, REPEAT_INTERSECT, REPEAT_NEXT_EVENT, REPEAT_SAMPLE_LIG
 # (SPHERE_BVH_MIN = 0: always, a huge value: never).
 SPHERE_BVH_MIN = 20
 
+# On the CPU, the lone quads and open boxes' faces of a scene are one vector test
+# (kernels/intersection/quad_simd.py; quad_records.vector_lanes) when they are at least
+# QUAD_SIMD_MIN and at most QUAD_SIMD_MAX; else, and on CUDA, every quad is in the scalar grouped
+# tests. Closed boxes stay slab tests behind their bounding ball either way: their faces as lanes
+# made a scene of one lone quad and one box (environment) 7% slower. Measured on the built-in
+# scenes (2-8 lanes): 1.00-1.65x the all-scalar speed. PROVISIONAL upper bound: no built-in scene
+# has more than 8 lanes; past some count a BVH of the quads would be the better test.
+QUAD_SIMD_MIN = 2
+QUAD_SIMD_MAX = 64
+
+
+def uses_quad_simd(lanes: int) -> bool:
+    return QUAD_SIMD_MIN <= lanes <= QUAD_SIMD_MAX
+
+
 # Features the kernels test at runtime (a branch per sample or hit), not at code generation.
 RUNTIME_SWITCHES = ("lens", "motion", "checker", "background")
 
@@ -97,6 +112,7 @@ class Features:
     environment: bool = False  # an [environment] light (kernels/environment.py; absent: compiled out)
     filter: str = "box"     # pixel filter (kernels/filters.py); box: no filter code at all
     splat: bool = False     # the splatting estimator of a non-box filter (else filter importance sampling)
+    quad_simd: bool = False  # quads by the CPU's vector test (QUAD_SIMD_MAX), else grouped scalar tests
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -138,7 +154,7 @@ class Features:
     def key(self) -> str:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
-                             "sphere_bvh", "environment") if getattr(self, n)]
+                             "sphere_bvh", "environment", "quad_simd") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += f"+{self.filter}" + ("-splat" if self.splat else "") if self.filter != "box" else ""
         key += "+moments" if self.moments else ""

@@ -17,9 +17,9 @@ import numpy as np
 from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integrator, parse_sampler
 from drtlab import fields
 from drtlab.errors import InputError
-from drtlab.kernels.device_scene import upload
+from drtlab.kernels.device_scene import upload, vector_lane_count
 from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
-                                     Features, features_of)
+                                     Features, features_of, uses_quad_simd)
 from drtlab.kernels.filters import BOX, FILTERS
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene import Scene
@@ -133,15 +133,17 @@ def get_gather(features: Features, device: str):
     return _compiled_once(("gather", features.filter, device), build, device)
 
 
-def render_features(scene: Scene, integrator: str, spec: SamplerSpec) -> Features:
-    """The features of rendering `scene` with `integrator` and the sampler `spec`: the scene's, plus
-    the pixel filter's estimator (splatting only for a filter other than the box, for which both
-    estimators are today's pixel)."""
+def render_features(scene: Scene, integrator: str, spec: SamplerSpec,
+                    device: str = "cpu") -> Features:
+    """The features of rendering `scene` with `integrator` and the sampler `spec` on `device`: the
+    scene's, plus the pixel filter's estimator (splatting only for a filter other than the box, for
+    which both estimators are today's pixel) and, on the CPU, the vector quad test."""
     f = features_of(scene, integrator)
     if f.filter != BOX and f.whitted:
         raise InputError("camera.filter", f"'{f.filter}' needs a stochastic integrator (drt or path): "
                                           "whitted samples a fixed sub-pixel grid of the box pixel")
-    return replace(f, splat=spec.splat and f.filter != BOX)
+    return replace(f, splat=spec.splat and f.filter != BOX,
+                   quad_simd=device == "cpu" and uses_quad_simd(vector_lane_count(scene)))
 
 
 def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> dict:
@@ -153,7 +155,7 @@ def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> d
     keys = {}
     for scene, sampler, integrator in jobs:
         spec, scene, integ = _resolve_job(scene, sampler, integrator, None)
-        f = render_features(scene, integ, spec)
+        f = render_features(scene, integ, spec, device)
         keys.setdefault(_variant_key(f.code_key(), spec, device), (f, spec))
     t0 = time.perf_counter()
 
@@ -280,7 +282,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
         raise InputError("device", f"must be one of {', '.join(DEVICES)}, got {device!r}")
     if device == "cuda" and not _wp().is_cuda_available():
         raise InputError("device", "cuda requested but no CUDA device is available; use cpu")
-    features = render_features(scene, integ, spec)
+    features = render_features(scene, integ, spec, device)
     if variance and features.splat:
         raise InputError("variance", "is not defined for the splatting estimator (a pixel is a ratio "
                                      "over its neighbours' samples); use the +fis estimator")

@@ -142,14 +142,17 @@ def _time(fn, repeats: int) -> float:
     return best
 
 
-def _build_rays(name: str, n: int, seed: int = 1):
-    """(scene, sd, features, kernels, populations) for the ray benchmarks."""
+def _build_rays(name: str, n: int, seed: int = 1, quad_test: str = "simd"):
+    """(scene, sd, features, kernels, populations) for the ray benchmarks; `quad_test` "simd" as a
+    CPU render tests quads (where the scene has few enough), "groups" by the scalar grouped tests."""
     wp = _setup()
-    from drtlab.kernels.device_scene import upload
-    from drtlab.kernels.features import features_of
+    from dataclasses import replace
+    from drtlab.kernels.device_scene import upload, vector_lane_count
+    from drtlab.kernels.features import features_of, uses_quad_simd
     from drtlab.kernels.scene_file import load_scene
     scene = load_scene(name)
-    f = features_of(scene, "path")
+    f = replace(features_of(scene, "path"),
+                quad_simd=quad_test == "simd" and uses_quad_simd(vector_lane_count(scene)))
     sd = upload(scene, "cpu")
     closest, shadow = _ray_kernels(f)
     rng = np.random.default_rng(seed)
@@ -189,7 +192,8 @@ def _build_rays(name: str, n: int, seed: int = 1):
 def cmd_rays(args) -> int:
     wp = _setup()
     for name in args.scene:
-        scene, sd, f, (closest, shadow), pops, light = _build_rays(name, args.rays)
+        scene, sd, f, (closest, shadow), pops, light = _build_rays(name, args.rays,
+                                                                   quad_test=args.quad_test)
         for pop, val in pops.items():
             o = wp.array(val[0], dtype=wp.vec3)
             d = wp.array(val[1], dtype=wp.vec3)
@@ -213,7 +217,8 @@ def cmd_check(args) -> int:
     wp = _setup()
     brute = _reference_kernel()
     for name in args.scene:
-        scene, sd, f, (closest, shadow), pops, light = _build_rays(name, args.rays)
+        scene, sd, f, (closest, shadow), pops, light = _build_rays(name, args.rays,
+                                                                   quad_test=args.quad_test)
         quads = [s for s in scene.shapes if s.kind == "quad"]
         t_open = float(scene.camera.shutter[0])
         q = [wp.array(np.array([getattr(s, a) + (s.velocity * t_open if a == "origin" else 0)
@@ -468,6 +473,8 @@ def _parser():
                     help="pointsets: store the ratios for `drtlab samplers` (estimators/draw_costs.py)")
     ap.add_argument("--pixels", type=int_flag(1, 1 << 24), default=4096)
     ap.add_argument("--repeats", type=int_flag(1, 1000), default=5)
+    ap.add_argument("--quad-test", choices=("simd", "groups"), default="simd",
+                    help="rays, check: quads by the CPU's vector test or the scalar grouped tests")
     commands = {"rays": cmd_rays, "render": cmd_render, "check": cmd_check, "compile": cmd_compile,
                 "images": cmd_images, "pointsets": cmd_pointsets, "components": cmd_components}
     ap.set_defaults(func=lambda args: commands[args.mode](args))

@@ -193,3 +193,19 @@ def quad_groups(quads: list, t_open: float) -> QuadGroups:
         g.group_of += [len(g.quad) - 1] * count
         i += count
     return g
+
+
+def vector_lanes(g: QuadGroups) -> tuple[list, list]:
+    """How the CPU's vector test (kernels/intersection/quad_simd.py) splits the groups: (the quads
+    it tests, one lane each: lone quads and the faces of open boxes, in index order; the groups
+    still tested by a slab test: closed boxes, which a bounding-ball test usually skips for less
+    than a lane costs)."""
+    lanes, boxes = [], []
+    for k, quad in enumerate(g.quad):
+        if quad >= 0:
+            lanes.append(quad)
+        elif g.ball[k][3] < 0.0:
+            lanes += [f for f in g.faces[6 * k:6 * k + 6] if f >= 0]
+        else:
+            boxes.append(k)
+    return sorted(lanes), boxes

@@ -12,7 +12,11 @@ Triangle meshes (Features.meshes) are one BVH walk per mesh with a watertight tr
 moves by -v dt instead), after spheres and quads; a mesh hit's shading normal is interpolated from
 its vertex normals.
 
-Quads are tested as the groups of kernels/intersection/quad_records.py in index order: a single quad by its plane test
+On the CPU (Features.quad_simd) lone quads and open boxes' faces are lanes of one vector plane test
+(kernels/intersection/quad_simd.py; quad_records.vector_lanes), after the closed boxes' slab tests:
+the nearest, a box on a tie, then the lowest quad index; `visible` towards a lane asks whether the
+nearest lane is the target. Otherwise (CUDA, or too few or too many lanes) all
+quads are tested as the groups of kernels/intersection/quad_records.py in index order: a single quad by its plane test
 (geometry.hit_quad_nw), a box (three to six faces of one parallelepiped) by one slab test
 (geometry.slab_hit), skipped when the ray misses a ball around a closed box. `visible` answers what
 intersect() would (is the first hit the light's own shape?) but stops at the first occluder.
@@ -31,6 +35,7 @@ from drtlab.kernels.intersection.bvh_traversal import (MeshRays, SphereBvh, make
                                                       make_sphere_bvh, mesh_shading_normal,
                                                       ray_shear)
 from drtlab.kernels.intersection.motion import Motion
+from drtlab.kernels.intersection.quad_simd import quads_nearest
 
 
 @wp.struct
@@ -100,6 +105,7 @@ def make_intersect(f: Features, *, motion: Motion) -> SceneRays:
 
 def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: SphereBvh):
     HAS_SPH, HAS_QUAD, HAS_MESH, SPH_BVH = f.spheres, f.quads, f.meshes, f.sphere_bvh
+    QUAD_SIMD = f.quad_simd
     sphere_center, quad_origin = motion.sphere_center, motion.quad_origin
     nearest_mesh, bvh_nearest_sphere = mesh_rays.nearest_mesh, sphere_bvh.bvh_nearest_sphere
 
@@ -129,14 +135,30 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                         h.index = i
                     i += 1
         if wp.static(HAS_QUAD):
-            g = int(0)
-            while g < sd.quad_groups.count:
-                gh = group_hit(sd, g, o, d, h.t, dt)
-                if gh.quad >= 0:
-                    h.t = gh.t
+            if wp.static(QUAD_SIMD):
+                # The closed boxes' slab tests in group order, then the lanes: a tie goes to a box.
+                k = int(0)
+                while k < sd.quad_groups.n_box:
+                    gh = group_hit(sd, sd.quad_groups.box[k], o, d, h.t, dt)
+                    if gh.quad >= 0:
+                        h.t = gh.t
+                        h.kind = QUAD
+                        h.index = gh.quad
+                    k += 1
+                qh = quads_nearest(sd.quads.pack, sd.quads.blocks, o, d, h.t, sd.moving, dt)
+                if qh[1] >= 0.0:
+                    h.t = qh[0]
                     h.kind = QUAD
-                    h.index = gh.quad
-                g += 1
+                    h.index = int(qh[1])
+            else:
+                g = int(0)
+                while g < sd.quad_groups.count:
+                    gh = group_hit(sd, g, o, d, h.t, dt)
+                    if gh.quad >= 0:
+                        h.t = gh.t
+                        h.kind = QUAD
+                        h.index = gh.quad
+                    g += 1
         if wp.static(HAS_MESH):
             mh = nearest_mesh(sd, o, d, h.t, dt)
             if mh.mesh >= 0:
@@ -184,6 +206,7 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
     HAS_QUAD = f.quads
     HAS_MESH = f.meshes
     SPH_BVH = f.sphere_bvh
+    QUAD_SIMD = f.quad_simd
     sphere_center = motion.sphere_center
     meshes_occlude = mesh_rays.meshes_occlude
     bvh_spheres_occlude = sphere_bvh.bvh_spheres_occlude
@@ -213,7 +236,31 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
                         if t < t_target or (tie and before and t == t_target):
                             return 1
                     i += 1
-        if wp.static(HAS_QUAD):
+        if wp.static(HAS_QUAD and QUAD_SIMD):
+            # Scan order: closed boxes, then the lanes. A target among the lanes (a quad without a
+            # group here) was settled against them by visible(): the nearest lane is the target.
+            lane_target = target_kind == QUAD and target_group < 0
+            k = int(0)
+            while k < sd.quad_groups.n_box:
+                g = sd.quad_groups.box[k]
+                if g != target_group:
+                    gh = group_hit(sd, g, o, d, limit, dt)
+                    if gh.quad >= 0:
+                        before = lane_target or (target_kind == QUAD and g < target_group)
+                        if wp.static(HAS_MESH):
+                            before = before or target_kind == MESH
+                        if gh.t < t_target or (tie and before and gh.t == t_target):
+                            return 1
+                k += 1
+            if not lane_target:
+                qh = quads_nearest(sd.quads.pack, sd.quads.blocks, o, d, limit, sd.moving, dt)
+                if qh[1] >= 0.0:
+                    before = False
+                    if wp.static(HAS_MESH):
+                        before = target_kind == MESH
+                    if qh[0] < t_target or (tie and before and qh[0] == t_target):
+                        return 1
+        if wp.static(HAS_QUAD and not QUAD_SIMD):
             g = int(0)
             while g < sd.quad_groups.count:
                 if g != target_group:
@@ -240,6 +287,7 @@ def _make_visible(f: Features, motion: Motion, mesh_rays: MeshRays, occluded) ->
     HAS_SPH = f.spheres
     HAS_QUAD = f.quads
     HAS_MESH = f.meshes
+    QUAD_SIMD = f.quad_simd
     sphere_center = motion.sphere_center
     mesh_target = mesh_rays.mesh_target
     nearest_in_mesh = mesh_rays.nearest_in_mesh
@@ -262,12 +310,22 @@ def _make_visible(f: Features, motion: Motion, mesh_rays: MeshRays, occluded) ->
                                       sd.spheres.radius[target_index], limit)
         if wp.static(HAS_QUAD):
             if target_kind == QUAD:
-                target_group = sd.quads.group[target_index]
-                gh = group_hit(sd, target_group, o, d, limit, dt)
-                if gh.quad >= 0:
-                    if gh.quad != target_index:
-                        return 0        # another face of the target's box comes first
-                    t_target = gh.t
+                in_lanes = False
+                if wp.static(QUAD_SIMD):
+                    in_lanes = sd.quads.lane[target_index] == 1
+                if in_lanes:
+                    qh = quads_nearest(sd.quads.pack, sd.quads.blocks, o, d, limit, sd.moving, dt)
+                    if qh[1] >= 0.0:
+                        if int(qh[1]) != target_index:
+                            return 0    # another lane comes first (or as near, and earlier)
+                        t_target = qh[0]
+                else:
+                    target_group = sd.quads.group[target_index]
+                    gh = group_hit(sd, target_group, o, d, limit, dt)
+                    if gh.quad >= 0:
+                        if gh.quad != target_index:
+                            return 0    # another face of the target's box comes first
+                        t_target = gh.t
         if wp.static(HAS_MESH):
             if target_kind == MESH:     # target_index: the face the light sample lies on
                 t_target = mesh_target(sd, o, d, dist, limit, dt, target_index)
