@@ -19,8 +19,7 @@ A 32-bit unsigned integer v stands for the binary fraction v / 2^32 (bit 31 is t
   i & j == i by Lucas' theorem), evaluated as a superset-XOR transform in 5 shift/mask steps.
   Together they are a (0,2)-sequence in base 2: every aligned block of 2^m indices is a (0,m,2)-net.
 * `owen_sobol(index, dim, seed)`: owen_scramble(sobol_bits(index, dim), seed), bit for bit, with
-  one bit reversal instead of three; `owen_sobol_pair` both dimensions of an index at once (their
-  two reversals in one 64-bit pass, `reverse_bits_pair`).
+  one bit reversal instead of three.
 * `morton2(x, y)`: the Morton (Z-curve) code of 16-bit coordinates (bits of x at even positions).
 
 Every multiplier and mask stays below 2^31 so the generated C++ holds it as a plain int32 literal.
@@ -47,26 +46,6 @@ def reverse_bits(v: wp.uint32) -> wp.uint32:
     x = ((x >> wp.uint32(4)) & _M0F) | ((x & _M0F) << wp.uint32(4))
     x = ((x >> wp.uint32(8)) & _M00FF) | ((x & _M00FF) << wp.uint32(8))
     return (x >> wp.uint32(16)) | (x << wp.uint32(16))
-
-
-_P55 = wp.constant(wp.uint64(0x5555555555555555))
-_P33 = wp.constant(wp.uint64(0x3333333333333333))
-_P0F = wp.constant(wp.uint64(0x0F0F0F0F0F0F0F0F))
-_P00FF = wp.constant(wp.uint64(0x00FF00FF00FF00FF))
-_P0000FFFF = wp.constant(wp.uint64(0x0000FFFF0000FFFF))
-
-
-@wp.func
-def reverse_bits_pair(a: wp.uint32, b: wp.uint32) -> wp.vec2ui:
-    """(reverse_bits(a), reverse_bits(b)) in one 64-bit pass: a in the low half, b in the high,
-    each half reversed on its own by the same five swaps (half the instructions of two passes)."""
-    x = (wp.uint64(b) << wp.uint64(32)) | wp.uint64(a)
-    x = ((x >> wp.uint64(1)) & _P55) | ((x & _P55) << wp.uint64(1))
-    x = ((x >> wp.uint64(2)) & _P33) | ((x & _P33) << wp.uint64(2))
-    x = ((x >> wp.uint64(4)) & _P0F) | ((x & _P0F) << wp.uint64(4))
-    x = ((x >> wp.uint64(8)) & _P00FF) | ((x & _P00FF) << wp.uint64(8))
-    x = ((x >> wp.uint64(16)) & _P0000FFFF) | ((x & _P0000FFFF) << wp.uint64(16))
-    return wp.vec2ui(wp.uint32(x), wp.uint32(x >> wp.uint64(32)))
 
 
 @wp.func
@@ -107,12 +86,6 @@ def owen_sobol(index: wp.uint32, dim: int, seed: wp.uint32) -> wp.uint32:
     if dim != 0:
         x = _pascal(index)
     return reverse_bits(_owen_hash(x, seed))
-
-
-@wp.func
-def owen_sobol_pair(index: wp.uint32, seed0: wp.uint32, seed1: wp.uint32) -> wp.vec2ui:
-    """(owen_sobol(index, 0, seed0), owen_sobol(index, 1, seed1)): one reverse_bits_pair."""
-    return reverse_bits_pair(_owen_hash(index, seed0), _owen_hash(_pascal(index), seed1))
 
 
 @wp.func

@@ -30,7 +30,7 @@ import warp as wp
 
 from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide, unit_float, wide_key
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.digital import owen_sobol, owen_sobol_pair
+from drtlab.estimators.pointsets.digital import owen_sobol
 
 _SALT_1D = wp.constant(wp.uint32(0x5B0B1D01))
 _SALT_2D = wp.constant(wp.uint32(0x5B0B2D02))
@@ -68,8 +68,7 @@ def sobol_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32
              spp: wp.uint32) -> wp.vec2:
     i = padded_index(seed ^ _SALT_2D, pixel, index, dim, spp)
     o = owen_seeds(seed ^ _SALT_2D, pixel, dim)
-    v = owen_sobol_pair(i, o[0], o[1])
-    return wp.vec2(unit_float(v[0]), unit_float(v[1]))
+    return wp.vec2(unit_float(owen_sobol(i, 0, o[0])), unit_float(owen_sobol(i, 1, o[1])))
 
 
 POINTSET = PointSet(

@@ -29,7 +29,7 @@ import warp as wp
 from drtlab.estimators.hashing import (bit_length, div_mod, hash_key, hash_prefix, key_from_prefix,
                                        mix32, unit_float)
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_sobol, owen_sobol_pair
+from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_sobol
 
 
 def packed_permutations() -> list[int]:
@@ -134,8 +134,9 @@ def zsobol_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint3
     bi = div_mod(index, n)
     g = zsobol_index(seed, pixel, bi[1], ceil_log2(n), dim)
     s = zsobol_seed(seed, bi[0], dim, g)
-    v = owen_sobol_pair(wp.uint32(g), s, mix32(s ^ _SY))
-    return wp.vec2(unit_float(v[0]), unit_float(v[1]))
+    low = wp.uint32(g)
+    return wp.vec2(unit_float(owen_sobol(low, 0, s)),
+                   unit_float(owen_sobol(low, 1, mix32(s ^ _SY))))
 
 
 @wp.func
