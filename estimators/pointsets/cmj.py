@@ -73,4 +73,6 @@ def cmj_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
 
 POINTSET = PointSet("cmj", "correlated multi-jittered (Kensler 2013): m x n = spp cells, Latin in "
                            "x and y; any spp (m the largest divisor <= sqrt(spp))", cmj_1d, cmj_2d,
-                    count_word=count_word)
+                    count_word=count_word,
+                    cost_note="three keyed permutations per 2D draw (Kensler's shuffle of the "
+                              "samples, then one of the sub-columns and one of the sub-rows)")
