@@ -141,41 +141,6 @@ def div_mod(a: wp.uint32, n: wp.uint32) -> wp.vec2ui:
 
 
 @wp.func
-def _table_rounds(x: wp.uint32, a: int, b: int, amask: wp.uint32, k0: wp.uint64,
-                  k1: wp.uint64) -> wp.uint32:
-    # Up to 6 bits a round function (3 bits -> 3 bits) is a random table of 2^3 x 3 = 24 key bits,
-    # looked up by a shift: a Feistel network of random functions, the Luby-Rackoff ideal, at a few
-    # instructions a round (pbrt-v4's and Kensler's hash permutations cost a multiply chain per
-    # element); 4 tables take 96 of the 128 bits, the rotation the top 32.
-    high = x >> wp.uint32(a)
-    low = x & amask
-    high = high ^ _lookup(k0, low, b)
-    low = low ^ _lookup(k0 >> _TABLE_SHIFT, high, a)
-    high = high ^ _lookup(k1, low, b)
-    low = low ^ _lookup(k1 >> _TABLE_SHIFT, high, a)
-    return (high << wp.uint32(a)) | low
-
-
-@wp.func
-def _hashed_rounds(x: wp.uint32, a: int, b: int, amask: wp.uint32, k0: wp.uint64,
-                   k1: wp.uint64) -> wp.uint32:
-    # The four 32-bit quarters of the key are the round keys.
-    high = x >> wp.uint32(a)
-    low = x & amask
-    high = high ^ _round(low, wp.uint32(k0), b)
-    low = low ^ _round(high, wp.uint32(k0 >> wp.uint64(32)), a)
-    high = high ^ _round(low, wp.uint32(k1), b)
-    low = low ^ _round(high, wp.uint32(k1 >> wp.uint64(32)), a)
-    return (high << wp.uint32(a)) | low
-
-
-@wp.func
-def _hashed_spin(k0: wp.uint64, k1: wp.uint64) -> wp.uint32:
-    # Beyond 6 bits the rotation gets a hash of its own (the key's 128 bits are the round keys).
-    return mix32(wp.uint32(k0) ^ wp.uint32(k1 >> wp.uint64(32)) ^ _GOLDEN)
-
-
-@wp.func
 def permute_wide(i: wp.uint32, n: wp.uint32, key: wp.vec2ul) -> wp.uint32:
     """A keyed pseudo-random bijection of [0, n): i's image under the permutation of 128 key bits."""
     if n <= wp.uint32(1):
@@ -191,29 +156,49 @@ def permute_wide(i: wp.uint32, n: wp.uint32, key: wp.vec2ul) -> wp.uint32:
     amask = (wp.uint32(1) << wp.uint32(a)) - wp.uint32(1)
     k0 = key[0]
     k1 = key[1]
-    if n & (n - wp.uint32(1)) == wp.uint32(0):
-        # A power-of-2 n (the same branch for every sample of a pixel): one pass, nothing to walk,
-        # and the rotation below is spin's top bits, (x + r) mod n a mask. The same values as the
-        # general path, ~1 ns a permutation cheaper (no loop in the way of the compiler, no
-        # multiply): the 64-sample permutations of stratified, lhs, cmj, sobol and pmj02.
-        if bits <= TABLE_BITS:
-            x = _table_rounds(i, a, b, amask, k0, k1)
-            return (x + wp.uint32(k1 >> wp.uint64(64 - bits))) & (n - wp.uint32(1))
-        return (_hashed_rounds(i, a, b, amask, k0, k1) +
-                (_hashed_spin(k0, k1) >> wp.uint32(32 - bits))) & (n - wp.uint32(1))
     x = i
     spin = wp.uint32(0)
-    # One pass, then cycle-walking while the image is out of range (under 2 passes on average).
+    # One copy of each round function: every get1d / get2d call site of a render kernel inlines
+    # this, and a power-of-2 pass beside the cycle-walking loop (rounds written out 4 times more),
+    # though ~1 ns a permutation cheaper in profile_kernels pointsets, made a stratified render of
+    # aa-edges 0.155 -> 0.176 s (128 x 96, 64 spp, 1 thread).
     if bits <= TABLE_BITS:
-        x = _table_rounds(x, a, b, amask, k0, k1)
-        while x >= n:
-            x = _table_rounds(x, a, b, amask, k0, k1)
+        # Up to 6 bits a round function (3 bits -> 3 bits) is a random table of 2^3 x 3 = 24 key
+        # bits, looked up by a shift: a Feistel network of random functions, the Luby-Rackoff
+        # ideal, at a few instructions a round (pbrt-v4's and Kensler's hash permutations cost a
+        # multiply chain per element); 4 tables take 96 of the 128 bits, the rotation the top 32.
+        t1 = k0 >> _TABLE_SHIFT
+        t3 = k1 >> _TABLE_SHIFT
+        done = int(0)
+        while done == 0:
+            high = x >> wp.uint32(a)
+            low = x & amask
+            high = high ^ _lookup(k0, low, b)
+            low = low ^ _lookup(t1, high, a)
+            high = high ^ _lookup(k1, low, b)
+            low = low ^ _lookup(t3, high, a)
+            x = (high << wp.uint32(a)) | low
+            if x < n:
+                done = 1
         spin = wp.uint32(k0 >> _TOP) | (wp.uint32(k1 >> _TOP) << wp.uint32(16))
     else:
-        x = _hashed_rounds(x, a, b, amask, k0, k1)
-        while x >= n:
-            x = _hashed_rounds(x, a, b, amask, k0, k1)
-        spin = _hashed_spin(k0, k1)
+        # The four 32-bit quarters of the key are the round keys; the rotation gets a hash of its own.
+        r0 = wp.uint32(k0)
+        r1 = wp.uint32(k0 >> wp.uint64(32))
+        r2 = wp.uint32(k1)
+        r3 = wp.uint32(k1 >> wp.uint64(32))
+        done = int(0)
+        while done == 0:
+            high = x >> wp.uint32(a)
+            low = x & amask
+            high = high ^ _round(low, r0, b)
+            low = low ^ _round(high, r1, a)
+            high = high ^ _round(low, r2, b)
+            low = low ^ _round(high, r3, a)
+            x = (high << wp.uint32(a)) | low
+            if x < n:
+                done = 1
+        spin = mix32(r0 ^ r3 ^ _GOLDEN)
     # A keyed rotation makes every position uniform over keys, and its carries mix the halves: a
     # 4-round network of 3-bit halves alone pairs the rows of two 64-sample dimensions measurably
     # ((n - 1) E[r^2] = 1.07 between s div 8 and another dimension's s; 0.99 with the rotation).
