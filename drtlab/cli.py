@@ -42,7 +42,8 @@ def cmd_samplers(args) -> int:
     sections = [
         (f"point sets: a name alone means POINTS+{POINTSET_STRATEGY}; a draw's cost against an "
          f"independent draw's ({costs['machine']}, spp {costs['spp']}: profile_kernels pointsets)",
-         [(p.name, "; ".join(filter(None, (p.description, draw_costs.ratio_note(p.name, costs)))))
+         [(p.name, "; ".join(filter(None, (p.description,
+                                             draw_costs.ratio_note(p.name, costs, p.cost_note)))))
           for p in POINTSETS.values()]),
         ("strategies:", [(s.name, s.description) for s in STRATEGIES.values()]),
         (f"presets: any POINTS+STRATEGY is accepted too; the default is {DEFAULT_SAMPLER}",

@@ -4,8 +4,8 @@
 A draw pair is one get2d and one get1d at the tracer's dimensions, made as a render makes them (the
 count word once per pixel, the sample's hash prefixes once per sample); the ratio is of CPU times in
 one job, the sets taking turns. `drtlab samplers` prints it; a set whose draws stay above
-`CHEAP` times an independent draw says so there (halton's digit permutations, zsobol's digit-by-digit
-index). Warp-free: the file is plain JSON.
+`CHEAP` times an independent draw says so there, and why (`PointSet.cost_note`: halton's digit
+permutations, zsobol's digit-by-digit index). Warp-free: the file is plain JSON.
 """
 from __future__ import annotations
 
@@ -22,12 +22,15 @@ def load() -> dict:
     return json.loads(PATH.read_text())
 
 
-def ratio_note(name: str, costs: dict) -> str:
-    """'draw 5.2x independent' (' (above 3x)' appended where it is not cheap), '' if unmeasured."""
+def ratio_note(name: str, costs: dict, why: str | None = None) -> str:
+    """'draw 5.2x independent' (' (above 3x)' appended where it is not cheap, and ': ' + why where
+    the set says why: PointSet.cost_note), '' if unmeasured."""
     r = costs.get("ratio", {}).get(name)
     if r is None:
         return ""
-    return f"draw {r:.1f}x independent" + (f" (above {CHEAP:g}x)" if r > CHEAP else "")
+    if r <= CHEAP:
+        return f"draw {r:.1f}x independent"
+    return f"draw {r:.1f}x independent (above {CHEAP:g}x)" + (f": {why}" if why else "")
 
 
 def write(ns: dict[str, float], spp: int, machine: str, path: Path = PATH) -> dict:

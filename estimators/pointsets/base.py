@@ -48,3 +48,6 @@ class PointSet:
     # derives something costly from spp alone (the stratified grid) packs it in; get1d and get2d
     # must give the same values for the word as for the bare count.
     count_word: wp.Function = bare_count
+    # Why a draw stays above draw_costs.CHEAP times an independent draw, where it does (work the set
+    # cannot make cheap without changing what it is); `drtlab samplers` prints it beside the ratio.
+    cost_note: str | None = None

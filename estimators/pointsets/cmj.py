@@ -20,18 +20,18 @@ dimension); indices past spp start a new block of spp samples.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide, unit_float, wide_key
+from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide, wide_key
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import (count_word, jitter_bits, place, strata_key,
-                                                    word_count, word_grid)
+from drtlab.estimators.pointsets.stratified import (count_word, jitter_bits, jitter_pair,
+                                                    place_bits, power_of_2, strata_key, word_count,
+                                                    word_grid)
 
-# Salts of the shuffle (the jitter's seed), sx, sy, jx, jy (Kensler's per-pattern multipliers, masked
-# below 2^31), and of the 1D points.
+# Salts of the shuffle (the jitter's seed), sx, sy, the jitter pair (Kensler's per-pattern
+# multipliers, masked below 2^31), and of the 1D points.
 _SHUFFLE = wp.constant(wp.uint32(0x51633E2D))
 _KX = wp.constant(wp.uint32(0x2511E9B3))
 _KY = wp.constant(wp.uint32(0x63D83595))
 _JX = wp.constant(wp.uint32(0x2399D265))
-_JY = wp.constant(wp.uint32(0x711AD6A5))
 _ONE_D = wp.constant(wp.uint32(0x0CD1D1D1))
 
 
@@ -41,7 +41,7 @@ def cmj_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
     n = word_count(spp)
     bi = div_mod(index, n)
     s = permute_wide(bi[1], n, strata_key(seed ^ _ONE_D, pixel, bi[0], dim))
-    return place(s, unit_float(jitter_bits(hash_prefix(seed ^ _ONE_D, pixel, index), dim)), n)
+    return place_bits(s, jitter_bits(hash_prefix(seed ^ _ONE_D, pixel, index), dim), n)
 
 
 @wp.func
@@ -49,23 +49,30 @@ def cmj_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
            spp: wp.uint32) -> wp.vec2:
     N = word_count(spp)
     m = word_grid(spp)[0]
-    n = N / m
     bi = div_mod(index, N)
     # The block's hash_prefix once per sample in a render; one wide_key per permutation.
     p = hash_prefix(seed, pixel, bi[0])
     s = permute_wide(bi[1], N, wide_key(p, dim))
-    rc = div_mod(s, m)
-    col = rc[1]
-    row = rc[0]
+    # A power-of-2 N (m and n powers of 2 too): the cell by a shift and a mask; N / m and div_mod
+    # would be a division and a float64 multiply per draw (m leaves word_grid's loop per draw).
+    km = wp.uint32(wp.bit_count(m - wp.uint32(1)))
+    n = N >> km
+    col = s & (m - wp.uint32(1))
+    row = s >> km
+    if not power_of_2(N):
+        n = N / m
+        rc = div_mod(s, m)
+        col = rc[1]
+        row = rc[0]
     sx = permute_wide(col, m, wide_key(p, dim ^ _KX))
     sy = permute_wide(row, n, wide_key(p, dim ^ _KY))
-    sample = hash_prefix(seed ^ _SHUFFLE, pixel, index)
-    jx = unit_float(jitter_bits(sample, dim ^ _JX))
-    jy = unit_float(jitter_bits(sample, dim ^ _JY))
+    j = jitter_pair(hash_prefix(seed ^ _SHUFFLE, pixel, index), dim ^ _JX)
     # x = (col + (sy + jx) / n) / m = (col * n + sy + jx) / N, placed so floor(x * N) is exact.
-    return wp.vec2(place(col * n + sy, jx, N), place(row * m + sx, jy, N))
+    return wp.vec2(place_bits(col * n + sy, j[0], N), place_bits(row * m + sx, j[1], N))
 
 
 POINTSET = PointSet("cmj", "correlated multi-jittered (Kensler 2013): m x n = spp cells, Latin in "
                            "x and y; any spp (m the largest divisor <= sqrt(spp))", cmj_1d, cmj_2d,
-                    count_word=count_word)
+                    count_word=count_word,
+                    cost_note="three keyed permutations per 2D draw (Kensler's shuffle of the "
+                              "samples, then one of the sub-columns and one of the sub-rows)")

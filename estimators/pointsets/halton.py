@@ -103,4 +103,7 @@ def halton_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint3
 POINTSET = PointSet(
     "halton", "Halton with random digit permutations per pixel (pbrt-v4 PermutationDigits); base "
               "PRIMES[dim], dims >= 1000 padded; stratified at spp = products of base powers",
-    halton_1d, halton_2d)
+    halton_1d, halton_2d,
+    cost_note="every base-b digit of the index (16 in base 3) through its own hashed permutation, "
+              "drawn per pixel and dimension at every draw (pbrt-v4 tabulates one set for all "
+              "pixels)")

@@ -12,9 +12,9 @@ block of spp samples with its own permutations.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide, unit_float
+from drtlab.estimators.hashing import div_mod, hash_prefix, permute_wide
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import jitter_bits, place, strata_key
+from drtlab.estimators.pointsets.stratified import jitter_bits, place_bits, strata_key
 
 _STRATA = wp.constant(wp.uint32(0x1A75C3E1))
 _JITTER = wp.constant(wp.uint32(0x6C8E9CF5))
@@ -26,7 +26,7 @@ def lhs_1d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
     n = wp.max(spp, wp.uint32(1))
     bi = div_mod(index, n)
     s = permute_wide(bi[1], n, strata_key(seed ^ _STRATA, pixel, bi[0], dim))
-    return place(s, unit_float(jitter_bits(hash_prefix(seed ^ _JITTER, pixel, index), dim)), n)
+    return place_bits(s, jitter_bits(hash_prefix(seed ^ _JITTER, pixel, index), dim), n)
 
 
 @wp.func

@@ -25,9 +25,9 @@ dimension means the same thing whichever accessor reads it. Values are a pure fu
 import warp as wp
 
 from drtlab.estimators import dimensions as D
-from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
+from drtlab.estimators.hashing import hash_key, mix32, permute
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import place, stratified_1d, stratified_2d
+from drtlab.estimators.pointsets.stratified import fixed_place, stratified_1d, stratified_2d
 
 K = 16          # table size: 4 x 4 jittered strata
 SIDE = 4
@@ -62,8 +62,7 @@ def table_point(seed: wp.uint32, pixel: wp.uint32, block: wp.uint32, slot: wp.ui
     """Entry perm(entry_of) of the jittered 4 x 4 table keyed by (seed, pixel, block, slot)."""
     e = permute(entry_of, _K, hash_key(seed, pixel, block, slot ^ _PERM))
     h = hash_key(seed, pixel, block * _K + e, slot ^ _JIT)
-    return wp.vec2(place(e % _SIDE, unit_float(h), _SIDE),
-                   place(e / _SIDE, unit_float(mix32(h)), _SIDE))
+    return wp.vec2(fixed_place(e % _SIDE, h, _SIDE), fixed_place(e / _SIDE, mix32(h), _SIDE))
 
 
 @wp.func

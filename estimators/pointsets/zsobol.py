@@ -26,7 +26,8 @@ an Owen seed keyed by b.
 """
 import warp as wp
 
-from drtlab.estimators.hashing import bit_length, div_mod, hash_key, mix32, unit_float
+from drtlab.estimators.hashing import (bit_length, div_mod, hash_key, hash_prefix, key_from_prefix,
+                                       mix32, unit_float)
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.digital import ceil_log2, morton2, owen_sobol
 
@@ -64,6 +65,11 @@ def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
     """The digit-permuted global index of sample `local` (< 2^k) of pixel key `pixel`."""
     m = (wp.uint64(pixel) << wp.uint64(k)) | wp.uint64(local)
     dkey = hash_key(seed, _SALT_DIGITS, wp.uint32(0), dim)
+    # _digit_hash(higher, dkey) is mix32(low ^ mix32(high ^ dkey)) of higher's 32-bit halves; where
+    # m < 2^32 (every key of an image up to 2^(32 - k) pixels) every high half is 0, so the inner
+    # mix32 is the same for all digits: computed once, the digits cost one mix32 each, not two.
+    inner = mix32(dkey)
+    small = (m >> wp.uint64(32)) == wp.uint64(0)
     odd = k % 2
     n4 = 16 + k / 2
     # Every digit at or above m's top bit is 0 with all higher digits 0, so one hash permutes all
@@ -86,7 +92,10 @@ def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
         higher = wp.uint64(0)
         if shift + 2 < 64:                  # k = 32 (spp > 2^31) would shift by 64
             higher = m >> wp.uint64(shift + 2)
-        p = (_digit_hash(higher, dkey) >> wp.uint32(8)) % wp.uint32(24)
+        hh = mix32(wp.uint32(higher) ^ inner)
+        if not small:
+            hh = _digit_hash(higher, dkey)
+        p = (hh >> wp.uint32(8)) % wp.uint32(24)
         digit = (_PERM4[int(p)] >> (wp.uint32(2) * digit)) & wp.uint32(3)
         out = out | (wp.uint64(digit) << wp.uint64(shift))
         t -= 1
@@ -98,7 +107,14 @@ def zsobol_index(seed: wp.uint32, pixel: wp.uint32, local: wp.uint32, k: int,
 
 @wp.func
 def zsobol_seed(seed: wp.uint32, block: wp.uint32, dim: wp.uint32, g: wp.uint64) -> wp.uint32:
-    return hash_key(seed ^ _SALT_OWEN, wp.uint32(g >> wp.uint64(32)), block, dim)
+    """hash_key(seed ^ _SALT_OWEN, g >> 32, block, dim). g >> 32 is 0 unless keys times spp pass
+    2^32: then the hash_prefix is the block's, the same for every bounce of a sample (once per
+    sample in a render), and the draw pays for the dimension's rounds alone."""
+    high = wp.uint32(g >> wp.uint64(32))
+    prefix = hash_prefix(seed ^ _SALT_OWEN, wp.uint32(0), block)
+    if high != wp.uint32(0):
+        prefix = hash_prefix(seed ^ _SALT_OWEN, high, block)
+    return key_from_prefix(prefix, dim)
 
 
 @wp.func
@@ -134,4 +150,6 @@ POINTSET = PointSet(
     "zsobol", "Sobol' along pixel order (Ahmed & Wonka 2020, pbrt-v4 ZSobol): base-4 digits "
               "permuted per dimension, Owen-scrambled; spp a power of 2 (else rounded up: spp of "
               "the 2^k net); pixels in Morton order",
-    zsobol_1d, zsobol_2d, pixel_key=zsobol_pixel_key)
+    zsobol_1d, zsobol_2d, pixel_key=zsobol_pixel_key,
+    cost_note="a hash per base-4 digit of the pixel's Morton key and the sample index (9 at "
+              "64 x 64 pixels and 64 spp), per dimension: pbrt-v4's GetSampleIndex")

@@ -189,3 +189,7 @@ def test_samplers_states_each_point_sets_measured_draw_cost(capsys):
         note = f"draw {r:.1f}x independent"
         assert note in lines[name], (name, lines[name])
         assert ("(above 3x)" in lines[name]) == (r > draw_costs.CHEAP), lines[name]
+        # A set above it says why where it knows (PointSet.cost_note), and only there.
+        why = POINTSETS[name].cost_note
+        if why:
+            assert (f"(above 3x): {why}" in lines[name]) == (r > draw_costs.CHEAP), lines[name]

@@ -12,7 +12,7 @@ import warp as wp
 
 from drtlab.estimators.hashing import hash_key, mix32, permute, unit_float
 from drtlab.estimators.pointsets.base import PointSet
-from drtlab.estimators.pointsets.stratified import grid_columns, place
+from drtlab.estimators.pointsets.stratified import grid_columns, place, place_bits
 from drtlab.estimators.registry import POINTSETS
 from drtlab.warp_runtime import warp as _wp
 
@@ -241,6 +241,37 @@ def test_place_lands_in_its_stratum_exactly():
     x = out.numpy().astype(np.float64)
     assert np.array_equal(np.floor(x * n).astype(np.int64), s)
     assert np.all((x >= 0) & (x < 1))
+
+
+def test_place_bits_lands_in_its_stratum_exactly_and_spans_it():
+    # place_bits(s, bits, n): fixed point for a power-of-2 n below 2^24, place otherwise; the
+    # extreme jitter bits must stay in stratum s, and (fixed point) reach both ends of it.
+    @wp.kernel(enable_backward=False)
+    def placed(s: wp.array(dtype=wp.uint32), bits: wp.array(dtype=wp.uint32),
+               n: wp.array(dtype=wp.uint32), out: wp.array(dtype=float)):
+        i = wp.tid()
+        out[i] = place_bits(s[i], bits[i], n[i])
+
+    rows = []
+    # (Up to 2^24 strata: float32 has no value in the last stratum of 2^25.)
+    for n in (1, 2, 3, 8, 64, 100, 1 << 12, 1 << 20, (1 << 23) - 1, 1 << 23, (1 << 24) - 1,
+              1 << 24):
+        for s in sorted({0, 1, n // 3, n // 2, n - 2, n - 1}):
+            if 0 <= s < n:
+                for b in (0, 1 << 8, 1 << 31, 0xFFFFFFFF):
+                    rows.append((s, b, n))
+    s, b, n = (np.array(c, dtype=np.int64) for c in zip(*rows))
+    out = wp.zeros(len(rows), dtype=float, device="cpu")
+    wp.launch(placed, dim=len(rows), device="cpu",
+              inputs=[wp.array(c.astype(np.uint32), dtype=wp.uint32, device="cpu")
+                      for c in (s, b, n)] + [out])
+    x = out.numpy().astype(np.float64)
+    assert np.array_equal(np.floor(x * n).astype(np.int64), s)
+    assert np.all((x >= 0) & (x < 1))
+    fixed = (n & (n - 1) == 0) & (n < 1 << 24)
+    assert np.array_equal(x[fixed & (b == 0)], s[fixed & (b == 0)] / n[fixed & (b == 0)])
+    top = fixed & (b == 0xFFFFFFFF)
+    assert np.array_equal(x[top], (s[top] + 1) / n[top] - 2.0 ** -24)
 
 
 # A deliberately broken stratified set: the stratum is index % (spp - 1), so one stratum is used twice
