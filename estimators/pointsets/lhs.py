@@ -37,4 +37,6 @@ def lhs_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32,
 
 
 POINTSET = PointSet("lhs", "Latin hypercube (N-rooks): spp strata per dimension, an independent "
-                           "permutation per dimension and pixel; any spp", lhs_1d, lhs_2d)
+                           "permutation per dimension and pixel; any spp", lhs_1d, lhs_2d,
+                    cost_note="a keyed permutation of the pixel's strata per dimension, so three "
+                              "per 2D + 1D pair (the Latin property is per dimension)")

@@ -129,4 +129,6 @@ POINTSET = PointSet(
     "pmj02", "progressive multi-jittered (0,2) (Christensen et al. 2018; Helmer et al. 2021 "
              "construction), 4096-point table, permuted + XOR-scrambled per pixel and dimension; "
              "(0,m,2)-nets at spp = 2^m <= 4096, other spp a prefix",
-    pmj02_1d, pmj02_2d)
+    pmj02_1d, pmj02_2d,
+    cost_note="a keyed permutation of the pixel's samples per dimension (padding, as pbrt-v4) "
+              "before the table read and its digital shift")

@@ -111,12 +111,14 @@ def presampled_random_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, di
     return random_table(seed, pixel, index, dim)
 
 
+_COST = ("every draw first tells a bounce direction from the other dimensions; a direction is a "
+         "table entry by a permutation of 16 and its jitter, the rest stratified's draws")
 POINTSET = PointSet("presampled", "Cook 1984 pre-sampled table: bounce directions from one fixed "
                     "4 x 4 jittered table of 16 points, the same for every pixel and seed (biased); "
                     "other dimensions stratified", presampled_1d, presampled_2d, biased=True,
-                    same_as_outside_directions="stratified")
+                    same_as_outside_directions="stratified", cost_note=_COST)
 RANDOM_POINTSET = PointSet("presampled_random", "Cook 1984 table randomised: bounce directions from "
                            "a 4 x 4 jittered table of 16 points re-drawn per pixel, seed and block "
                            "of 16 samples (unbiased); other dimensions stratified",
                            presampled_random_1d, presampled_random_2d,
-                           same_as_outside_directions="stratified")
+                           same_as_outside_directions="stratified", cost_note=_COST)

@@ -74,4 +74,6 @@ def sobol_2d(seed: wp.uint32, pixel: wp.uint32, index: wp.uint32, dim: wp.uint32
 POINTSET = PointSet(
     "sobol", "Owen-scrambled Sobol' (Burley 2020), padded (pbrt-v4): dims (0,1) per 2D pair, samples "
              "permuted per pixel and dimension; (0,m,2)-nets at spp = 2^m, other spp a prefix",
-    sobol_1d, sobol_2d)
+    sobol_1d, sobol_2d,
+    cost_note="a keyed permutation of the pixel's samples per dimension (padding, as pbrt-v4) "
+              "and an Owen scramble of each coordinate")

@@ -189,7 +189,8 @@ def test_samplers_states_each_point_sets_measured_draw_cost(capsys):
         note = f"draw {r:.1f}x independent"
         assert note in lines[name], (name, lines[name])
         assert ("(above 3x)" in lines[name]) == (r > draw_costs.CHEAP), lines[name]
-        # A set above it says why where it knows (PointSet.cost_note), and only there.
+        # A set above it says why (PointSet.cost_note), and the reason shows only there.
         why = POINTSETS[name].cost_note
+        assert why or r <= draw_costs.CHEAP, f"{name} costs {r}x and says not why"
         if why:
             assert (f"(above 3x): {why}" in lines[name]) == (r > draw_costs.CHEAP), lines[name]
