@@ -17,6 +17,8 @@ from drtlab.experiments.bench.mitsuba import compare
     (compare.main, ["--seeds", "1"], "--seeds"),
     (profile_kernels.main, ["rays", "--threads", "-3"], "--threads"),
     (profile_kernels.main, ["nonsense"], "mode"),
+    (profile_kernels.main, ["rays", "--quad-test", "wide"], "--quad-test"),
+    (profile_kernels.main, ["components", "--repeats", "0"], "--repeats"),
 ])
 def test_bad_flag_is_one_line(capsys, main, argv, flag):
     assert main(argv) == 2
