@@ -129,10 +129,12 @@ def _sampler_notes(sampler: str, spp: int) -> list[str]:
     return []
 
 
-# Renders of more samples than this measure their speed first, to say how long they will take when
-# that is more than LONG_RENDER_SECONDS (a probe costs ~0.2 s; below this a render takes seconds).
-PROBE_ABOVE_SAMPLES = 5e6
+# A render that will take more than LONG_RENDER_SECONDS says so once its first launches have run
+# for NOTE_AFTER_SECONDS (or done NOTE_AFTER_FRACTION of the work): measured on the render itself,
+# not by a probe before it, which cost a 4-second render a second.
 LONG_RENDER_SECONDS = 120.0
+NOTE_AFTER_SECONDS = 2.0
+NOTE_AFTER_FRACTION = 0.05
 
 
 def _duration(seconds: float) -> str:
@@ -143,27 +145,33 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 86400:.0f} days"
 
 
-def _expected_time_notes(scene, args) -> list[str]:
-    """One line before a render that will take more than a few minutes: how long, and why."""
-    from drtlab.kernels import render as R
+def _time_watch(scene, args):
+    """A render's `watch`: once enough of it has run, one note of how long the whole will take, if
+    that is more than LONG_RENDER_SECONDS (None for a time-budget render, which knows its length)."""
+    if args.seconds is not None:
+        return None
     width, height = _render_size(scene, args)
     spp = args.spp or scene.spp
     samples = width * height * spp
-    if args.seconds is not None or samples <= PROBE_ABOVE_SAMPLES:
-        return []
-    speed = R.measured_speed(scene, args.sampler, args.integrator, args.res, args.threads,
-                             args.tile, args.device)
-    seconds = samples / speed
-    if seconds <= LONG_RENDER_SECONDS:
-        return []
-    return [f"this render takes about {_duration(seconds)}: {width}x{height} x {spp} spp = "
-            f"{samples:.3g} samples at {speed / 1e6:.2f} M samples/s (measured here); Ctrl-C stops "
-            "it, --seconds T renders as many passes as fit in T seconds"]
+    said = []
+
+    def watch(fraction: float, seconds: float) -> None:
+        if said or (seconds < NOTE_AFTER_SECONDS and fraction < NOTE_AFTER_FRACTION):
+            return
+        said.append(True)
+        total = seconds / fraction
+        if total > LONG_RENDER_SECONDS:
+            _note([f"this render takes about {_duration(total)}: {width}x{height} x {spp} spp = "
+                   f"{samples:.3g} samples at {samples / total / 1e6:.2f} M samples/s (measured on "
+                   "its first launches); Ctrl-C stops it, --seconds T renders as many passes as fit "
+                   "in T seconds"])
+    return watch
 
 
 def _note(lines: list[str]) -> None:
+    from tqdm import tqdm         # a progress bar on the terminal is cleared for the line and redrawn
     for line in lines:
-        print(f"drtlab: note: {line}", file=sys.stderr, flush=True)
+        tqdm.write(f"drtlab: note: {line}", file=sys.stderr)
 
 
 def cmd_render(args) -> int:
@@ -184,7 +192,6 @@ def cmd_render(args) -> int:
         check_image_size(width, height, moments=args.variance, field="--res")
     notes = [] if args.seconds is not None else _sampler_notes(args.sampler, args.spp or scene.spp)
     _warn(scene_warnings(scene) + notes)
-    _note(_expected_time_notes(scene, args))
     t0 = time.perf_counter()
     common = dict(sampler=args.sampler, integrator=args.integrator, seed=args.seed, res=args.res,
                   threads=args.threads, tile=args.tile, device=args.device,
@@ -192,7 +199,7 @@ def cmd_render(args) -> int:
     if args.seconds is not None:
         stats = R.render_for_seconds(scene, args.seconds, **common)
     else:
-        stats = R.render_with_stats(scene, spp=args.spp, **common)
+        stats = R.render_with_stats(scene, spp=args.spp, watch=_time_watch(scene, args), **common)
     result = result_of(scene, stats, time.perf_counter() - t0, seconds_budget=args.seconds)
     exr, *stderr = result.write_exr(out)
     png = out.with_suffix(".png")

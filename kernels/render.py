@@ -245,18 +245,20 @@ def _check_seed(seed, field: str = "seed") -> int:
 
 def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, seed=0, res=None,
                       threads=None, tile=None, device="cpu", progress=None,
-                      faults=(), variance=False) -> RenderStats:
+                      faults=(), variance=False, watch=None) -> RenderStats:
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
 
     `faults` (names from features.FAULTS, MESH_FAULTS or SPHERICAL_FAULTS) compiles a deliberately wrong estimator: tests use it as
     the negative control that a statistical test must reject; names from features.REPEATS compile
     the profile's probes (`profile_kernels components`). Never set it for real renders.
     `variance` also sums the samples' squares (same samples, same mean image) for `stats.variance`.
+    `watch(fraction, seconds)`, if given, is called after every launch with the fraction of the
+    launches done and the seconds since the first (what a caller needs to foresee the whole).
     """
     seed = _check_seed(seed)
     b = render_batch_with_stats(scene, [seed], spp=spp, sampler=sampler, integrator=integrator,
                                 res=res, threads=threads, tile=tile, device=device,
-                                progress=progress, faults=faults, variance=variance)
+                                progress=progress, faults=faults, variance=variance, watch=watch)
     return RenderStats(image=b.images[0], render_seconds=b.render_seconds,
                        compile_seconds=b.compile_seconds, spp=b.spp, width=b.width, height=b.height,
                        sampler=b.sampler, integrator=b.integrator, seed=seed, variant=b.variant,
@@ -266,7 +268,7 @@ def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None,
 
 def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, integrator=None, res=None,
                             threads=None, tile=None, device="cpu", progress=None, faults=(),
-                            variance=False) -> BatchStats:
+                            variance=False, watch=None) -> BatchStats:
     """Render one repetition of `scene` per seed of `seeds`, all in the same launches (a launch
     covers every repetition of a tile: short renders stop paying per-call overhead, and a GPU is
     filled by one launch). Repetition r is bit-identical to `render(..., seed=seeds[r])` whatever
@@ -335,6 +337,16 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
         x0, y0, tw, th = t
         wp.launch(gather, dim=R * tw * th, device=device, inputs=[sd, count, x0, y0, tw, th, sums])
 
+    launches, done = len(passes) * len(tiles), 0
+
+    def tile_done():
+        nonlocal done
+        done += 1
+        if bar:
+            bar.update(1)
+        if watch is not None:
+            watch(done / launches, time.perf_counter() - t0)
+
     t0, c0 = time.perf_counter(), time.process_time()
     pool = launch_pool(threads) if device == "cpu" and threads > 1 else None
     try:
@@ -342,15 +354,13 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
             if pool is None:
                 for t in tiles:
                     launch(t, index0, count)
-                    if bar:
-                        bar.update(1)
+                    tile_done()
                 for t in gather_tiles:      # after every tile of the pass: it reads their samples
                     launch_gather(t, count)
             else:
                 for fut in [pool.submit(launch, t, index0, count) for t in tiles]:
                     fut.result()
-                    if bar:
-                        bar.update(1)
+                    tile_done()
                 for fut in [pool.submit(launch_gather, t, count) for t in gather_tiles]:
                     fut.result()
         wp.synchronize_device(device)

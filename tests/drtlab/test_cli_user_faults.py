@@ -267,25 +267,41 @@ def test_pointset_table_marks_the_squared_discrepancies(tmp_path, capsys):
 # How long a render takes: said before a long one; a time-budget render
 # ---------------------------------------------------------------------------------------------------
 
-def test_a_long_render_says_how_long_before_it_starts(good, tmp_path, capsys, monkeypatch):
+def test_a_long_render_says_how_long_from_its_first_launches(good, tmp_path, capsys, monkeypatch):
+    """The note is measured on the render itself: no probe render before it (one render call), and
+    said once, early (after the first launch here), when the whole will take longer than the bound."""
     import drtlab.cli as cli
     import drtlab.kernels.render as R
-    monkeypatch.setattr(cli, "PROBE_ABOVE_SAMPLES", 0)
-    monkeypatch.setattr(R, "measured_speed", lambda *a, **k: 0.5)      # samples per second
-    seen_before_render = []
+    calls, fractions = [], []
     real = R.render_with_stats
 
-    def render_and_look(*a, **k):
-        seen_before_render.append(capsys.readouterr().err)
-        return real(*a, **k)
-    monkeypatch.setattr(R, "render_with_stats", render_and_look)
-    assert main(["render", str(good), "--spp", "2", "--res", "8", "--out", str(tmp_path / "x.exr")]) == 0
-    (note,) = [x for x in seen_before_render[0].splitlines() if x.startswith("drtlab: note:")]
-    assert "about 3 min" in note and "8x6 x 2 spp = 96 samples" in note and "--seconds" in note
-    # A quick render says nothing.
-    monkeypatch.setattr(R, "measured_speed", lambda *a, **k: 1e6)
+    def render_and_count(*a, **k):
+        calls.append(k)
+        watch = k["watch"]
+
+        def spy(fraction, seconds):
+            fractions.append((fraction, capsys.readouterr().err))
+            watch(fraction, seconds)
+        return real(*a, **{**k, "watch": spy})
+    monkeypatch.setattr(R, "render_with_stats", render_and_count)
+    monkeypatch.setattr(cli, "NOTE_AFTER_SECONDS", 0.0)
+    monkeypatch.setattr(cli, "LONG_RENDER_SECONDS", -1.0)      # every render counts as long
+    assert main(["render", str(good), "--spp", "130", "--res", "8", "--tile", "4",
+                 "--threads", "1", "--out", str(tmp_path / "x.exr")]) == 0
+    assert len(calls) == 1
+    # 3 passes (64, 64, 2 spp) x 4 tiles: the note came right after the first launch.
+    assert [f for f, _ in fractions] == [(k + 1) / 12 for k in range(12)]
+    notes = [line for _, err in fractions for line in err.splitlines()
+             if line.startswith("drtlab: note:")]
+    notes += [x for x in capsys.readouterr().err.splitlines() if x.startswith("drtlab: note:")]
+    (note,) = notes
+    assert "this render takes about" in note and "8x6 x 130 spp = 6.24e+03 samples" in note
+    assert "--seconds" in note
+    # A render shorter than the bound says nothing.
+    monkeypatch.setattr(cli, "LONG_RENDER_SECONDS", 120.0)
+    calls.clear()
     assert main(["render", str(good), "--spp", "2", "--res", "8", "--out", str(tmp_path / "y.exr")]) == 0
-    assert "note" not in capsys.readouterr().err
+    assert len(calls) == 1 and "note" not in capsys.readouterr().err
 
 
 def test_time_budget_renders_whole_passes_and_says_how_many(good, tmp_path, capsys):
