@@ -21,7 +21,7 @@ from drtlab.kernels.intersection.quad_records import quad_geometry, quad_groups,
 from drtlab.kernels.intersection.quad_simd import quad_pack
 from drtlab.kernels.colour import luminance
 from drtlab.kernels.environment import EnvironmentData, environment_data
-from drtlab.kernels.features import material_kinds, splits_for, uses_sphere_bvh
+from drtlab.kernels.features import material_kinds, splits_for, uses_quad_simd, uses_sphere_bvh
 from drtlab.kernels.intersection.primitives import QuadGeom
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.filters import BOX, filter_cdf
@@ -234,10 +234,13 @@ def quad_grouping(quads: list, t_open: float):
                    lambda: quad_groups(quads, t_open))
 
 
-def vector_lane_count(scene: Scene) -> int:
-    """How many quads of `scene` the CPU's vector test would hold (quad_records.vector_lanes)."""
+def uses_vector_quads(scene: Scene, device: str) -> bool:
+    """Features.quad_simd of rendering `scene` on `device`: on the CPU, where the quads the vector
+    test would hold (quad_records.vector_lanes) are as many as features.uses_quad_simd wants."""
     quads = [s for s in scene.shapes if s.kind == "quad"]
-    return len(vector_lanes(quad_grouping(quads, float(scene.camera.shutter[0])))[0]) if quads else 0
+    if device != "cpu" or not quads:
+        return False
+    return uses_quad_simd(len(vector_lanes(quad_grouping(quads, float(scene.camera.shutter[0])))[0]))
 
 
 def _device_array(values, dtype, empty_shape, device: str):

@@ -17,9 +17,9 @@ import numpy as np
 from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integrator, parse_sampler
 from drtlab import fields
 from drtlab.errors import InputError
-from drtlab.kernels.device_scene import upload, vector_lane_count
+from drtlab.kernels.device_scene import upload, uses_vector_quads
 from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
-                                     Features, features_of, uses_quad_simd)
+                                     Features, features_of)
 from drtlab.kernels.filters import BOX, FILTERS
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene import Scene
@@ -143,7 +143,7 @@ def render_features(scene: Scene, integrator: str, spec: SamplerSpec,
         raise InputError("camera.filter", f"'{f.filter}' needs a stochastic integrator (drt or path): "
                                           "whitted samples a fixed sub-pixel grid of the box pixel")
     return replace(f, splat=spec.splat and f.filter != BOX,
-                   quad_simd=device == "cpu" and uses_quad_simd(vector_lane_count(scene)))
+                   quad_simd=uses_vector_quads(scene, device))
 
 
 def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> dict:

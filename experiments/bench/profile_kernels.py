@@ -147,12 +147,12 @@ def _build_rays(name: str, n: int, seed: int = 1, quad_test: str = "simd"):
     CPU render tests quads (where the scene has few enough), "groups" by the scalar grouped tests."""
     wp = _setup()
     from dataclasses import replace
-    from drtlab.kernels.device_scene import upload, vector_lane_count
-    from drtlab.kernels.features import features_of, uses_quad_simd
+    from drtlab.kernels.device_scene import upload, uses_vector_quads
+    from drtlab.kernels.features import features_of
     from drtlab.kernels.scene_file import load_scene
     scene = load_scene(name)
     f = replace(features_of(scene, "path"),
-                quad_simd=quad_test == "simd" and uses_quad_simd(vector_lane_count(scene)))
+                quad_simd=quad_test == "simd" and uses_vector_quads(scene, "cpu"))
     sd = upload(scene, "cpu")
     closest, shadow = _ray_kernels(f)
     rng = np.random.default_rng(seed)

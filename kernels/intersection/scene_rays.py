@@ -135,30 +135,28 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                         h.index = i
                     i += 1
         if wp.static(HAS_QUAD):
+            # Every group in order; with the vector test only the closed boxes, then the lanes
+            # (a tie goes to a box).
+            n_groups = sd.quad_groups.count
             if wp.static(QUAD_SIMD):
-                # The closed boxes' slab tests in group order, then the lanes: a tie goes to a box.
-                k = int(0)
-                while k < sd.quad_groups.n_box:
-                    gh = group_hit(sd, sd.quad_groups.box[k], o, d, h.t, dt)
-                    if gh.quad >= 0:
-                        h.t = gh.t
-                        h.kind = QUAD
-                        h.index = gh.quad
-                    k += 1
+                n_groups = sd.quad_groups.n_box
+            k = int(0)
+            while k < n_groups:
+                g = k
+                if wp.static(QUAD_SIMD):
+                    g = sd.quad_groups.box[k]
+                gh = group_hit(sd, g, o, d, h.t, dt)
+                if gh.quad >= 0:
+                    h.t = gh.t
+                    h.kind = QUAD
+                    h.index = gh.quad
+                k += 1
+            if wp.static(QUAD_SIMD):
                 qh = quads_nearest(sd.quads.pack, sd.quads.blocks, o, d, h.t, sd.moving, dt)
                 if qh[1] >= 0.0:
                     h.t = qh[0]
                     h.kind = QUAD
                     h.index = int(qh[1])
-            else:
-                g = int(0)
-                while g < sd.quad_groups.count:
-                    gh = group_hit(sd, g, o, d, h.t, dt)
-                    if gh.quad >= 0:
-                        h.t = gh.t
-                        h.kind = QUAD
-                        h.index = gh.quad
-                    g += 1
         if wp.static(HAS_MESH):
             mh = nearest_mesh(sd, o, d, h.t, dt)
             if mh.mesh >= 0:
@@ -236,13 +234,19 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
                         if t < t_target or (tie and before and t == t_target):
                             return 1
                     i += 1
-        if wp.static(HAS_QUAD and QUAD_SIMD):
-            # Scan order: closed boxes, then the lanes. A target among the lanes (a quad without a
-            # group here) was settled against them by visible(): the nearest lane is the target.
+        if wp.static(HAS_QUAD):
+            # Every group but the target's in order; with the vector test only the closed boxes,
+            # then the lanes. A target among the lanes (a quad without a group here) was settled
+            # against them by visible(): the nearest lane is the target.
             lane_target = target_kind == QUAD and target_group < 0
+            n_groups = sd.quad_groups.count
+            if wp.static(QUAD_SIMD):
+                n_groups = sd.quad_groups.n_box
             k = int(0)
-            while k < sd.quad_groups.n_box:
-                g = sd.quad_groups.box[k]
+            while k < n_groups:
+                g = k
+                if wp.static(QUAD_SIMD):
+                    g = sd.quad_groups.box[k]
                 if g != target_group:
                     gh = group_hit(sd, g, o, d, limit, dt)
                     if gh.quad >= 0:
@@ -252,26 +256,15 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
                         if gh.t < t_target or (tie and before and gh.t == t_target):
                             return 1
                 k += 1
-            if not lane_target:
-                qh = quads_nearest(sd.quads.pack, sd.quads.blocks, o, d, limit, sd.moving, dt)
-                if qh[1] >= 0.0:
-                    before = False
-                    if wp.static(HAS_MESH):
-                        before = target_kind == MESH
-                    if qh[0] < t_target or (tie and before and qh[0] == t_target):
-                        return 1
-        if wp.static(HAS_QUAD and not QUAD_SIMD):
-            g = int(0)
-            while g < sd.quad_groups.count:
-                if g != target_group:
-                    gh = group_hit(sd, g, o, d, limit, dt)
-                    if gh.quad >= 0:
-                        before = target_kind == QUAD and g < target_group
+            if wp.static(QUAD_SIMD):
+                if not lane_target:
+                    qh = quads_nearest(sd.quads.pack, sd.quads.blocks, o, d, limit, sd.moving, dt)
+                    if qh[1] >= 0.0:
+                        before = False
                         if wp.static(HAS_MESH):
-                            before = before or target_kind == MESH
-                        if gh.t < t_target or (tie and before and gh.t == t_target):
+                            before = target_kind == MESH
+                        if qh[0] < t_target or (tie and before and qh[0] == t_target):
                             return 1
-                g += 1
         if wp.static(HAS_MESH):
             skip = int(-1)
             if target_kind == MESH:

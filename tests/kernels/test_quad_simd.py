@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from drtlab.kernels.device_scene import QUAD, SceneData, upload, vector_lane_count
-from drtlab.kernels.features import features_of, uses_quad_simd
+from drtlab.kernels.device_scene import QUAD, SceneData, upload, uses_vector_quads
+from drtlab.kernels.features import features_of
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.quad_records import quad_groups, vector_lanes
 from drtlab.kernels.intersection.quad_simd import LANES, quad_pack
@@ -141,7 +141,7 @@ def _features(scene, simd: bool):
 @pytest.mark.parametrize("name", SCENES)
 def test_vector_test_matches_grouped_tests(name):
     scene = load_scene(name)
-    assert uses_quad_simd(vector_lane_count(scene)), f"{name} should use the vector test"
+    assert uses_vector_quads(scene, "cpu") and not uses_vector_quads(scene, "cuda"), name
     rng = np.random.default_rng(11)
     o, d, dist, target, edge = _rays(scene, rng)
     t_v, i_v, lit_v = _trace(scene, _features(scene, True), o, d, dist, target)
