@@ -88,6 +88,24 @@ def group_hit(sd: SceneData, g: int, o: wp.vec3, d: wp.vec3, tmax: float,
     return r
 
 
+def _make_group_scan(quad_simd: bool):
+    """(count(sd), group(sd, k)): the groups a quad scan walks in order: all of them, or with the
+    vector test (Features.quad_simd) only the closed boxes, the lanes coming after."""
+    @wp.func
+    def scanned_groups(sd: SceneData) -> int:
+        if wp.static(quad_simd):
+            return sd.quad_groups.n_box
+        return sd.quad_groups.count
+
+    @wp.func
+    def scanned_group(sd: SceneData, k: int) -> int:
+        if wp.static(quad_simd):
+            return sd.quad_groups.box[k]
+        return k
+
+    return scanned_groups, scanned_group
+
+
 class SceneRays(NamedTuple):
     intersect: wp.Function      # (sd, o, d, tmax, dt) -> Hit, the nearest in (0, tmax)
     visible: wp.Function        # (sd, o, d, dist, dt, target_kind, target_index) -> 1 or 0
@@ -106,6 +124,7 @@ def make_intersect(f: Features, *, motion: Motion) -> SceneRays:
 def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: SphereBvh):
     HAS_SPH, HAS_QUAD, HAS_MESH, SPH_BVH = f.spheres, f.quads, f.meshes, f.sphere_bvh
     QUAD_SIMD = f.quad_simd
+    scanned_groups, scanned_group = _make_group_scan(QUAD_SIMD)
     sphere_center, quad_origin = motion.sphere_center, motion.quad_origin
     nearest_mesh, bvh_nearest_sphere = mesh_rays.nearest_mesh, sphere_bvh.bvh_nearest_sphere
 
@@ -137,14 +156,9 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
         if wp.static(HAS_QUAD):
             # Every group in order; with the vector test only the closed boxes, then the lanes
             # (a tie goes to a box).
-            n_groups = sd.quad_groups.count
-            if wp.static(QUAD_SIMD):
-                n_groups = sd.quad_groups.n_box
             k = int(0)
-            while k < n_groups:
-                g = k
-                if wp.static(QUAD_SIMD):
-                    g = sd.quad_groups.box[k]
+            while k < scanned_groups(sd):
+                g = scanned_group(sd, k)
                 gh = group_hit(sd, g, o, d, h.t, dt)
                 if gh.quad >= 0:
                     h.t = gh.t
@@ -205,6 +219,7 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
     HAS_MESH = f.meshes
     SPH_BVH = f.sphere_bvh
     QUAD_SIMD = f.quad_simd
+    scanned_groups, scanned_group = _make_group_scan(QUAD_SIMD)
     sphere_center = motion.sphere_center
     meshes_occlude = mesh_rays.meshes_occlude
     bvh_spheres_occlude = sphere_bvh.bvh_spheres_occlude
@@ -239,14 +254,9 @@ def _make_occluded(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh:
             # then the lanes. A target among the lanes (a quad without a group here) was settled
             # against them by visible(): the nearest lane is the target.
             lane_target = target_kind == QUAD and target_group < 0
-            n_groups = sd.quad_groups.count
-            if wp.static(QUAD_SIMD):
-                n_groups = sd.quad_groups.n_box
             k = int(0)
-            while k < n_groups:
-                g = k
-                if wp.static(QUAD_SIMD):
-                    g = sd.quad_groups.box[k]
+            while k < scanned_groups(sd):
+                g = scanned_group(sd, k)
                 if g != target_group:
                     gh = group_hit(sd, g, o, d, limit, dt)
                     if gh.quad >= 0:
