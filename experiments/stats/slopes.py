@@ -187,6 +187,8 @@ def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int
         "ols_slope": float(b0),
         **run,
         "line": _band(lines, grid, level),
+        # Posterior draws of (log RMSE at N = 1, slope): what speed-ups propagate (not JSON).
+        "draws": np.stack([a[sub], b[sub]], axis=1),
     })
     return out
 
@@ -333,7 +335,8 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
     run's log RMSE at the ladder's geometric centre, comparable to the typical fit's; `ols_slope`:
     least squares on log sqrt(cell-mean MSE); `autocorr_time`: 4 parameters) and `cells` (per N: runs,
     mean MSE, RMSE, fitted RMSE, the fitted CV of a run's MSE), `cv_slope` (d log CV / d log N),
-    `lack_of_fit_f` / `lack_of_fit_p`, `resolved`, `saturated_cells`, `floor`, `censored`, `model`, `estimand` ("rmse").
+    `lack_of_fit_f` / `lack_of_fit_p`, `resolved`, `saturated_cells`, `floor`, `censored`, `model`, `estimand` ("rmse"),
+    and `draws`: up to 2000 posterior draws of (intercept, slope) as an array.
     """
     n = np.asarray(n, dtype=np.float64)
     m = np.asarray(mse, dtype=np.float64)
@@ -399,5 +402,7 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
                    "rmse": math.sqrt(max(mm * scale, 0.0)), "fitted_rmse": float(f), "cv": float(s)}
                   for v, r, mm, f, s in zip(c["n"], c["runs"], c["mean"], fitted, cv)],
         "line": _band(lines, grid, level),
+        # Posterior draws of (log RMSE at N = 1, slope): what speed-ups propagate (not JSON).
+        "draws": np.stack([a[sub], b[sub]], axis=1),
     })
     return out

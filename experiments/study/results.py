@@ -215,7 +215,7 @@ class SlopeFit:
 
     @classmethod
     def of(cls, fit: dict, erratic_sigma: float, typical: dict | None = None) -> "SlopeFit":
-        kw = dict(fit)
+        kw = {k: v for k, v in fit.items() if k != "draws"}
         if kw.get("line") is not None:
             kw["line"] = FitLine(**kw["line"])
         if typical is not None and typical.get("ok"):

@@ -1,0 +1,180 @@
+"""The CPU cost of a render as a fitted model, not a per-cell average.
+
+A batch renders `reps` repetitions of `S` samples each in one call. Its seconds follow
+
+    seconds(batch) = call + reps * (repetition + sample * S),
+
+a per-call overhead, a per-repetition overhead and a per-sample cost, one model per (scene, sampler,
+variant), fitted to every batch the study rendered of it at every sample count (and its timing-only
+batches). A cell's cost is the model's cost of one more repetition, `repetition + sample * S` (the
+call's overhead is spread over a batch and shrinks with its size; a full-size render pays it once).
+
+The fit is weighted least squares on relative residuals (timing noise is multiplicative: another job
+slows a batch by a fraction), with non-negative coefficients (scipy's `nnls`); a coefficient at its
+bound leaves the fit. Its covariance is the residual variance times (X'WX)^-1 on the remaining
+coefficients, and draws of the cost (`draw_seconds`) come from the multivariate Student t with the
+residual degrees of freedom: with ten batches of a sampler the cell costs carry 4-8% intervals where
+a per-cell t over its two batches (one degree of freedom, a Cauchy draw) spanned orders of magnitude.
+
+Load that moves during a sweep (another job starts) shows in the residuals as a step in time:
+`load_shift` tests for one (the largest two-sample t over split points of the time-ordered
+residuals, its p-value by permutation) and says when and by how much, instead of widening every
+interval.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+PARAMS = ("call", "repetition", "sample")     # seconds per call, per repetition, per sample
+LOAD_SHIFT_P = 0.01                 # a step in the residuals below this p-value is reported
+LOAD_SHIFT_MIN_SIDE = 4             # batches on each side of a split the test considers
+LOAD_SHIFT_PERMUTATIONS = 999
+
+
+@dataclass(frozen=True)
+class CostModel:
+    """Fitted coefficients (seconds per call, per repetition, per sample; 0 where the bound held)
+    with their covariance and residual degrees of freedom."""
+    coef: tuple
+    cov: tuple                       # (3, 3) as nested tuples: 0 rows/columns for dropped terms
+    dof: int
+    rel_sd: float                    # relative residual sd of a batch (weighted)
+    batches: int
+    residuals: tuple                 # each batch's relative residual, in the order given
+
+    def seconds(self, samples) -> np.ndarray | float:
+        """Cost of one repetition of `samples` samples (per-repetition + per-sample terms)."""
+        c = self.coef
+        v = c[1] + c[2] * np.asarray(samples, dtype=np.float64)
+        return v if np.ndim(v) else float(v)
+
+    def coef_draws(self, rng, size: int) -> np.ndarray:
+        """`size` draws of (seconds per repetition, seconds per sample) from their multivariate t
+        (the fitted values repeated where the fit has no residual degree of freedom)."""
+        mean = np.asarray(self.coef[1:], dtype=np.float64)
+        cov = np.asarray(self.cov)[1:, 1:]
+        if self.dof < 1 or not np.all(np.isfinite(cov)):
+            return np.broadcast_to(mean, (size, 2)).copy()
+        z = rng.multivariate_normal(np.zeros(2), cov, size=size, method="eigh")
+        return mean[None, :] + z * np.sqrt(self.dof / rng.chisquare(self.dof, size=size))[:, None]
+
+    def draw_seconds(self, samples, rng, size: int) -> np.ndarray:
+        """`size` draws of one repetition's cost at each of `samples` (shape (size, len)), each kept
+        above a thousandth of the fitted cost."""
+        s = np.atleast_1d(np.asarray(samples, dtype=np.float64))
+        c = self.coef_draws(rng, size)
+        mean = np.atleast_1d(self.seconds(s))
+        return np.maximum(c[:, :1] + c[:, 1:] * s[None, :], 1e-3 * mean[None, :])
+
+    def seconds_interval(self, samples, level: float = 0.95) -> tuple[float, float]:
+        """The t interval of one repetition's cost at `samples`."""
+        from scipy import stats
+        s = float(samples)
+        x = np.array([1.0, s])
+        var = float(x @ np.asarray(self.cov)[1:, 1:] @ x)
+        m = float(self.seconds(s))
+        if self.dof < 1 or not math.isfinite(var):
+            return float("nan"), float("nan")
+        h = float(stats.t.ppf(0.5 + level / 2, self.dof)) * math.sqrt(max(var, 0.0))
+        return max(m - h, 1e-3 * m), m + h
+
+    def to_json(self) -> dict:
+        return {"seconds_per_call": self.coef[0], "seconds_per_repetition": self.coef[1],
+                "seconds_per_sample": self.coef[2], "dof": self.dof, "rel_sd": self.rel_sd,
+                "batches": self.batches}
+
+
+def fit_cost_model(seconds, reps, samples) -> CostModel:
+    """The model of batches that took `seconds` (whole batches) for `reps` repetitions of `samples`
+    samples each. Terms the batches cannot separate (one sample count: no per-sample slope apart
+    from the overhead; one batch size: no call overhead) are left out, the per-sample term last."""
+    from scipy.optimize import nnls
+    B = np.asarray(seconds, dtype=np.float64)
+    R = np.asarray(reps, dtype=np.float64)
+    S = np.asarray(samples, dtype=np.float64)
+    ok = np.isfinite(B) & (B > 0) & (R > 0) & (S > 0)
+    B, R, S = B[ok], R[ok], S[ok]
+    n = B.size
+    if n == 0:
+        raise ValueError("no timed batch")
+    y = B / R                                            # seconds per repetition
+    X = np.stack([1.0 / R, np.ones_like(S), S], axis=1)
+    cols = [0, 1, 2]
+
+    def separable(cs: list) -> bool:
+        return np.linalg.matrix_rank(X[:, cs] / X[:, cs].max(axis=0)) == len(cs) and n > len(cs)
+
+    # Terms the design cannot tell apart, or that leave no residual degree of freedom, leave the
+    # fit: the call overhead first, then the per-repetition one; the per-sample term stays.
+    for drop in (0, 1):
+        if not separable(cols):
+            cols.remove(drop)
+    scale = X[:, cols].max(axis=0)
+    w = np.sqrt(B) / y                                   # relative residuals, longer batches count more
+    A = X[:, cols] / scale * w[:, None]
+    coef_s, _ = nnls(A, y * w)
+    active = [c for c, v in zip(cols, coef_s) if v > 0] or [2]
+    scale_a = X[:, active].max(axis=0)
+    A = X[:, active] / scale_a * w[:, None]
+    sol, *_ = np.linalg.lstsq(A, y * w, rcond=None)
+    if np.any(sol < 0):                                  # the bound held: keep nnls's solution
+        sol = np.array([coef_s[cols.index(c)] for c in active])
+    fitted = (X[:, active] / scale_a) @ sol
+    r = y / fitted - 1.0
+    dof = n - len(active)
+    wr = (y - fitted) * w
+    s2 = float(np.sum(wr ** 2) / dof) if dof > 0 else float("nan")
+    coef = np.zeros(3)
+    coef[active] = sol / scale_a
+    cov = np.zeros((3, 3))
+    if dof > 0:
+        inv = np.linalg.pinv(A.T @ A) * s2
+        cov[np.ix_(active, active)] = inv / np.outer(scale_a, scale_a)
+    else:
+        cov[:] = np.nan
+    rel_sd = math.sqrt(s2 / float(np.mean(B))) if dof > 0 else float("nan")
+    return CostModel(tuple(float(v) for v in coef), tuple(tuple(float(v) for v in row) for row in cov),
+                     int(dof), rel_sd, int(n), tuple(float(v) for v in r))
+
+
+def load_shift(times, residuals, seed: int = 0) -> dict:
+    """A step in time of relative cost residuals (pooled over every model of a sweep): the split
+    with the largest two-sample t of log(1 + residual), its permutation p-value, the time of the
+    split and the cost ratio after/before. `shifted` when p < LOAD_SHIFT_P."""
+    t = np.asarray(times, dtype=np.float64)
+    r = np.log1p(np.clip(np.asarray(residuals, dtype=np.float64), -0.99, None))
+    keep = np.isfinite(t) & np.isfinite(r)
+    t, r = t[keep], r[keep]
+    out = {"batches": int(r.size), "p": float("nan"), "shifted": False, "at": float("nan"),
+           "ratio": float("nan")}
+    m = LOAD_SHIFT_MIN_SIDE
+    if r.size < 2 * m + 1:
+        return out
+    order = np.argsort(t, kind="stable")
+    x = r[order]
+
+    def stat(v: np.ndarray) -> np.ndarray:           # v: (k, n) -> largest |t| over splits per row
+        n = v.shape[1]
+        k = np.arange(1, n)
+        c = np.cumsum(v, axis=1)[:, :-1]
+        total = v.sum(axis=1, keepdims=True)
+        d = (total - c) / (n - k) - c / k
+        s = np.std(v, axis=1, ddof=1, keepdims=True)
+        tt = np.abs(d) / (s * np.sqrt(1.0 / k + 1.0 / (n - k)) + 1e-300)
+        tt[:, :m - 1] = 0.0
+        tt[:, n - m:] = 0.0
+        return tt
+
+    obs = stat(x[None, :])[0]
+    best = int(np.argmax(obs))
+    rng = np.random.default_rng(seed)
+    perms = np.stack([rng.permutation(x) for _ in range(LOAD_SHIFT_PERMUTATIONS)])
+    null = stat(perms).max(axis=1)
+    p = (1 + int(np.sum(null >= obs[best]))) / (LOAD_SHIFT_PERMUTATIONS + 1)
+    k = best + 1
+    out.update(p=float(p), shifted=bool(p < LOAD_SHIFT_P), at=float(t[order][k]),
+               ratio=float(math.exp(x[k:].mean() - x[:k].mean())))
+    return out
