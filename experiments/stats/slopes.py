@@ -187,8 +187,6 @@ def fit_typical_slope(n, rmse, *, seed: int = 0, nwalkers: int = 24, nsteps: int
         "ols_slope": float(b0),
         **run,
         "line": _band(lines, grid, level),
-        # Posterior draws of (log RMSE at N = 1, slope): what speed-ups propagate (not JSON).
-        "draws": np.stack([a[sub], b[sub]], axis=1),
     })
     return out
 

@@ -1,22 +1,22 @@
-"""From run records to the numbers a report needs: cells, slopes, speed against error, noise floor.
+"""From run records to the numbers a report needs: cells, slopes, costs, comparisons, noise floor.
 
 A cell is (scene, sampler, spp) over its repetitions. Error statistics use the noise-floor-corrected
 MSE (MSE - Var_GT); the RMSE of a cell is sqrt(mean corrected MSE), whose 95% CI is the square root
 of a log-scale t interval of the corrected MSEs (`intervals.rmse_ci`: positive quantities get
 intervals that stay positive). The slope of a sampler is that of the RMSE itself
 (`slopes.fit_rmse_slope`, a gamma likelihood of per-run MSEs), reported beside the slope of the
-typical (geometric-mean) error. The time of a cell is its measured cost per repetition
-(`run_store.CellTiming`): the mean over its batches of each batch's CPU seconds over its repetitions
-(the faster half; 95% t interval over them plus a systematic term), or over timing-only batches for
-cells too short to time; speed-ups carry a bootstrap interval (repetitions resampled, each cell's
-cost drawn from its t law), efficiency ratios a delta-method one.
+typical (geometric-mean) error. The cost of a cell is its sampler's cost model
+(`stats/cost_model.py`: per call + per repetition + per sample, fitted to every timed batch of that
+sampler in the scene) at the cell's sample count. Comparisons with the baseline (MSE ratio,
+efficiency, speed-up; whether each cell is resolved; claims corrected across the whole report) come
+from `compare.py`, which the interval audit runs on simulated studies.
 
 `analyze` returns a `results.Summary`; the report, summary.json and the CLI read that.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
 
@@ -29,8 +29,12 @@ from drtlab.experiments.study.results import (
     METRICS, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, NoiseFloor, RatioCI,
     SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
 )
-from drtlab.experiments.study.run_store import CellTiming, cell_timing, load_cell
+from drtlab.experiments.study.compare import compare_scene, finish_claims, fit_costs, speedup as speedup_at
+from drtlab.experiments.study.run_store import load_cell
 from drtlab.experiments.seeds import short_hash
+from drtlab.experiments.stats.comparisons import assign_claims
+from drtlab.experiments.stats.cost_model import load_shift
+from drtlab.experiments.stats.resolution import cell_resolution, tail_shape
 from drtlab.experiments.stats.hypothesis_tests import Z_CI
 from drtlab.experiments.stats.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
 from drtlab.experiments.stats.slopes import STUDY_CHAIN, fit_rmse_slope, fit_typical_slope
@@ -42,84 +46,10 @@ CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "rel
 SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
 PRECISION = 0.1                       # cells say how many repetitions a ±10% mean MSE would need
 NAN = float("nan")
-BOOTSTRAP = 400             # bootstrap replicates of each speed-up (repetitions x cost)
 
-
-# ---------------------------------------------------------------------------------------------------
-# Small statistics
-# ---------------------------------------------------------------------------------------------------
 
 def _interval(metric: str, values: list) -> Interval:
     return Interval.of(mean_ci(values) if metric in SIGNED_METRICS else positive_mean_ci(values))
-
-
-def _interp_loglog(x0, y0, x1, y1, y):
-    """x at which the log-log line through (x0, y0), (x1, y1) reaches y."""
-    ly0, ly1 = math.log(y0), math.log(y1)
-    if ly1 == ly0:
-        return x1
-    t = (math.log(y) - ly0) / (ly1 - ly0)
-    lx = math.log(x0) + t * (math.log(x1) - math.log(x0))
-    # A nearly flat extrapolation (a bootstrap replicate of a heavy-tailed cell) can need 10^300 s.
-    return math.exp(lx) if lx < 700.0 else float("inf")
-
-
-def time_to_target(times, rmses, target: float) -> dict:
-    """Seconds a sampler needs to reach `target` RMSE, from its cells (ordered by spp).
-
-    Interpolated log-log between the first cell at or below the target and the one before it;
-    extrapolated from the last two cells (flagged) when the ladder never gets there; `at_most` when
-    even the first cell is already below the target.
-    """
-    pts = [(t, e) for t, e in zip(times, rmses) if t > 0 and e > 0 and math.isfinite(t) and math.isfinite(e)]
-    if not pts:
-        return {"seconds": float("nan"), "how": "no data"}
-    for i, (t, e) in enumerate(pts):
-        if e <= target:
-            if i == 0:
-                return {"seconds": t, "how": "at_most"}
-            t0, e0 = pts[i - 1]
-            return {"seconds": _interp_loglog(t0, e0, t, e, target), "how": "interpolated"}
-    if len(pts) >= 2:
-        (t0, e0), (t1, e1) = pts[-2], pts[-1]
-        if e1 < e0 and t1 > t0:
-            return {"seconds": _interp_loglog(t0, e0, t1, e1, target), "how": "extrapolated"}
-    return {"seconds": float("inf"), "how": "not reached"}
-
-
-def _rel_var(x: Interval) -> float:
-    """Variance of log(mean) by the delta method: (sd / mean)^2 / n."""
-    sd = x.sd if x.sd is not None else NAN
-    return (sd / x.mean) ** 2 / x.n if x.n > 1 and math.isfinite(sd) else NAN
-
-
-def _ratio_ci(a: Interval, b: Interval) -> RatioCI:
-    """Ratio a/b of two means with a delta-method 95% interval on the log scale."""
-    if not (a.mean > 0 and b.mean > 0):
-        return RatioCI(NAN, NAN, NAN)
-    r = a.mean / b.mean
-    va, vb = _rel_var(a), _rel_var(b)
-    s = math.sqrt(va + vb) if math.isfinite(va + vb) else NAN
-    return RatioCI(r, r * math.exp(-Z_CI * s) if math.isfinite(s) else NAN,
-                   r * math.exp(Z_CI * s) if math.isfinite(s) else NAN)
-
-
-def _log_sd(x: Interval | None) -> float:
-    return math.sqrt(_rel_var(x)) if x is not None else NAN
-
-
-def _efficiency_ratio(c, b, metric: str) -> tuple:
-    """(ratio, lo, hi): c's efficiency over b's, 95% delta-method interval on the log scale from
-    both cells' squared errors and calibrated costs."""
-    e, be = c.efficiency_of(metric), b.efficiency_of(metric)
-    if c is b and math.isfinite(e) and e > 0:
-        return 1.0, 1.0, 1.0
-    if not (be and math.isfinite(be) and math.isfinite(e) and e > 0):
-        return NAN, NAN, NAN
-    r = e / be
-    s = math.sqrt(sum(_log_sd(x) ** 2 for x in (c.error_mse(metric), b.error_mse(metric),
-                                                  c.seconds_ci, b.seconds_ci)))
-    return (r, r * math.exp(-Z_CI * s), r * math.exp(Z_CI * s)) if math.isfinite(s) else (r, NAN, NAN)
 
 
 def _efficiency(mse: float, seconds: float) -> float:
@@ -127,17 +57,20 @@ def _efficiency(mse: float, seconds: float) -> float:
 
 
 # ---------------------------------------------------------------------------------------------------
-# One (scene, integrator, resolution) group: cells, noise floor, slope fits
+# One (scene, integrator, resolution) group: cells, noise floor, cost models, slope fits
 # ---------------------------------------------------------------------------------------------------
 
 @dataclass
 class GroupResult:
-    """The cells of one (scene, integrator, resolution), its slope fits and its noise floor."""
+    """The cells of one (scene, integrator, resolution), its fits, cost models and noise floor."""
     cells: dict                     # (sampler, spp) -> Cell
     slopes: dict                    # metric -> sampler -> SlopeFit
     noise_floor: NoiseFloor
-    timings: dict = None            # (sampler, spp) -> run_store.CellTiming
-    mse_runs: dict = None           # (sampler, spp) -> metric -> per-run squared errors (bootstrap)
+    runs: dict                      # metric -> {sampler, spp, value}: every run's squared error
+    batches: dict                   # {sampler, spp, seconds, reps, time}: every timed batch
+    costs: dict                     # sampler -> cost_model.CostModel
+    pixels: int
+    fits: dict = field(default_factory=dict)    # metric -> sampler -> fit dict (with its draws)
 
 
 def group_name(g) -> str:
@@ -152,27 +85,41 @@ def _run_error(rec: dict, metric: str) -> float:
     return rec["rmse_corrected"]
 
 
-def _cell_time(timing: CellTiming, recs: list) -> dict:
-    """A cell's cost per repetition (its batches' mean), its interval and the median it replaces."""
-    measured = float(np.median([rec["render_seconds"] for rec in recs]))
-    seconds, h, n = timing.mean, timing.t_halfwidth(), timing.samples.size
-    sd = h / Z_CI * math.sqrt(n) if n > 1 else None     # so that sd/sqrt(n) is h's
-    ci = Interval(seconds, seconds - h if math.isfinite(h) else NAN,
-                  seconds + h if math.isfinite(h) else NAN, int(n), sd)
-    return {"seconds": seconds, "seconds_ci": ci, "measured_seconds": measured,
-            "timing_below_resolution": bool(timing.calibrated)}
+def _batches(runs, records: dict, calibration: dict, cpu: bool) -> dict:
+    """Every timed batch of a group: the cells' own (one row per batch id, its whole seconds) and
+    their timing-only batches (calibration.json)."""
+    out: dict = {"sampler": [], "spp": [], "seconds": [], "reps": [], "time": []}
+    seen = set()
+
+    def add(s, n, seconds, reps, t):
+        for k, v in zip(out, (s, n, seconds, reps, t)):
+            out[k].append(v)
+
+    for r in runs:
+        rec = records.get(r.run_id)
+        if rec is None or (r.cell, rec["batch"]) in seen:
+            continue
+        seen.add((r.cell, rec["batch"]))
+        per = rec["cpu_seconds"] if cpu else rec["render_seconds"]
+        add(r.sampler, r.spp, per * rec["batch_reps"], rec["batch_reps"], rec.get("batch_time", NAN))
+    for r in {r.cell: r for r in runs}.values():
+        entry = calibration.get(r.cell)
+        for sec in (entry or {}).get("seconds", []):
+            add(r.sampler, r.spp, sec * entry["reps"], entry["reps"], NAN)
+    return out
 
 
 def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: GroundTruth,
-          timing: CellTiming, target: dict | None) -> Cell:
+          cost, pixels: int, calibrated: bool, target: dict | None) -> Cell:
     recs = [records[r.run_id] for r in cell_runs]
     moments = load_cell(out_dir, cell_runs[0].cell).moments
     stats = {m: _interval(m, [rec[m] for rec in recs]) for m in CELL_METRICS}
     b = cell_bias(moments.n, moments.mean, moments.pixel_variance(), gt.mean, gt.stderr,
                   [rec["mean_error"] for rec in recs])
     bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))
-    time_ = _cell_time(timing, recs)
-    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, time_["seconds"]) for m in METRICS.values()}
+    seconds = float(cost.seconds(spp * pixels))
+    lo, hi = cost.seconds_interval(spp * pixels)
+    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, seconds) for m in METRICS.values()}
     need = {m: repetitions_for_precision([rec[METRICS[m].mse] for rec in recs], PRECISION)
             for m in METRICS}
     return Cell(sampler=sampler, spp=spp, n=len(recs), **stats,
@@ -184,7 +131,9 @@ def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: G
                 target_met=target["target_met"] if target else None,
                 samples_needed=(target["runs_needed"] * spp if target and target["runs_needed"]
                                 else None),
-                bias=bias, **efficiency, **time_)
+                bias=bias, seconds=seconds, seconds_ci=Interval(seconds, lo, hi, cost.batches),
+                measured_seconds=float(np.median([rec["render_seconds"] for rec in recs])),
+                timing_below_resolution=calibrated, **efficiency)
 
 
 def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
@@ -219,134 +168,115 @@ def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",
     sampler and metric) come back as (metric, sampler, call) for `analyze` to run together, in
     parallel; the GroupResult's `slopes` are empty until then."""
     gt = load_ground_truth(gt_dir)
+    pixels = g[2][0] * g[2][1]
+    done = [r for r in runs if r.run_id in records]
+    batches = _batches(done, records, calibration or {}, cpu)
+    costs = fit_costs(batches, pixels)
     cells: dict = {}
-    mse_runs: dict = {}
-    timings: dict = {}
     fit_calls: list = []
     samplers = list(dict.fromkeys(r.sampler for r in runs))
-    done = {s: [r for r in runs if r.sampler == s and r.run_id in records] for s in samplers}
     for s in samplers:
-        sampler_runs = done[s]
+        sampler_runs = [r for r in done if r.sampler == s]
         for spp in sorted({r.spp for r in sampler_runs}):
             cell_runs = [r for r in sampler_runs if r.spp == spp]
-            recs = [records[r.run_id] for r in cell_runs]
             cell = cell_runs[0].cell
-            timings[(s, spp)] = cell_timing(recs, (calibration or {}).get(cell), cpu)
-            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt, timings[(s, spp)],
-                                    (targets or {}).get(cell))
-            mse_runs[(s, spp)] = {m: np.array([records[r.run_id][METRICS[m].mse] for r in cell_runs])
-                                  for m in METRICS}
+            cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt, costs[s], pixels,
+                                    bool((calibration or {}).get(cell)), (targets or {}).get(cell))
         if sampler_runs:
             fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records, gt.variance))
                           for metric in metrics]
-    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), timings,
-                       mse_runs), fit_calls
+    table = {m: {"sampler": [r.sampler for r in done], "spp": [r.spp for r in done],
+                 "value": [records[r.run_id][METRICS[m].mse] for r in done]} for m in metrics}
+    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), table, batches,
+                       costs, pixels, {m: {} for m in metrics}), fit_calls
 
 
 # ---------------------------------------------------------------------------------------------------
 # One study: its view of each scene's group (its samplers, its ladder, its metric)
 # ---------------------------------------------------------------------------------------------------
 
-def _speedup_draws(study, by_sampler: dict, group: GroupResult, target: float, seed: int) -> dict:
-    """Bootstrap replicates of each sampler's speed-up over the baseline at the fixed target: each
-    cell's repetitions resampled and its cost drawn from its t law."""
-    rng = np.random.default_rng(seed)
-    key = study.metric
-    draws: dict = {s: [] for s in by_sampler}
-    for _ in range(BOOTSTRAP):
-        times = {}
-        for s, cells in by_sampler.items():
-            errs = [math.sqrt(max(float(np.mean(rng.choice(v, v.size))), 0.0))
-                    for v in (group.mse_runs[(s, c.spp)][key] for c in cells)]
-            secs = [group.timings[(s, c.spp)].draw(rng) for c in cells]
-            times[s] = time_to_target(secs, errs, target)["seconds"]
-        tb = times.get(study.baseline, NAN)
-        for s, t in times.items():
-            draws[s].append(tb / t if t and math.isfinite(t) and math.isfinite(tb) else NAN)
-    return draws
-
-
-def _speed(study, by_sampler: dict, group: GroupResult | None = None) -> Speed:
-    """Time to a common target error and the speed-up over the baseline that gives, with a 95%
-    bootstrap interval."""
-    metric = study.metric
-    best = {s: min((c.error(metric).mean for c in cells if c.error(metric).mean > 0), default=NAN)
-            for s, cells in by_sampler.items()}
-    target = study.settings.target_rmse
-    auto = target is None
-    if auto:
-        vals = [v for v in best.values() if math.isfinite(v)]
-        target = max(vals) if vals else NAN
-    time_to = {}
-    for s, cells in by_sampler.items():
-        time_to[s] = TimeToTarget(**time_to_target([c.seconds for c in cells],
-                                                   [c.error(metric).mean for c in cells], target)) \
-            if math.isfinite(target) else TimeToTarget(NAN, "no data")
-    tb = time_to[study.baseline].seconds if study.baseline in time_to else NAN
-    speedup = {s: (tb / t.seconds) if t.seconds and math.isfinite(t.seconds) and math.isfinite(tb) else NAN
-               for s, t in time_to.items()}
-    lo, hi = {s: NAN for s in speedup}, {s: NAN for s in speedup}
-    if group is not None and group.timings and math.isfinite(target) and study.baseline in by_sampler:
-        seed = int(short_hash([study.name, [c.spp for cs in by_sampler.values() for c in cs]], 8), 16)
-        for s, d in _speedup_draws(study, by_sampler, group, target, seed).items():
-            d = np.array([x for x in d if math.isfinite(x)])
-            if d.size >= BOOTSTRAP // 2:
-                lo[s], hi[s] = (float(x) for x in np.percentile(d, [2.5, 97.5]))
-    return Speed(target_rmse=target, target_auto=auto, time_to_target=time_to,
-                 speedup_vs_baseline=speedup, speedup_lo=lo, speedup_hi=hi)
-
-
-def _vs_baseline(study, cells: dict) -> dict:
-    """Per sampler, against the baseline at each spp both have: MSE ratio and efficiency ratio."""
-    base, metric = study.baseline, study.metric
-    out = {}
-    for s in study.samplers:
-        rows = []
-        for n in study.settings.spp:
-            if (s, n) in cells and (base, n) in cells:
-                c, b = cells[(s, n)], cells[(base, n)]
-                r, lo, hi = _efficiency_ratio(c, b, metric)
-                rows.append(BaselineComparison(
-                    spp=n, mse_ratio=_ratio_ci(b.error_mse(metric), c.error_mse(metric)),
-                    efficiency_ratio=r, efficiency_ratio_lo=lo, efficiency_ratio_hi=hi))
-        out[s] = rows
-    return out
-
-
-def _top_efficiency(study, cells: dict) -> dict:
-    """Per sampler, the efficiency at the top of its ladder, also relative to the baseline's."""
-    top = {}
-    for s in study.samplers:
-        n = max((n for n in study.settings.spp if (s, n) in cells), default=None)
-        if n is not None:
-            top[s] = (n, cells[(s, n)])
-    b = top[study.baseline][1] if study.baseline in top else None
-    out = {}
-    for s, (n, c) in top.items():
-        r, lo, hi = _efficiency_ratio(c, b, study.metric) if b is not None else (NAN, NAN, NAN)
-        out[s] = TopEfficiency(spp=n, efficiency=c.efficiency_of(study.metric), relative=r,
-                               relative_lo=lo, relative_hi=hi)
-    return out
-
-
-def _scene_result(study, scene_ref, group: GroupResult) -> SceneResult:
-    samplers, ladder = list(study.samplers), study.settings.spp
-    cells = {key: c for key, c in group.cells.items() if key[0] in samplers and key[1] in ladder}
-    by_sampler = {s: [cells[(s, n)] for n in ladder if (s, n) in cells] for s in samplers}
-    slopes = group.slopes[study.metric]
-    return SceneResult(
-        scene=scene_ref.label, scene_name=scene_ref.name, overrides=scene_ref.overrides_dict,
-        cells=[c for s in samplers for c in by_sampler[s]],
-        slopes={s: slopes[s] for s in samplers if s in slopes},
-        noise_floor=group.noise_floor, speed=_speed(study, by_sampler, group),
-        vs_baseline=_vs_baseline(study, cells), efficiency=_top_efficiency(study, cells))
-
-
-def _study_result(study, plan, group_results: dict) -> StudyResult:
+def _study_scenes(study, plan, group_results: dict) -> list:
+    """(scene_ref, GroupResult, SceneComparison) of each scene of the study, claims not yet set."""
     group_of: dict = {}
     for r in plan:
         if study.name in r.studies:
             group_of.setdefault(r.scene, r.group)
+    out = []
+    for scene_ref in study.scenes:
+        if scene_ref not in group_of:
+            continue
+        g = group_results[group_of[scene_ref]]
+        samplers = [s for s in study.samplers if s in g.costs]
+        keep = [i for i, s in enumerate(g.runs[study.metric]["sampler"]) if s in samplers]
+        runs = {k: [v[i] for i in keep] for k, v in g.runs[study.metric].items()}
+        seed = int(short_hash([study.name, scene_ref.key], 8), 16) & 0x7FFFFFFF
+        sc = compare_scene(runs, g.batches, samplers, study.baseline, list(study.settings.spp), g.pixels,
+                           fits=g.fits[study.metric], seed=seed)
+        out.append((scene_ref, g, sc))
+    return out
+
+
+def _speed(study, g: GroupResult, sc, rows: list) -> Speed:
+    """Time to the target error and the speed-up it gives: at the top of the ladder's target (the
+    larger of the two fitted RMSEs there), or at the study's own `target_rmse`."""
+    top = {r.sampler: r for r in rows if r.spp == max(study.settings.spp)}
+    target = study.settings.target_rmse
+    fits = g.fits[study.metric]
+    time_to, speedup, lo, hi = {}, {}, {}, {}
+    rng = np.random.default_rng(int(short_hash([study.name, "target"], 8), 16))
+    for s, r in top.items():
+        x = r if target is None else None
+        if x is None:
+            sp = speedup_at(fits.get(study.baseline), fits.get(s), sc.costs[study.baseline],
+                            sc.costs[s], target, g.pixels, rng)
+            n, nb, ratio, l, h = sp["n"], sp["n_base"], sp["ratio"], sp["lo"], sp["hi"]
+        else:
+            n, nb, ratio, l, h = (x.samples_to_target, x.baseline_samples_to_target, x.speedup,
+                                  x.speedup_lo, x.speedup_hi)
+        speedup[s], lo[s], hi[s] = ratio, l, h
+        inside = lambda v: min(study.settings.spp) <= v <= max(study.settings.spp)
+        time_to[s] = TimeToTarget(float(sc.costs[s].seconds(n * g.pixels)) if math.isfinite(n) else NAN,
+                                  "interpolated" if math.isfinite(n) and inside(n) else "extrapolated")
+        time_to[study.baseline] = TimeToTarget(
+            float(sc.costs[study.baseline].seconds(nb * g.pixels)) if math.isfinite(nb) else NAN,
+            "interpolated" if math.isfinite(nb) and inside(nb) else "extrapolated")
+    if study.baseline in sc.costs:
+        speedup[study.baseline], lo[study.baseline], hi[study.baseline] = 1.0, 1.0, 1.0
+    tgt = target if target is not None else next((r.target_rmse for r in top.values()), NAN)
+    return Speed(target_rmse=tgt, target_auto=target is None, time_to_target=time_to,
+                 speedup_vs_baseline=speedup, speedup_lo=lo, speedup_hi=hi)
+
+
+def _scene_result(study, scene_ref, g: GroupResult, sc, rows: list) -> SceneResult:
+    samplers, ladder = list(study.samplers), study.settings.spp
+    cells = [replace(g.cells[(s, n)], resolved=sc.cells[(s, n)].resolved,
+                     unresolved_why=sc.cells[(s, n)].why)
+             for s in samplers for n in ladder if (s, n) in g.cells and (s, n) in sc.cells]
+    slopes = g.slopes[study.metric]
+    vs = {s: [BaselineComparison(spp=r.spp, mse_ratio=RatioCI(r.mse_ratio, r.mse_ratio_lo, r.mse_ratio_hi),
+                                 efficiency_ratio=r.efficiency, efficiency_ratio_lo=r.efficiency_lo,
+                                 efficiency_ratio_hi=r.efficiency_hi) for r in rows if r.sampler == s]
+          for s in samplers}
+    top_n = {s: max((c.spp for c in cells if c.sampler == s), default=None) for s in samplers}
+    eff = {}
+    for s, n in top_n.items():
+        if n is None:
+            continue
+        c = next(c for c in cells if c.sampler == s and c.spp == n)
+        r = next((r for r in rows if r.sampler == s and r.spp == n), None)
+        eff[s] = TopEfficiency(spp=n, efficiency=c.efficiency_of(study.metric),
+                               relative=1.0 if s == study.baseline else (r.efficiency if r else NAN),
+                               relative_lo=1.0 if s == study.baseline else (r.efficiency_lo if r else NAN),
+                               relative_hi=1.0 if s == study.baseline else (r.efficiency_hi if r else NAN))
+    return SceneResult(
+        scene=scene_ref.label, scene_name=scene_ref.name, overrides=scene_ref.overrides_dict,
+        cells=cells, slopes={s: slopes[s] for s in samplers if s in slopes},
+        noise_floor=g.noise_floor, speed=_speed(study, g, sc, rows), vs_baseline=vs, efficiency=eff,
+        comparisons=rows, tails={s: sc.tails[s] for s in samplers if s in sc.tails},
+        costs={s: sc.costs[s] for s in samplers if s in sc.costs})
+
+
+def _study_result(study, scenes: list) -> StudyResult:
     settings, metric = study.settings, METRICS[study.metric]
     return StudyResult(
         name=study.name, description=study.description, experiment=study.experiment,
@@ -355,9 +285,7 @@ def _study_result(study, plan, group_results: dict) -> StudyResult:
         spp=list(settings.spp), repetitions=settings.repetitions,
         runs_per_spp=settings.runs_per_spp, samples_per_cell=settings.samples_per_cell,
         resolution=list(settings.resolution) if settings.resolution else None,
-        gt_spp=settings.gt_spp, seed=study.seed, strip_spp=list(settings.strip_spp),
-        scenes=[_scene_result(study, scene_ref, group_results[group_of[scene_ref]])
-                for scene_ref in study.scenes if scene_ref in group_of])
+        gt_spp=settings.gt_spp, seed=study.seed, strip_spp=list(settings.strip_spp), scenes=scenes)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -426,10 +354,76 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
         # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):
         # the errors are heavy-tailed (rare, very bright samples), and so is every number built on them.
         group_results[g].slopes[metric][s] = SlopeFit.of(fit, ERRATIC_SIGMA, typical)
-    studies = [_study_result(study, plan, group_results) for study in exp.studies]
+        group_results[g].fits[metric][s] = fit
+    _screen_bias(group_results)
+    per_study = [(study, _study_scenes(study, plan, group_results)) for study in exp.studies]
+    # One family for the whole report: every claim it states is corrected together.
+    rows = finish_claims([row for _, scenes in per_study for _, _, sc in scenes for row in sc.rows])
+    studies, i = [], 0
+    for study, scenes in per_study:
+        results = []
+        for scene_ref, g, sc in scenes:
+            results.append(_scene_result(study, scene_ref, g, sc, rows[i:i + len(sc.rows)]))
+            i += len(sc.rows)
+        studies.append(_study_result(study, results))
+    load = _load_shift(group_results, log)
     return Summary(
         experiment=exp.name, description=exp.description, profile=exp.profile, studies=studies,
         noise_floor={group_name(g): v.noise_floor for g, v in group_results.items()},
-        warnings=_noise_floor_warnings(group_results, log, _floor_remedy(exp)), chains=_chains(group_results),
+        warnings=_noise_floor_warnings(group_results, log, _floor_remedy(exp))
+        + ([load["text"]] if load["shifted"] else []),
+        chains=_chains(group_results), load=load,
         ground_truth={group_name(g): {k: v for k, v in info.items() if k != "seeds"}
                       for g, info in gts.items()})
+
+
+def _screen_bias(group_results: dict) -> None:
+    """The bias screen as one family: each cell's mean error against 0, Benjamini-Hochberg over every
+    cell of the experiment (the report's other claims are corrected the same way)."""
+    from scipy import stats
+    keys = [(g, k) for g, v in group_results.items() for k in v.cells]
+    resolved = {}
+    for g, v in group_results.items():
+        # A cell whose squared errors are not resolved has heavy-tailed mean errors too: no claim.
+        runs = next(iter(v.runs.values()))
+        per = {}
+        for s, n, x in zip(runs["sampler"], runs["spp"], runs["value"]):
+            per.setdefault(s, {}).setdefault(n, []).append(x)
+        for s, cells in per.items():
+            heavy = tail_shape(list(cells.values()))["heavy"]
+            for n, x in cells.items():
+                resolved[(g, (s, n))] = cell_resolution(x, positive_mean_ci(x)["lo"], heavy)[0]
+    tests = []
+    for g, k in keys:
+        b = group_results[g].cells[k].bias
+        se = (b.hi - b.lo) / (2 * Z_CI)
+        p = float(2 * stats.norm.sf(abs(b.signed) / se)) if se > 0 and math.isfinite(se) else NAN
+        tests.append({"p": p, "resolved": resolved.get((g, k), False) and math.isfinite(p),
+                      "direction": b.signed})
+    for (g, k), t in zip(keys, assign_claims(tests)):
+        c = group_results[g].cells[k]
+        group_results[g].cells[k] = replace(c, bias=replace(
+            c.bias, significant=t["claim"] in ("better", "worse"), p=t["p"], p_adjusted=t["p_adjusted"]))
+
+
+def _load_shift(group_results: dict, log: Callable[[str], None]) -> dict:
+    """Whether the machine's load moved during the sweep: a step in time of every cost model's
+    residuals (cost_model.load_shift); a warning names when and how much."""
+    times, resid = [], []
+    for v in group_results.values():
+        for s, model in v.costs.items():
+            idx = [i for i, x in enumerate(v.batches["sampler"]) if x == s]
+            ok = [i for i in idx if v.batches["seconds"][i] > 0]
+            if len(ok) == len(model.residuals):
+                times += [v.batches["time"][i] for i in ok]
+                resid += list(model.residuals)
+    out = load_shift(times, resid)
+    out["text"] = ""
+    if out["shifted"]:
+        import time as _time
+        at = _time.strftime("%H:%M:%S", _time.localtime(out["at"]))
+        out["text"] = (f"the machine's load moved during the sweep: batches from {at} on cost "
+                       f"{out['ratio']:.2f}x those before (step test over {out['batches']} batches' cost "
+                       f"residuals, p = {out['p']:.3g}); costs and speed-ups mix both periods")
+        log(f"warning: {out['text']}")
+    return out

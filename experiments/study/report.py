@@ -24,21 +24,31 @@ INTRO = (
     "fast the error falls: RMSE ∝ N^b, so b = −0.5 is plain Monte Carlo and a more negative b is "
     "faster; it is fitted to the RMSE itself (the root of the mean MSE over repetitions), and the "
     "*typical-error* slope (of the geometric mean of the runs' errors, what most single runs show) "
-    "stands beside it where heavy tails make the two differ. Brackets are 95% intervals (confidence intervals over repetitions for measured values; "
-    "for fitted slopes the union of the likelihood fit's credible interval and the t-interval of a "
-    "regression of the cells' log mean errors, which assumes no law of a run's error). *Speed-up* compares the render time each sampler needs to "
-    "reach the same error; *efficiency* is 1/(MSE × seconds), the usual figure of merit, so 2× "
-    "efficiency means the same quality in half the time.\n\n"
-    "**Render time is measured per cell, in batches.** The repetitions of a cell render together, a "
-    "batch of about a million samples per call, so no render pays per-call overhead and every call is "
-    "long enough to time. A cell's seconds are the cost of one repetition: each batch's time over its "
-    "repetitions, averaged over the cell's batches (95% t interval over them, plus 5% for run-to-run "
-    "drift). On the CPU backend the clock is the render call's CPU time (all threads), of the faster "
-    "half of the batches (a job sharing the cores slows some batches, never speeds one up). A cell "
-    f"whose batches took under {MIN_TIMED_SECONDS:g} s in all is timed by {CAL_BATCHES} timing-only "
-    "batches after the sweep instead. Speed-ups carry a 95% bootstrap interval "
-    "(repetitions resampled, the cost drawn from its interval); efficiency ratios a delta-method 95% "
-    "interval from both errors and both costs.\n")
+    "stands beside it where heavy tails make the two differ. Brackets are 95% intervals: log-t "
+    "confidence intervals over repetitions for a cell's mean error; for fitted slopes the union of the "
+    "likelihood fit's credible interval and the t-interval of a regression of the cells' log mean "
+    "errors. `drtlab audit-intervals` measures every kind of interval printed here on simulated studies "
+    "with a known truth.\n\n"
+    "**Two figures of merit, defined once.** The *speed-up* is the baseline's render time over the "
+    "sampler's to reach the same error: the *target*, at each N the larger of the two samplers' fitted "
+    "RMSEs there, so the worse sampler sits at N itself and the better one is interpolated within its "
+    "own ladder. It is the answer to *how much faster for the same quality*. The *efficiency ratio* at N "
+    "compares 1/(MSE × seconds) of the two samplers at the same N; it equals the speed-up only where "
+    "both samplers converge at the same rate (a faster-converging sampler gains more efficiency at "
+    "larger N than it saves time at equal error).\n\n"
+    "**Costs are a fitted model.** A render's CPU seconds are fitted per scene and sampler as "
+    "overhead per call + overhead per repetition + seconds per sample × samples, over every timed batch "
+    "of that sampler at every N (weighted least squares on relative residuals, coefficients ≥ 0); a "
+    "cell's cost is one more repetition at its N, with the model's t interval. Speed-ups and "
+    "efficiencies draw the fitted convergence laws (emcee posterior) and the cost models together, "
+    "4000 draws; their intervals are the draws' percentiles.\n\n"
+    "**No claim without resolution.** A cell is *not resolved* when its largest run carries over half of "
+    "its error, when dropping that run moves its mean below its interval, or when its sampler's errors "
+    "have a heavy upper tail (generalized Pareto shape above 0.1 over its pooled runs): no interval of "
+    "a mean can be trusted to cover then. A comparison involving such a cell is printed as *not "
+    "resolved* and makes no claim. Claims (*better*, *worse*, *no difference*) come from the resolved "
+    "comparisons, with the Benjamini-Hochberg correction over every test the report states "
+    "(speed-up or efficiency, and MSE ratio, per comparison) at a 5% false-discovery rate.\n")
 
 
 def fmt(x, digits=3) -> str:
@@ -69,21 +79,6 @@ def _ratio(x, lo, hi) -> str:
 
 def _ci(iv: Interval) -> str:
     return fmt_ci(iv.mean, iv.lo, iv.hi)
-
-
-def _bound(scene: SceneResult, s: str, base: str) -> str:
-    """'≥' when the sampler beat the target at its first cell (its time is an upper bound), '≤' when
-    the baseline did, '' when both times are interpolated."""
-    time_to = scene.speed.time_to_target
-    mine = time_to[s].how if s in time_to else None
-    theirs = time_to[base].how if base in time_to else None
-    if s == base:
-        return ""
-    if mine == "at_most" and theirs != "at_most":
-        return "≥"
-    if theirs == "at_most" and mine != "at_most":
-        return "≤"
-    return ""
 
 
 def _rel(p: Path, base: Path) -> str:
@@ -147,6 +142,20 @@ def _study_intro(study: StudyResult) -> list[str]:
     return lines
 
 
+def _cmp_ratio(r, kind: str) -> str:
+    """A comparison's ratio with its interval, or 'not resolved' (the estimate is no finding)."""
+    if r is None:
+        return "–"
+    ok = r.speedup_resolved if kind == "speedup" else r.resolved
+    if not ok:
+        return "not resolved"
+    return _ratio(*r.ratio(kind))
+
+
+CLAIM_MARK = {"better": "**better**", "worse": "**worse**", "no difference": "no difference",
+              "not resolved": "not resolved"}
+
+
 def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     base, top_n = study.baseline, study.spp[-1]
     fit = scene.fit(s)
@@ -158,35 +167,28 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     typical = fmt_ci(fit.typical_slope, fit.typical_slope_lo, fit.typical_slope_hi) \
         if fit and fit.typical_slope is not None else "–"
     top = scene.cell(s, top_n)
-    error = _ci(top.error(study.metric)) if top else "–"
-    vs = scene.comparison(s, top_n)
-    mr = vs.mse_ratio if vs else None
-    mse_ratio = "1 (baseline)" if s == base else (
-        fmt_ci(1 / mr.ratio, 1 / mr.hi if mr.hi else float("nan"),
-               1 / mr.lo if mr.lo else float("nan")) if mr else "–")
-    time_to = scene.speed.time_to_target.get(s)
-    t_txt = fmt(time_to.seconds if time_to else None)
-    if time_to and time_to.how in ("extrapolated", "at_most"):
-        t_txt += " (extrap.)" if time_to.how == "extrapolated" else " (≤)"
-    sp = scene.speed
-    speedup = _ratio(sp.speedup_vs_baseline.get(s), sp.speedup_lo.get(s), sp.speedup_hi.get(s))
-    e = scene.efficiency.get(s)
-    eff = _ratio(e.relative, e.relative_lo, e.relative_hi) if e else "–"
-    return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mse_ratio} | {t_txt} | "
-            f"{_bound(scene, s, base)}{speedup} | {eff} |")
+    error = (_ci(top.error(study.metric)) + ("" if top.resolved is not False else " ◊")) if top else "–"
+    r = scene.row(s, top_n)
+    if s == base:
+        return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | 1 (baseline) | – | – | – |")
+    mr = "–" if r is None else ("not resolved" if not r.resolved else
+                                fmt_ci(1 / r.mse_ratio, 1 / r.mse_ratio_hi, 1 / r.mse_ratio_lo))
+    claim = CLAIM_MARK[r.claim] if r else "–"
+    return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mr} | {_cmp_ratio(r, 'speedup')} | "
+            f"{_cmp_ratio(r, 'efficiency')} | {claim} |")
 
 
 def _study_table(study: StudyResult) -> list[str]:
     E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
     lines = [f"| Scene | Sampler | Slope b [95% interval] | Typical-error slope | {E} at N={top_n} [95% CI] | "
-             f"{M} ÷ {base}'s at N={top_n} | Time to target (s) | Speed-up vs {base} [95% CI] | "
-             f"Efficiency vs {base} [95% CI] |",
+             f"{M} ÷ {base}'s at N={top_n} | Speed-up vs {base} at equal error [95%] | "
+             f"Efficiency vs {base} at N={top_n} [95%] | Claim |",
              "|---|---|---|---|---|---|---|---|---|"]
     lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
     lines.append("")
     if any(scene.slopes[s].resolved is False for scene in study.scenes for s in study.samplers
            if s in scene.slopes):
-        lines.append(f"§ not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, one run "
+        lines.append(f"§ slope not resolved: the 95% interval is wider than {RESOLVED_WIDTH}, one run "
                      "carries nearly all of a cell's error, or the likelihood fit and the regression of "
                      "the cell means disagree, so these runs cannot tell N^-0.5 from N^-0.75 "
                      "or N^-1 (rare, huge samples that most runs miss); more samples per cell "
@@ -194,19 +196,20 @@ def _study_table(study: StudyResult) -> list[str]:
     if any(scene.slopes[s].erratic for scene in study.scenes for s in study.samplers if s in scene.slopes):
         lines.append("‡ heavy-tailed errors: the scatter around the fitted line is over "
                      f"{ERRATIC_TXT}, far above pixel noise; the slope is poorly determined.\n")
-    lines.append(f"Target {E} per scene: " + "; ".join(
-        f"{scene.scene} {fmt(scene.speed.target_rmse)}"
-        + (" (auto: the lowest error every sampler reached)" if scene.speed.target_auto and i == 0 else "")
-        for i, scene in enumerate(study.scenes)) + ".\n")
+    if any(c.resolved is False for scene in study.scenes for c in scene.cells):
+        lines.append("◊ cell not resolved (reasons in the cell table): its interval is printed, but no "
+                     "comparison built on it makes a claim.\n")
+    lines.append(f"Target {E} of the speed-ups (the larger of the two fitted {E}s at N={top_n}): " + "; ".join(
+        f"{scene.scene} {fmt(scene.speed.target_rmse)}" for scene in study.scenes) + ".\n")
     return lines
 
 
 def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
-    """One sampler against the baseline, in words: slopes, error ratio at the top, speed-up."""
+    """One sampler against the baseline, in words: its claim at the top of the ladder, the figures
+    behind it, and the slopes."""
     base, top_n, M = study.baseline, study.spp[-1], study.mse_label
     fit, bfit = scene.fit(s), scene.fit(base)
-    speedup = scene.speed.speedup_vs_baseline.get(s, float("nan"))
-    vs = scene.comparison(s, top_n)
+    r = scene.row(s, top_n)
     txt = f"`{s}`"
     if fit and bfit:
         rate = (f"N^{fit.slope:.2f} (95% interval {fit.slope_lo:.2f} to {fit.slope_hi:.2f})"
@@ -214,18 +217,30 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
                 f"a rate these runs do not resolve (95% interval N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
         base_rate = f"N^{bfit.slope:.2f}" if bfit.resolved is not False else "an unresolved rate"
         txt += f" converges as {rate} against {base_rate} for `{base}`"
-    if vs and math.isfinite(vs.mse_ratio.ratio):
-        r = vs.mse_ratio
-        txt += (f"; at N={top_n} its {M} is {fmt(r.ratio)}× lower "
-                f"(95% CI {fmt(r.lo)}–{fmt(r.hi)})" if r.ratio >= 1 else
-                f"; at N={top_n} its {M} is {fmt(1 / r.ratio)}× higher "
-                f"(95% CI {fmt(1 / r.hi)}–{fmt(1 / r.lo)})")
-    if math.isfinite(speedup) and speedup > 0:
-        bound = {"≥": "at least ", "≤": "at most "}.get(_bound(scene, s, base), "")
-        lo, hi = scene.speed.speedup_lo.get(s, float("nan")), scene.speed.speedup_hi.get(s, float("nan"))
-        ci = f" (95% CI {fmt(lo)}–{fmt(hi)}×)" if math.isfinite(lo) and math.isfinite(hi) else ""
-        txt += (f", and it reaches the target error {bound}{fmt(speedup)}× faster{ci}" if speedup >= 1 else
-                f", but it needs {fmt(1 / speedup)}× more render time to reach the target error{ci}")
+    if r is None:
+        return txt
+    if not r.resolved:
+        return txt + f"; **not resolved** at N={top_n} ({r.why}): no claim is made"
+    ratio, lo, hi = r.ratio(r.claim_on)
+    what = ("reaches the target error" if r.claim_on == "speedup" else f"has an efficiency at N={top_n}")
+    if r.claim == "no difference":
+        txt += (f"; it makes **no resolved difference** at N={top_n} ({'speed-up' if r.claim_on == 'speedup' else 'efficiency ratio'} "
+                f"{fmt(ratio)}×, 95% CI {fmt(lo)}–{fmt(hi)}×)")
+    else:
+        if r.claim_on == "speedup":
+            txt += (f"; it {what} {fmt(ratio)}× faster (95% CI {fmt(lo)}–{fmt(hi)}×)" if ratio >= 1 else
+                    f"; it needs {fmt(1 / ratio)}× more render time to reach the target error "
+                    f"(95% CI {fmt(1 / hi)}–{fmt(1 / lo)}×)")
+        else:
+            txt += f"; its efficiency at N={top_n} is {fmt(ratio)}× the baseline's (95% CI {fmt(lo)}–{fmt(hi)}×)"
+        txt += f": **{r.claim}** (adjusted p = {fmt(r.p_adjusted)})"
+    m_lo, m_hi = 1 / r.mse_ratio_hi, 1 / r.mse_ratio_lo
+    if r.mse_claim in ("better", "worse"):
+        txt += (f"; at N={top_n} its {M} is {fmt(r.mse_ratio)}× lower (95% CI {fmt(r.mse_ratio_lo)}–"
+                f"{fmt(r.mse_ratio_hi)})" if r.mse_ratio >= 1 else
+                f"; at N={top_n} its {M} is {fmt(1 / r.mse_ratio)}× higher (95% CI {fmt(m_lo)}–{fmt(m_hi)})")
+    else:
+        txt += f"; its {M} at N={top_n} is not distinguishable from the baseline's (ratio {fmt(1 / r.mse_ratio)}, 95% CI {fmt(m_lo)}–{fmt(m_hi)})"
     return txt
 
 
@@ -249,11 +264,10 @@ def _findings(study: StudyResult) -> list[str]:
             need = _repetitions_needed(study, scene, erratic)
             bits.append(f"**heavy tails**: the errors of {', '.join(f'`{s}`' for s in erratic)} scatter "
                         f"far more than pixel noise explains (rare, very bright samples), so a few "
-                        f"repetitions cannot pin this scene's slope or ratios down; trust the intervals, "
-                        f"not the point estimates" + need)
+                        f"repetitions cannot pin this scene's slope or ratios down" + need)
         biased = [f"{c.sampler}@{c.spp}" for c in scene.cells if c.bias.significant]
-        b_txt = (f" Bias screen: mean error differs from 0 at 95% in {', '.join(biased)} "
-                 f"(expected in ~5% of cells by chance)." if biased else "")
+        b_txt = (f" Bias screen: the mean error differs from 0 in {', '.join(biased)} (Benjamini-Hochberg "
+                 f"over every cell of the experiment at a 5% false-discovery rate)." if biased else "")
         lines.append(f"- **{scene.scene}**: " + ("; ".join(bits) if bits else "baseline only") + "." + b_txt)
     lines.append("")
     return lines
@@ -297,8 +311,8 @@ def _sources_section(study: StudyResult, study_cfg, out_dir: Path) -> list[str]:
         src = found.get(sc.scene)
         if not src:
             continue
-        gains = [f"`{s}` {fmt(v)}×" for s, v in sc.speed.speedup_vs_baseline.items()
-                 if s != study.baseline and math.isfinite(v)]
+        tops = [sc.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
+        gains = [f"`{r.sampler}` {_cmp_ratio(r, 'speedup')}" for r in tops if r is not None]
         widest = max(max(g["first_order_hi"] - g["first_order_lo"], g["total_hi"] - g["total_lo"])
                      for g in src["groups"])
         if widest > 2 * SOURCES_RESOLVED:
@@ -375,12 +389,31 @@ def _precision_section(study: StudyResult) -> list[str]:
     return lines + [""]
 
 
+def _comparison_table(study: StudyResult) -> list[str]:
+    """Every comparison of the study (each sampler against the baseline at each N)."""
+    lines = ["<details><summary>Every comparison with the baseline (`result.comparisons`)</summary>\n",
+             f"| Scene | Sampler | N | {study.mse_label} ratio ({study.baseline}'s ÷ sampler's) | "
+             f"Efficiency ratio | Target {study.metric_label} | Sampler's N* | Speed-up | Claim | "
+             f"Adjusted p | Not resolved because |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for scene in study.scenes:
+        for r in scene.comparisons:
+            sp = _ratio(*r.ratio("speedup")) + (" (extrap.)" if r.extrapolated else "")
+            lines.append(f"| {scene.scene} | `{r.sampler}` | {r.spp} | {_ratio(*r.ratio('mse_ratio'))} | "
+                         f"{_ratio(*r.ratio('efficiency'))} | {fmt(r.target_rmse)} | "
+                         f"{fmt(r.samples_to_target)} | {sp} | {r.claim} (on {r.claim_on}) | "
+                         f"{fmt(r.p_adjusted)} | {r.why or ''} |")
+    lines.append("\nEstimates of comparisons that are not resolved are listed for completeness; they are "
+                 "not findings.\n\n</details>\n")
+    return lines
+
+
 def _cell_table(study: StudyResult) -> list[str]:
     lines = ["<details><summary>Every cell (mean [95% CI] over repetitions)</summary>\n",
              f"| Scene | Sampler | N | RMSE | relMSE | MAE | ΔE00 | Bias (mean error) | Pixel variance | "
-             f"Render s per repetition [95% CI] | Measured s (median) | "
-             f"Efficiency 1/({study.mse_label}·s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"Render s per repetition [95% CI] (cost model) | Measured s (median) | "
+             f"Efficiency 1/({study.mse_label}·s) | Resolved |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene in study.scenes:
         for c in scene.cells:
             b = c.bias
@@ -389,7 +422,8 @@ def _cell_table(study: StudyResult) -> list[str]:
                 f"{_ci(c.relmse_corrected)} | {_ci(c.mae)} | {_ci(c.ciede2000)} | "
                 f"{fmt_ci(b.signed, b.lo, b.hi)}{' ⚠' if b.significant else ''} | "
                 f"{fmt(b.pixel_variance)} | {_seconds(c)} | {fmt(c.measured_seconds)}"
-                f"{' †' if c.timing_below_resolution else ''} | {fmt(c.efficiency_of(study.metric))} |")
+                f"{' †' if c.timing_below_resolution else ''} | {fmt(c.efficiency_of(study.metric))} | "
+                f"{'yes' if c.resolved is not False else 'no: ' + (c.unresolved_why or '')} |")
     lines.append("\n" + RESOLUTION_NOTE + "\n\n</details>\n")
     return lines
 
@@ -413,6 +447,33 @@ def _noise_floor_section(summary: Summary) -> list[str]:
     if summary.warnings:
         lines.append("\n**Warnings:**\n")
         lines += [f"- {m}" for m in summary.warnings]
+    lines.append("")
+    return lines
+
+
+def _cost_section(summary: Summary) -> list[str]:
+    """Each scene's cost models (one per sampler) and whether the machine's load moved."""
+    lines = ["## Cost models\n",
+             "CPU seconds of a batch = per call + repetitions × (per repetition + per sample × samples), "
+             "fitted per scene and sampler to every timed batch (`stats/cost_model.py`); the relative "
+             "residual sd is a batch's timing noise.\n",
+             "| Scene | Sampler | ns per sample | ms per repetition | ms per call | batches | "
+             "residual sd |", "|---|---|---|---|---|---|---|"]
+    seen = set()
+    for study in summary.studies:
+        for scene in study.scenes:
+            for s, m in scene.costs.items():
+                if (scene.scene, s) in seen:
+                    continue
+                seen.add((scene.scene, s))
+                lines.append(f"| {scene.scene} | `{s}` | {fmt(1e9 * m.coef[2])} | {fmt(1e3 * m.coef[1])} | "
+                             f"{fmt(1e3 * m.coef[0])} | {m.batches} | {fmt(100 * m.rel_sd)}% |")
+    load = summary.load or {}
+    if load.get("shifted"):
+        lines.append(f"\n**The load moved:** {load['text']}.\n")
+    elif load.get("batches"):
+        lines.append(f"\nNo step in the machine's load: a step test over the {load['batches']} batches' "
+                     f"residuals in time order gives p = {fmt(load['p'])} (reported below 0.01).\n")
     lines.append("")
     return lines
 
@@ -482,8 +543,10 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
         lines += _resolution_warning(study)
         lines += _precision_section(study)
         lines += _figure_links(study, study_cfg, plots[study.name], strips, out_dir)
+        lines += _comparison_table(study)
         lines += _cell_table(study)
     lines += _noise_floor_section(summary)
+    lines += _cost_section(summary)
     lines += _diagnostics_section(summary)
     lines += _where_section(records)
     lines += _reproduce_section(exp)

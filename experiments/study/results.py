@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, is_dataclass
 from pathlib import Path
 
+from drtlab.experiments.study.compare import Comparison
+
 NAN = float("nan")
 
 
@@ -87,7 +89,9 @@ class Bias:
     hi: float
     rms: float
     pixel_variance: float
-    significant: bool
+    significant: bool                   # Benjamini-Hochberg over every cell of the experiment
+    p: float = NAN
+    p_adjusted: float = NAN
 
 
 # Cell fields that summarise one number per run over the repetitions (named run_X in summary.json).
@@ -117,16 +121,18 @@ class Cell:
     rrmse_of_mean_relmse: Interval      # sqrt of the corrected-relMSE interval
     bias: Bias
     repetitions_for_10pct: dict         # per metric: repetitions a ±10% mean (95%) would need
-    seconds: float                      # cost of one repetition (run_store.CellTiming)
+    seconds: float                      # cost of one repetition (the sampler's cost model)
     efficiency: float                   # 1 / (corrected MSE x seconds)
     efficiency_relmse: float            # 1 / (corrected relMSE x seconds)
-    seconds_ci: Interval | None = None  # 95% CI of that cost (t over the timed batches)
+    seconds_ci: Interval | None = None  # 95% CI of that cost (the model's t interval; n: batches)
     measured_seconds: float = NAN       # median render seconds of the repetitions (wall, shared)
     timing_below_resolution: bool = False   # its batches were too short: timing-only batches
     mse_rel_ci: float = NAN             # relative half-width of the 95% CI of the mean MSE
     target_rel_ci: float | None = None  # the experiment's precision target, if it sets one
     target_met: bool | None = None      # whether mse_rel_ci reached it within the budget
     samples_needed: int | None = None   # samples per pixel (runs x spp) the target would need
+    resolved: bool | None = None        # its interval may carry a claim (stats/resolution.py)
+    unresolved_why: str | None = None
 
     def error(self, metric: str) -> Interval:
         return getattr(self, METRICS[metric].error)
@@ -243,8 +249,8 @@ class SlopeFit:
 
 @dataclass(frozen=True)
 class TimeToTarget:
-    """Seconds to reach the target error; `how`: interpolated, extrapolated, at_most, not reached,
-    no data (see `analysis.time_to_target`)."""
+    """Seconds of one render reaching the target error; `how`: interpolated (its N* within the
+    ladder) or extrapolated."""
     seconds: float
     how: str
 
@@ -256,7 +262,7 @@ class Speed:
     target_auto: bool                   # the target is the lowest error every sampler reached
     time_to_target: dict[str, TimeToTarget]
     speedup_vs_baseline: dict[str, float]
-    speedup_lo: dict[str, float] = field(default_factory=dict)    # 95% bootstrap interval
+    speedup_lo: dict[str, float] = field(default_factory=dict)    # 95% interval from draws
     speedup_hi: dict[str, float] = field(default_factory=dict)
 
 
@@ -273,7 +279,7 @@ class BaselineComparison:
     spp: int
     mse_ratio: RatioCI                  # baseline's squared error / this sampler's
     efficiency_ratio: float
-    efficiency_ratio_lo: float = NAN    # 95% delta-method interval (error and cost)
+    efficiency_ratio_lo: float = NAN    # 95% interval from draws (error and cost)
     efficiency_ratio_hi: float = NAN
 
 
@@ -283,7 +289,7 @@ class TopEfficiency:
     spp: int
     efficiency: float
     relative: float
-    relative_lo: float = NAN            # 95% delta-method interval (error and cost)
+    relative_lo: float = NAN            # 95% interval from draws (error and cost)
     relative_hi: float = NAN
 
 
@@ -310,6 +316,9 @@ class SceneResult:
     speed: Speed
     vs_baseline: dict[str, list[BaselineComparison]]
     efficiency: dict[str, TopEfficiency]
+    comparisons: list[Comparison] = field(default_factory=list)   # every (sampler, N) vs baseline
+    tails: dict = field(default_factory=dict)    # sampler -> resolution.tail_shape(...)
+    costs: dict = field(default_factory=dict)    # sampler -> cost_model.CostModel
 
     def fit(self, sampler: str) -> SlopeFit | None:
         """The sampler's slope fit when it succeeded."""
@@ -318,6 +327,10 @@ class SceneResult:
 
     def cell(self, sampler: str, spp: int) -> Cell | None:
         return next((c for c in self.cells if c.sampler == sampler and c.spp == spp), None)
+
+    def row(self, sampler: str, spp: int) -> Comparison | None:
+        """The comparison of `sampler` with the baseline at `spp` (claims included)."""
+        return next((r for r in self.comparisons if r.sampler == sampler and r.spp == spp), None)
 
     def comparison(self, sampler: str, spp: int) -> BaselineComparison | None:
         return next((x for x in self.vs_baseline.get(sampler, []) if x.spp == spp), None)
@@ -380,6 +393,7 @@ class Summary:
     warnings: list[str]
     chains: ChainDiagnostics
     ground_truth: dict[str, dict] = field(default_factory=dict)   # the runner's reference info
+    load: dict = field(default_factory=dict)    # cost_model.load_shift over the sweep's batches
 
     def to_json(self) -> dict:
         return _fields_json(self)

@@ -15,14 +15,12 @@ batch renders again (same seeds, same images). `runs.csv` is an export of the ta
 from __future__ import annotations
 
 import io
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from drtlab.experiments.files import atomic_savez, atomic_write_bytes, atomic_write_json, atomic_write_text
-from drtlab.experiments.stats.hypothesis_tests import Z_CI
 
 RUNS_FILE = "runs.parquet"
 CELLS_DIR = "cells"
@@ -33,10 +31,11 @@ CSV_COLUMNS = (
     "samples_per_second", "gt_spp", "worker", "batch", "batch_reps",
 )
 # What a row holds beyond the CSV's columns (the resume keys).
-TABLE_COLUMNS = CSV_COLUMNS + ("scene_key", "cell", "fingerprint", "gt_key", "code_version", "finite")
+TABLE_COLUMNS = CSV_COLUMNS + ("scene_key", "cell", "fingerprint", "gt_key", "code_version", "finite",
+                               "batch_time")
 # Columns that measure the machine, not the estimator: they differ between reruns and workers.
 TIMING_COLUMNS = ("render_seconds", "cpu_seconds", "compile_seconds", "wall_seconds",
-                  "samples_per_second", "worker")
+                  "samples_per_second", "worker", "batch_time")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -221,20 +220,16 @@ def write_runs_csv(path: Path, plan: list, records: dict) -> int:
 
 
 # ---------------------------------------------------------------------------------------------------
-# The cost of a cell: its own batches' timings, or timing-only batches for cells too small to time
+# Timing-only batches for cells too small to time (their costs come from stats/cost_model.py)
 # ---------------------------------------------------------------------------------------------------
 
 CALIBRATION_FILE = "calibration.json"
 MIN_TIMED_SECONDS = 0.2          # a cell whose batches took less than this gets timing-only batches
 CAL_BATCHES = 4                  # timing-only batches per such cell
-# Run-to-run drift of the per-repetition cost that repeats within one run cannot see (CPU clock,
-# caches): fresh reruns on the 2-core dev VM differed by 2-4%; the cost's 95% interval adds this
-# relative half-width in quadrature.
-SYSTEMATIC = 0.05
 
 
 def load_calibration(out_dir: Path) -> dict:
-    """cell -> timing-only batches ({"seconds": per-repetition seconds, "clock"}); {} when none."""
+    """cell -> timing-only batches ({"seconds": per-repetition seconds, "reps", "clock"}); {} when none."""
     import json
     try:
         return json.loads((Path(out_dir) / CALIBRATION_FILE).read_text())
@@ -246,53 +241,9 @@ def save_calibration(out_dir: Path, entries: dict) -> None:
     atomic_write_json(Path(out_dir) / CALIBRATION_FILE, entries)
 
 
-def _faster_half(values) -> list:
-    """The faster half of repeated timings (at least 2): load from other jobs only slows a render
-    down, so the faster renders are the ones that measure the code."""
-    v = sorted(values)
-    return v[:max(2, (len(v) + 1) // 2)] if len(v) > 2 else v
-
-
-@dataclass
-class CellTiming:
-    """Seconds one repetition of a cell costs: one value per timed batch (its seconds / its
-    repetitions), the faster half kept; `calibrated` when they come from timing-only batches."""
-    samples: np.ndarray
-    calibrated: bool = False
-    clock: str = "cpu"            # "cpu": CPU seconds of the render call (all threads); else wall
-
-    @property
-    def mean(self) -> float:
-        return float(np.mean(self.samples)) if self.samples.size else float("nan")
-
-    def t_halfwidth(self) -> float:
-        """95% half-width of the mean: t over the batches, and `SYSTEMATIC`."""
-        n = self.samples.size
-        if n < 2:
-            return SYSTEMATIC * self.mean if n else float("nan")
-        from drtlab.experiments.study.metrics import t_quantile
-        h = t_quantile(n) * float(np.std(self.samples, ddof=1)) / math.sqrt(n)
-        return math.hypot(h, SYSTEMATIC * self.mean)
-
-    def draw(self, rng) -> float:
-        """A draw of the mean cost from its t law and the systematic term (parametric bootstrap)."""
-        n, m = self.samples.size, self.mean
-        sd = float(np.std(self.samples, ddof=1)) / math.sqrt(n) if n > 1 else 0.0
-        t = float(rng.standard_t(n - 1)) if n > 1 else 0.0
-        return max(m + sd * t + SYSTEMATIC / Z_CI * m * float(rng.standard_normal()), 1e-3 * m)
-
-
 def batch_timings(recs: list, cpu: bool) -> list:
     """Per-repetition seconds of each batch of a cell's records."""
     per: dict = {}
     for rec in recs:
         per.setdefault(rec["batch"], rec["cpu_seconds"] if cpu else rec["render_seconds"])
     return list(per.values())
-
-
-def cell_timing(recs: list, entry: dict | None, cpu: bool) -> CellTiming:
-    """The cost of a cell from its timing-only batches when it has them, else its own batches."""
-    if entry and entry.get("seconds"):
-        return CellTiming(np.array(_faster_half(entry["seconds"])), True, entry.get("clock", "cpu"))
-    return CellTiming(np.array(_faster_half(batch_timings(recs, cpu))), False,
-                      "cpu" if cpu else "wall")

@@ -278,6 +278,7 @@ def _run_record(r: RunSpec, fingerprint: str, batch: _Batch, result, wall: float
         "code_version": code_version,
         "worker": worker,                     # where it rendered: a Dask worker's address, or local
         "batch": batch.batch_id, "batch_reps": n,
+        "batch_time": time.time(),            # when it was committed: load steps show against it
     }
 
 
