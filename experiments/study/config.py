@@ -20,6 +20,8 @@ studies of other experiment files, each resolved with its own settings for the s
     target_rel_ci = 0.1                      # optional: add repetitions to a cell until the 95% CI
                                              # of its mean MSE is within +-10% ...
     max_samples_per_cell = 4096              # ... or it has this many samples per pixel (runs x spp)
+    max_seconds = 20                         # optional: render seconds per study spent on growing
+                                             # the cells that are not resolved (largest run dominant)
     keep_images = false                      # keep every repetition's image (error spectra)
     colour_difference_runs = 16              # optional: CIEDE2000 of a cell's first 16 runs only
                                              # (each costs as much as a 1-spp render); default: all
@@ -55,8 +57,8 @@ EXPERIMENT_DIR = Path(__file__).resolve().parent.parent / "studies"     # the bu
 DEFAULT_PROFILE = "quick"
 
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
-                 "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "keep_images",
-                 "colour_difference_runs", "variance_sources")
+                 "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "max_seconds",
+                 "keep_images", "colour_difference_runs", "variance_sources")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 STUDY_METRICS = ("mse", "relmse")
@@ -72,12 +74,14 @@ DEFAULTS: dict[str, Any] = {
     "strip_spp": None,
     "target_rel_ci": None,
     "max_samples_per_cell": None,
+    "max_seconds": None,
     "keep_images": False,
     "colour_difference_runs": None,
     "variance_sources": None,
 }
 MIN_GT_BATCHES = 4
 MAX_RUNS_PER_CELL = 4096
+MAX_STUDY_SECONDS = 7 * 24 * 3600.0      # a week: beyond it a budget is a typo
 
 
 @dataclass(frozen=True)
@@ -110,6 +114,7 @@ class Settings:
     samples_per_cell: int | None = None
     target_rel_ci: float | None = None     # precision target of a cell's mean MSE (relative 95% CI)
     max_samples_per_cell: int | None = None     # the target's budget, samples per pixel of a cell
+    max_seconds: float | None = None     # render seconds per study for growing unresolved cells
     keep_images: bool = False
     colour_difference_runs: int | None = None   # CIEDE2000 of each cell's first runs only (None: all)
     variance_sources: int | None = None         # samples per pixel of each scene's decomposition
@@ -237,6 +242,10 @@ def _setting(key, v, fld):
         return float(v)
     if key == "max_samples_per_cell":
         return _int(v, fld, 2)
+    if key == "max_seconds":
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= MAX_STUDY_SECONDS:
+            raise InputError(fld, f"must be a number of seconds in (0, {MAX_STUDY_SECONDS:g}], got {v!r}")
+        return float(v)
     if key == "colour_difference_runs":
         return _int(v, fld, 2)
     if key == "variance_sources":
@@ -286,7 +295,8 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     gt_spp=vals["gt_spp"], gt_batch_spp=vals["gt_batch_spp"],
                     target_rmse=vals["target_rmse"], strip_spp=tuple(strip),
                     samples_per_cell=per_cell, target_rel_ci=vals["target_rel_ci"],
-                    max_samples_per_cell=vals["max_samples_per_cell"], keep_images=vals["keep_images"],
+                    max_samples_per_cell=vals["max_samples_per_cell"], max_seconds=vals["max_seconds"],
+                    keep_images=vals["keep_images"],
                     colour_difference_runs=vals["colour_difference_runs"],
                     variance_sources=vals["variance_sources"])
 

@@ -313,7 +313,7 @@ class _Sweep:
         total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
         self.bar = _Progress(total, len(candidates), progress)
         self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0,
-                      "runs_added_for_precision": 0, "batches": 0}
+                      "runs_added_for_precision": 0, "runs_added_for_resolution": 0, "batches": 0}
         self._seconds = {"render_total": 0.0, "ground_truth_total": 0.0}
         self._flushed_at = time.monotonic()
         self._precompile()
@@ -392,6 +392,15 @@ class _Sweep:
             if not grown:
                 break
             self._render_batches([b for bs in grown for b in bs], ctx)
+        # Resolution: the study's `max_seconds` (shared out over its scenes) grows the cells whose
+        # largest run dominates their error, doubling their repetitions while the budget lasts.
+        spent: dict = {}
+        while True:
+            grown = [self._resolve(cell, cruns, gt, spent) for cell, cruns in cells.items()]
+            grown = [bs for bs in grown if bs is not None]
+            if not grown:
+                break
+            self._render_batches([b for bs in grown for b in bs], ctx)
         self._flush(group_end=True)
         self.cell_files.clear()                   # one group's cell files in memory at a time
 
@@ -443,17 +452,47 @@ class _Sweep:
                               "runs_needed": prec["repetitions"]}
         if met or len(have) >= budget:
             return None
+        self.stats["runs_added_for_precision"] += min(2 * len(have), budget) - len(have)
+        return self._extend(cell, cruns, gt, study, have, min(2 * len(have), budget))
+
+    def _extend(self, cell: str, cruns: list[RunSpec], gt, study, have: list, new_n: int) -> list[_Batch]:
+        """The plan grown by a cell's repetitions len(have)..new_n, and their batches."""
         r0 = cruns[0]
-        new_n = min(2 * len(have), budget)
         extra = [RunSpec(r0.scene, r0.sampler, r0.integrator, r0.resolution, r0.spp, rep,
                          run_seed(study.seed, r0.scene.key, r0.sampler, r0.integrator, r0.resolution,
                                   r0.spp, rep), r0.studies)
                  for rep in range(len(have), new_n)]
         self.plan.extend(extra)
-        self.stats["runs_added_for_precision"] += len(extra)
         pixels = r0.resolution[0] * r0.resolution[1]
         self.bar.add_work(sum(r.spp * pixels for r in extra), len(extra))
         return self._batches(cell, have + extra, gt, batch_ranges(new_n, pixels, r0.spp, start=len(have)))
+
+    def _resolve(self, cell: str, cruns: list[RunSpec], gt, spent: dict) -> list[_Batch] | None:
+        """The batches that double an unresolved cell's repetitions (within `max_samples_per_cell`
+        and the study's `max_seconds`, of which each scene gets its share), or None. Unresolved here
+        means by the cell's own runs (resolution.cell_resolution without the sampler's tail: more
+        runs do not lighten a heavy tail)."""
+        from drtlab.experiments.stats.intervals import positive_mean_ci
+        from drtlab.experiments.stats.resolution import cell_resolution
+        study = self.studies[cruns[0].studies[0]]
+        settings = self._settings(cruns[0])
+        budget = getattr(settings, "max_seconds", None)
+        if not budget:
+            return None
+        have = [r for r in self.plan if r.cell == cell]
+        recs = [self.records[r.run_id] for r in have if r.run_id in self.records]
+        values = [rec[METRICS[study.metric].mse] for rec in recs]
+        if not recs or cell_resolution(values, positive_mean_ci(values)["lo"])[0]:
+            return None
+        per_rep = float(np.mean([rec["render_seconds"] for rec in recs]))
+        new_n = min(2 * len(have), settings.max_runs_at(cruns[0].spp))
+        cost = per_rep * (new_n - len(have))
+        share = budget / max(1, len(study.scenes))
+        if new_n <= len(have) or spent.get(study.name, 0.0) + cost > share:
+            return None
+        spent[study.name] = spent.get(study.name, 0.0) + cost
+        self.stats["runs_added_for_resolution"] += new_n - len(have)
+        return self._extend(cell, cruns, gt, study, have, new_n)
 
     def _render_batches(self, batches: list[_Batch], ctx: "_GroupContext") -> None:
         if not batches:

@@ -4,7 +4,6 @@ import math
 import numpy as np
 from scipy import stats
 
-from drtlab.experiments.study.analysis import time_to_target
 from drtlab.experiments.study.metrics import cell_bias, ciede2000, image_metrics, mean_ci
 from drtlab.experiments.study.run_store import CellMoments
 
@@ -73,20 +72,6 @@ def test_cell_bias_screen_is_calibrated_and_detects_bias():
     for _ in range(20):
         b = _cell(rng, gt, 0.02)
         assert b["lo"] > 0 and abs(b["rms"] - 0.02) < 0.006
-
-
-def test_time_to_target():
-    t = [0.1, 0.4, 1.6]
-    e = [0.4, 0.2, 0.1]                                   # RMSE ~ t^-1/2
-    r = time_to_target(t, e, 0.2 / math.sqrt(2))
-    assert r["how"] == "interpolated" and math.isclose(r["seconds"], 0.8)
-    assert time_to_target(t, e, 0.5)["how"] == "at_most"
-    r = time_to_target(t, e, 0.05)
-    assert r["how"] == "extrapolated" and math.isclose(r["seconds"], 6.4)
-    # A nearly flat last step (a bootstrap replicate of a heavy-tailed cell: it crashed a report with
-    # OverflowError) extrapolates to an infinite time, not an exception.
-    r = time_to_target([0.1, 0.4], [0.4, 0.4 * (1 - 1e-12)], 0.01)
-    assert r["how"] == "extrapolated" and r["seconds"] == float("inf")
 
 
 def test_batch_metrics_equal_each_image_s_metrics_exactly():
