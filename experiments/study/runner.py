@@ -40,6 +40,7 @@ OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "r
 # Samples (pixels x spp x repetitions) a batch aims at: on this 2-core machine 0.2-1 s of CPU, long
 # enough for the process clock to time it to a few percent, short enough for a kill to lose little.
 BATCH_SAMPLES = 1 << 20
+MIN_BATCHES = 4                  # batches a cell is cut into at least (where it has the runs)
 MAX_BATCH_PIXELS = 1 << 24       # pixels x repetitions of one batch: bounds its buffers (~1 GiB)
 # Seconds between commits of the table and the changed cell files (and at each group's end and an
 # interrupted sweep's): rewriting a 10,000-row table after every batch was a tenth of the sweep.
@@ -239,10 +240,12 @@ def _reference_info(gt) -> dict:
 
 def batch_ranges(reps: int, pixels: int, spp: int, start: int = 0) -> list[tuple[int, int]]:
     """[a, b) repetition ranges of a cell's batches from `start` to `reps`: about BATCH_SAMPLES each,
-    at least two when there are two repetitions or more (a cell's cost then has an interval), and
-    within MAX_BATCH_PIXELS. A function of the work alone, so every machine cuts the same batches."""
+    at least MIN_BATCHES where the repetitions allow (every batch is a point of its sampler's cost
+    model: ten batches a sampler left a 1.6x efficiency interval at N = 1 from cost alone, fifteen
+    narrow it), and within MAX_BATCH_PIXELS. A function of the work alone, so every machine cuts
+    the same batches."""
     per = max(1, min(-(-BATCH_SAMPLES // (pixels * spp)), MAX_BATCH_PIXELS // pixels))
-    per = min(per, max(1, -(-(reps - start) // 2)))
+    per = min(per, max(1, -(-(reps - start) // MIN_BATCHES)))
     return [(a, min(a + per, reps)) for a in range(start, reps, per)]
 
 

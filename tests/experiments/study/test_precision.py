@@ -99,6 +99,8 @@ def test_negative_control_an_unreachable_target_reports_what_it_would_need(tmp_p
 
 @pytest.mark.parametrize("key, value", [("target_rel_ci", "0"), ("target_rel_ci", "1.5"),
                                         ("target_rel_ci", "true"), ("max_samples_per_cell", "1"),
+                                        ("max_seconds", "0"), ("max_seconds", "-3"), ("max_seconds", "1e9"),
+                                        ("max_seconds", '"20"'),
                                         ("keep_images", "1"), ("colour_difference_runs", "1"),
                                         ("colour_difference_runs", "2.5")])
 def test_bad_precision_settings_are_named(tmp_path, key, value):
@@ -115,3 +117,23 @@ def _with(text: str, key: str, value: str) -> str:
     lines = [ln for ln in text.splitlines() if not ln.startswith(f"{key} =")]
     i = lines.index("[experiment]")
     return "\n".join(lines[:i + 1] + [f"{key} = {value}"] + lines[i + 1:]) + "\n"
+
+
+def test_a_seconds_budget_grows_the_cells_that_are_not_resolved(tmp_path):
+    # Two runs are fewer than resolution.MIN_RUNS: with `max_seconds` each cell doubles to 4 runs
+    # (then resolved: light Gaussian errors), without it, or with a budget below one doubling's
+    # cost (the fake's runs cost ~1e-4 s), nothing grows. The comparisons then claim only where
+    # both cells are resolved.
+    text = "\n".join(ln for ln in TEXT.splitlines() if not ln.startswith(("target_rel_ci", "max_samples")))
+    runs = {}
+    for budget in (None, 1e-7, 10):
+        p = tmp_path / f"b{budget}.toml"
+        p.write_text(text if budget is None else _with(text, "max_seconds", str(budget)))
+        _, fake = fake_backend()
+        exp = load_experiment(str(p), scene_loader=fake.load_scene)
+        result, _ = sweep(exp, tmp_path / f"out{budget}", tmp_path / "gt")
+        runs[budget] = sorted(set(result.cells["repetitions"]))
+        claims = set(result.comparisons["claim"])
+        assert claims == ({"not resolved"} if budget != 10 else {"better"}), (budget, claims)
+        assert result.stats["runs_added_for_resolution"] == (24 if budget == 10 else 0)
+    assert runs == {None: [2], 1e-7: [2], 10: [4]}
