@@ -12,7 +12,6 @@ import math
 # readable printed in black and white.
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 LINESTYLES = ("-", "--", ":", "-.", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)), (0, (3, 1)))
-HATCHES = ("", "///", "...", "xx", "\\\\\\", "++", "oo", "--")
 COLOURS = ("#000000", "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#999999")
 
 # Panels of about 3.4 inches: matplotlib's default 10-point text would run into itself there.

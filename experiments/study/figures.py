@@ -14,7 +14,7 @@ import numpy as np
 from drtlab.experiments.study.ground_truth import load_ground_truth
 from drtlab.experiments.study.results import Cell, Interval, SceneResult, StudyResult
 from drtlab.experiments.study.run_store import first_image
-from drtlab.experiments.plotting import HATCHES, compact_pyplot, panel_grid, series_style
+from drtlab.experiments.plotting import compact_pyplot, panel_grid, series_style
 from drtlab.kernels.colour import to_srgb
 
 
@@ -127,34 +127,46 @@ def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
 
 
 def plot_efficiency(study: StudyResult, path: Path) -> Path:
-    """Efficiency 1/(MSE * seconds) at the top of the ladder, relative to the baseline."""
+    """Speed-up at equal error and efficiency ratio at the largest N against the baseline, as
+    points with their 95% intervals on a log axis around 1; comparisons that are not resolved are
+    hollow markers at their estimate, labelled so (they make no claim)."""
     plt = compact_pyplot()
-    scenes, samplers = study.scenes, study.samplers
-    fig, ax = plt.subplots(figsize=(max(4.0, 1.1 * len(scenes) * len(samplers) * 0.6 + 2), 3.0))
-    width = 0.8 / max(len(samplers), 1)
+    scenes = study.scenes
+    others = [s for s in study.samplers if s != study.baseline]
+    kinds = (("speedup", "speed-up at equal error", "o"), ("efficiency", f"efficiency at N={study.spp[-1]}", "s"))
+    fig, ax = plt.subplots(figsize=(min(9.0, 2.0 + 0.9 * len(scenes) * max(1, len(others))), 3.2))
     xs = np.arange(len(scenes))
-    allv = []
-    for i, s in enumerate(samplers):
-        vals = [scene.efficiency[s].relative if s in scene.efficiency else float("nan") for scene in scenes]
-        vals = [v if v and math.isfinite(v) and v > 0 else np.nan for v in vals]
-        allv += [v for v in vals if np.isfinite(v)]
-        pos = xs + (i - (len(samplers) - 1) / 2) * width
-        ax.bar(pos, vals, width, label=s, color="white" if i == 0 else series_style(i)["color"],
-               alpha=1.0 if i == 0 else 0.55, edgecolor="black", hatch=HATCHES[i % len(HATCHES)], lw=0.8)
-        for p_, v in zip(pos, vals):
-            if np.isfinite(v):
-                ax.annotate(f"{v:.2g}×", (p_, v), ha="center", va="bottom", fontsize=6,
-                            xytext=(0, 1), textcoords="offset points")
+    step = 0.8 / max(1, len(others) * len(kinds))
+    allv = [1.0]
+    for i, s in enumerate(others):
+        for j, (kind, label, marker) in enumerate(kinds):
+            pos = xs + (i * len(kinds) + j - (len(others) * len(kinds) - 1) / 2) * step
+            style = series_style(i + 1)
+            for p_, scene in zip(pos, scenes):
+                r = scene.row(s, study.spp[-1])
+                if r is None or not (r.ratio(kind)[0] > 0):
+                    continue
+                v, lo, hi = r.ratio(kind)
+                ok = r.speedup_resolved if kind == "speedup" else r.resolved
+                if ok and lo > 0 and hi > 0:
+                    ax.errorbar([p_], [v], yerr=[[v - lo], [hi - v]], fmt=marker, color=style["color"],
+                                ms=4, capsize=2, lw=0.9)
+                    allv += [lo, hi]
+                else:
+                    ax.plot([p_], [v], marker, mfc="none", color="0.5", ms=4)
+                    ax.annotate("not\nresolved", (p_, v), ha="center", va="bottom", fontsize=5,
+                                xytext=(0, 3), textcoords="offset points", color="0.4")
+                    allv.append(v)
+            ax.plot([], [], marker, color=style["color"], label=f"{s}: {label}")
     ax.axhline(1.0, color="black", lw=0.8)
     ax.set_yscale("log")
-    if allv:
-        ax.set_ylim(min(min(allv), 1.0) / 2.5, max(max(allv), 1.0) * 2.5)
+    fin = [v for v in allv if np.isfinite(v) and v > 0]
+    ax.set_ylim(min(fin) / 1.5, max(fin) * 1.5)
     ax.set_xticks(xs)
     ax.set_xticklabels([scene.scene for scene in scenes], rotation=20, ha="right")
-    ax.set_ylabel(f"efficiency / {study.baseline}'s")
-    ax.set_title(f"{study.name}: efficiency 1/({study.mse_label}·s) at the largest spp\n"
-                 f"relative to {study.baseline} (higher is better)")
-    ax.legend(frameon=False)
+    ax.set_ylabel(f"× {study.baseline} (above 1: better)")
+    ax.set_title(f"{study.name}: speed-up and efficiency against {study.baseline}, 95% intervals")
+    ax.legend(frameon=False, fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     ax.grid(True, axis="y", which="both", lw=0.3, color="0.8")
     fig.tight_layout()
     fig.savefig(path)
