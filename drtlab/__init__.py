@@ -10,7 +10,8 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     drtlab.write_exr("x.exr", r.image, r.metadata); pixels, meta = drtlab.read_exr("x.exr")
     images = drtlab.render_batch(scene, seeds=range(16), spp=4)               # (16, H, W, 3)
     result = drtlab.run_experiment("stratified")          # or a dict shaped like an experiment file
-    result.cells, result.slopes, result.plot_convergence()
+    result.cells, result.slopes, result.comparisons, result.plot_convergence()
+    result = drtlab.open_results("results/stratified")    # a finished folder: nothing re-run
 
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
 `drtlab.experiments` (see pyproject.toml).
@@ -88,8 +89,9 @@ def run_experiment(experiment, profile: str = "quick", name: str = "inline", **k
 
     `experiment` is an `Experiment` (from `load_experiment`), a built-in name, a .toml path, or a dict
     shaped like the TOML file (then called `name`; its results go to results/NAME unless `out_dir`).
-    Returns an `ExperimentResult`: `.runs`, `.cells`, `.slopes` (pandas DataFrames, one row per run /
-    cell / fit), `.plot_convergence()`, and `["studies"]` (summary.json's content). Other keyword
+    Returns an `ExperimentResult`: `.runs`, `.cells`, `.slopes`, `.comparisons` (pandas DataFrames,
+    one row per run / cell / fit / sampler against the baseline at N), `.plot_convergence()`, and
+    `["studies"]` (summary.json's content); `open_results` reads the same back later. Other keyword
     arguments go to `drtlab.experiments.study.runner.run_experiment` (out_dir, gt_root, threads, fresh,
     progress)."""
     from drtlab.experiments.study.config import Experiment
@@ -97,6 +99,14 @@ def run_experiment(experiment, profile: str = "quick", name: str = "inline", **k
     if not isinstance(experiment, Experiment):
         experiment = load_experiment(experiment, profile, name=name)
     return _run_experiment(experiment, **kwargs)
+
+
+def open_results(path):
+    """A finished results folder (e.g. "results/stratified") as the `ExperimentResult` its
+    `run_experiment` returned, read from summary.json, runs.parquet and manifest.json: nothing is
+    rendered or analysed again. Raises `drtlab.errors.InputError` naming `path` when it is not one."""
+    from drtlab.experiments.study.experiment_result import open_results as _open_results
+    return _open_results(path)
 
 
 def points(*args, **kwargs):

@@ -245,7 +245,7 @@ def cmd_experiment(args) -> int:
 
 def _print_summary(exp, result) -> None:
     """One line of run counts, then per study and scene its slopes and speed-ups (an
-    `experiments.results.ExperimentResult`)."""
+    `experiments.study.experiment_result.ExperimentResult`)."""
     stats = result.stats
     print(f"{exp.name} ({exp.profile}): {stats.get('runs_new', 0)} new runs, "
           f"{stats.get('runs_reused', 0)} reused, {result.wall_seconds:.1f} s")
@@ -256,8 +256,9 @@ def _print_summary(exp, result) -> None:
                 f = scene.fit(s)
                 if f is not None:
                     parts.append(f"{s} {f.slope_text()}")
-            sp = [f"{s} {v:.2f}x" for s, v in scene.speed.speedup_vs_baseline.items()
-                  if s != study.baseline and v == v]
+            top = [scene.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
+            sp = [f"{r.sampler} {r.speedup:.2f}x [{r.speedup_lo:.2f}, {r.speedup_hi:.2f}] {r.claim}"
+                  if r.speedup_resolved else f"{r.sampler} not resolved" for r in top if r is not None]
             print(f"  {study.name:>18} {scene.scene:<14} " + "; ".join(parts)
                   + (f"; speed-up vs {study.baseline}: " + ", ".join(sp) if sp else ""))
 

@@ -116,7 +116,7 @@ def naive_control(study: Study) -> dict:
     out = {"intervals": {k: [] for k in CONTROL_KINDS}, "claims": []}
     for (s, n), (m, sd) in cost.items():
         out["intervals"]["cost"].append((m * math.exp(-Z_CI * sd), m * math.exp(Z_CI * sd),
-                                         T.of(s).seconds(n), True))
+                                         T.of(s).seconds(n), True, f"{s} N={n}"))
     for n in LADDER:
         (mb, sb), (ms, ss) = _naive_log_mean(vals[(BASELINE, n)]), _naive_log_mean(vals[(OTHER, n)])
         (cb, cbs), (cs, css) = cost[(BASELINE, n)], cost[(OTHER, n)]
@@ -125,7 +125,7 @@ def naive_control(study: Study) -> dict:
                                    ("efficiency", mb * cb / (ms * cs), math.sqrt(sb ** 2 + ss ** 2 + cbs ** 2
                                                                                 + css ** 2), T.efficiency(n))):
             lo, hi = r * math.exp(-Z_CI * sd), r * math.exp(Z_CI * sd)
-            out["intervals"][kind].append((lo, hi, truth, True))
+            out["intervals"][kind].append((lo, hi, truth, True, f"N={n}"))
             said = "better" if lo > 1 else "worse" if hi < 1 else "no difference"
             row["mse" if kind == "mse_ratio" else "claim"] = _claim(said, _sign(truth))
         out["claims"].append(row)
@@ -135,7 +135,6 @@ def naive_control(study: Study) -> dict:
 def audit_study(name: str, index: int, seed: int) -> dict:
     """Study `index` of setting `name`: every interval with its truth and resolution, every claim
     with the truth's direction, today's control on the same data and the load-shift test."""
-    from drtlab.experiments.stats.cost_model import load_shift
     from drtlab.experiments.study.compare import compare_scene, finish_claims
     setting = SETTINGS[name]
     rng, analysis_seed = _seeds(seed, name, index)
@@ -145,29 +144,36 @@ def audit_study(name: str, index: int, seed: int) -> dict:
                        seed=analysis_seed)
     iv = {k: [] for k in KINDS}
     for (s, n), c in sc.cells.items():
-        iv["cell_mse"].append((c.lo, c.hi, T.of(s).mse(n), c.resolved))
-        iv["cost"].append((c.seconds_lo, c.seconds_hi, T.of(s).seconds(n), True))
+        iv["cell_mse"].append((c.lo, c.hi, T.of(s).mse(n), c.resolved, f"{s} N={n}"))
+        iv["cost"].append((c.seconds_lo, c.seconds_hi, T.of(s).seconds(n), True, f"{s} N={n}"))
     for s, f in sc.fits.items():
         iv["slope"].append((f.get("slope_lo", NAN), f.get("slope_hi", NAN), T.of(s).slope,
-                            bool(f.get("ok") and f.get("resolved"))))
+                            bool(f.get("ok") and f.get("resolved")), s))
     claims = []
     for r in finish_claims(sc.rows):
         sp = T.speedup(r.target_rmse)
-        iv["mse_ratio"].append((r.mse_ratio_lo, r.mse_ratio_hi, T.mse_ratio(r.spp), r.resolved))
-        iv["efficiency"].append((r.efficiency_lo, r.efficiency_hi, T.efficiency(r.spp), r.resolved))
-        iv["speedup"].append((r.speedup_lo, r.speedup_hi, sp, r.speedup_resolved))
+        at = f"N={r.spp}"
+        iv["mse_ratio"].append((r.mse_ratio_lo, r.mse_ratio_hi, T.mse_ratio(r.spp), r.resolved, at))
+        iv["efficiency"].append((r.efficiency_lo, r.efficiency_hi, T.efficiency(r.spp), r.resolved, at))
+        iv["speedup"].append((r.speedup_lo, r.speedup_hi, sp, r.speedup_resolved, at))
         on = sp if r.claim_on == "speedup" else T.efficiency(r.spp)
         claims.append({"spp": r.spp, "resolved": r.resolved, "on": r.claim_on,
                        "claim": _claim(r.claim, _sign(on)),
                        "mse": _claim(r.mse_claim, _sign(T.mse_ratio(r.spp)))})
+    return {"setting": name, "index": index, "intervals": iv, "claims": claims,
+            "control": naive_control(study), "load_shifted": bool(load_test(study, sc.costs)["shifted"]),
+            "noise_sd": study.noise_sd}
+
+
+def load_test(study: Study, costs: dict) -> dict:
+    """`cost_model.load_shift` on the residuals of every sampler's cost model, pooled with their
+    batches' times as the study's analysis pools them."""
+    from drtlab.experiments.stats.cost_model import load_shift
     times, resid = [], []
-    for s, model in sc.costs.items():
+    for s, model in costs.items():
         times += [t for t, x in zip(study.batches["time"], study.batches["sampler"]) if x == s]
         resid += list(model.residuals)
-    load = load_shift(times, resid)
-    return {"setting": name, "index": index, "intervals": iv, "claims": claims,
-            "control": naive_control(study), "load_shifted": bool(load["shifted"]),
-            "noise_sd": study.noise_sd}
+    return load_shift(times, resid)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -193,11 +199,12 @@ def rate(hits, totals, level: float = CI_LEVEL) -> dict:
 
 
 def _kind_table(per_study: list, width_ratio: bool, level: float) -> dict:
-    """Coverage, resolved fraction, coverage among resolved and mean width of one kind's intervals;
-    `per_study` is each study's list of (lo, hi, truth, resolved)."""
-    cov, fin, res, cov_r, fin_r, widths = [], [], [], [], [], []
+    """Coverage, resolved fraction, coverage among resolved and mean width of one kind's intervals,
+    and the coverage of each cell or row (`by`, for diagnosis); `per_study` is each study's list of
+    (lo, hi, truth, resolved, label)."""
+    cov, fin, res, cov_r, fin_r, widths, by = [], [], [], [], [], [], {}
     for ivs in per_study:
-        a = np.asarray(ivs, dtype=np.float64).reshape(-1, 4)
+        a = np.asarray([iv[:4] for iv in ivs], dtype=np.float64).reshape(-1, 4)
         ok = np.isfinite(a[:, 0]) & np.isfinite(a[:, 1]) & np.isfinite(a[:, 2])
         hit = ok & (a[:, 0] <= a[:, 2]) & (a[:, 2] <= a[:, 1])
         r = a[:, 3] > 0
@@ -205,12 +212,15 @@ def _kind_table(per_study: list, width_ratio: bool, level: float) -> dict:
         cov_r.append((hit & r).sum()), fin_r.append((ok & r).sum())
         if ok.any():
             widths += list(a[ok, 1] / a[ok, 0] if width_ratio else a[ok, 1] - a[ok, 0])
+        for iv, h, o in zip(ivs, hit, ok):
+            by.setdefault(iv[4], []).append((int(h), int(o)))
     total = sum(len(ivs) for ivs in per_study)
     return {"intervals": total, "missing": int(total - sum(fin)),
             "coverage": rate(cov, fin, level), "resolved": sum(res) / total if total else NAN,
             "coverage_resolved": rate(cov_r, fin_r, level),
             "mean_width": float(np.mean(widths)) if widths else NAN,
-            "width": "hi/lo" if width_ratio else "hi-lo"}
+            "width": "hi/lo" if width_ratio else "hi-lo",
+            "by": {k: rate(*zip(*v), level=level) for k, v in by.items()}}
 
 
 def _claim_table(claims: list, equal: bool, level: float) -> dict:

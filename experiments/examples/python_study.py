@@ -1,10 +1,11 @@
-"""A study defined in Python, run, and one figure redrawn: the notebook workflow in one file.
+"""A study defined in Python, run, reopened and redrawn: the notebook workflow in one file.
 
     python -m drtlab.experiments.examples.python_study [--out DIR]
 
 Defines an experiment as a dict (the same keys as an experiment TOML file, see
 experiments/README.md), runs it through `drtlab.run_experiment`, prints the tidy tables the result
-carries, and redraws the error-vs-samples figure from the results alone.
+carries (cells, slopes, each sampler against the baseline), then reopens the finished folder with
+`drtlab.open_results` and redraws the error-vs-samples figure from it alone.
 """
 from __future__ import annotations
 
@@ -54,9 +55,13 @@ def _command(args) -> int:
     cells = result.cells
     print(cells[["scene", "sampler", "spp", "error", "error_lo", "error_hi"]].to_string(index=False))
     print(result.slopes[["scene", "sampler", "slope", "slope_lo", "slope_hi"]].to_string(index=False))
-    figure = result.plot_convergence("stratification")
+    print(result.comparisons[["scene", "sampler", "spp", "speedup", "speedup_lo", "speedup_hi",
+                              "claim"]].to_string(index=False))
+    # What a later session does with a finished folder: read it back, render and analyse nothing.
+    done = drtlab.open_results(args.out)
+    figure = done.plot_convergence("stratification")
     figure.savefig(args.out / "redrawn-convergence.png")
-    print(f"{len(result.runs)} runs; figure redrawn to {args.out / 'redrawn-convergence.png'}")
+    print(f"{len(done.runs)} runs; figure redrawn to {args.out / 'redrawn-convergence.png'}")
     return 0
 
 

@@ -206,6 +206,9 @@ def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
     for c in candidates:
         if c.is_file():
             return c
+    if (p / "summary.json").is_file():
+        raise InputError("experiment", f"'{name_or_path}' is a finished study's results folder, not an "
+                         f"experiment file: drtlab.open_results({str(name_or_path)!r}) reads it")
     raise InputError("experiment", f"no experiment file '{name_or_path}'; built-in experiments: "
                      f"{', '.join(builtin_experiments())}, or a path to a .toml file")
 

@@ -7,8 +7,9 @@ turns them into null).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, is_dataclass
-from pathlib import Path
+import types
+import typing
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 
 from drtlab.experiments.study.compare import Comparison
 
@@ -26,6 +27,38 @@ def to_json(o):
     if isinstance(o, (list, tuple)):
         return [to_json(v) for v in o]
     return o
+
+
+def from_json(cls, data, where: str = "summary"):
+    """The inverse of `to_json`: a result class from its JSON (as summary.json holds it), nested
+    results rebuilt from the field types. Keys the class does not name are derived values (a cell's
+    `study_error`) and are skipped; a missing required one raises ValueError naming where."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{where}: expected an object, got {type(data).__name__}")
+    hints, kw = typing.get_type_hints(cls), {}
+    for f in fields(cls):
+        key = cls.json_key(f.name) if hasattr(cls, "json_key") else f.name
+        if key not in data:
+            if f.default is MISSING and f.default_factory is MISSING:
+                raise ValueError(f"{where}: no '{key}'")
+        elif data[key] is None and cls in (Interval, SlopeFit):
+            kw[f.name] = NAN        # their to_json leaves None out: a null was a non-finite float
+        else:
+            kw[f.name] = _decode(hints[f.name], data[key], f"{where}.{key}")
+    return cls(**kw)
+
+
+def _decode(tp, v, where: str):
+    if v is None:
+        return NAN if tp is float else None         # the JSON writer turned NaN and inf into null
+    origin, args = typing.get_origin(tp), [a for a in typing.get_args(tp) if a is not type(None)]
+    if origin in (typing.Union, types.UnionType):
+        return _decode(args[0], v, where)
+    if origin is list:
+        return [_decode(args[0], x, f"{where}[{i}]") for i, x in enumerate(v)]
+    if origin is dict:
+        return {k: _decode(args[1], x, f"{where}.{k}") for k, x in v.items()}
+    return from_json(tp, v, where) if is_dataclass(tp) else v
 
 
 def _fields_json(o, skip_none: bool = False, **special) -> dict:
@@ -143,14 +176,17 @@ class Cell:
     def efficiency_of(self, metric: str) -> float:
         return getattr(self, METRICS[metric].efficiency)
 
+    @staticmethod
+    def json_key(name: str) -> str:
+        return f"run_{name}" if name in PER_RUN else name
+
     def to_json(self, metric: str | None = None) -> dict:
         """Per-run statistics are `run_X` (the mean [95% CI] over repetitions of each run's X); the
         estimator's error is `rmse_of_mean_mse` (the root of the mean MSE); with `metric` (a study's)
         also the study's view of it: `study_error`, `study_error_mse`, `study_efficiency`."""
         out = {}
         for f in fields(self):
-            key = f"run_{f.name}" if f.name in PER_RUN else f.name
-            out[key] = to_json(getattr(self, f.name))
+            out[self.json_key(f.name)] = to_json(getattr(self, f.name))
             if f.name == "bias":
                 out["pixel_variance"] = self.bias.pixel_variance
         if metric is not None:
@@ -398,70 +434,16 @@ class Summary:
     def to_json(self) -> dict:
         return _fields_json(self)
 
+    @classmethod
+    def from_json(cls, data: dict) -> "Summary":
+        """summary.json's content back as a Summary. Its scenes' `costs` stay the plain dicts
+        CostModel.to_json wrote: without the covariance it leaves out, no interval can be drawn."""
+        return from_json(cls, data)
 
-@dataclass
-class ExperimentResult:
-    """What `run_experiment` returns: the run counts, the wall time, the summary (None when the
-    sweep ran without analysis) and the output folder. Indexing it reads summary.json's content
-    (`result["studies"]`); `runs`, `cells` and `slopes` are tidy pandas DataFrames, and
-    `plot_convergence()` redraws the error-vs-samples figures."""
-    stats: dict                         # runs_planned, runs_new, runs_reused, batches, rows, ...
-    wall_seconds: float
-    summary: Summary | None = None
-    out_dir: Path | None = None
 
-    def __getitem__(self, key: str):
-        if self.summary is None:
-            raise KeyError(key)
-        return self.summary.to_json()[key]
-
-    def _studies(self) -> list[StudyResult]:
-        if self.summary is None:
-            raise ValueError("the experiment ran without analysis (analyze=False): no cells or slopes")
-        return self.summary.studies
-
-    @property
-    def runs(self):
-        """One row per run (runs.parquet): scene, sampler, spp, rep, seed, per-run errors, timings."""
-        import pandas as pd
-        return pd.read_parquet(Path(self.out_dir) / "runs.parquet")
-
-    @property
-    def cells(self):
-        """One row per (study, scene, sampler, spp): the estimator's RMSE (root of the mean MSE over
-        repetitions) with its interval, the mean per-run RMSE, bias, median seconds, efficiency."""
-        import pandas as pd
-        rows = []
-        for study in self._studies():
-            for scene in study.scenes:
-                for c in scene.cells:
-                    err = c.error(study.metric)
-                    rows.append({"study": study.name, "scene": scene.scene, "sampler": c.sampler,
-                                 "spp": c.spp, "repetitions": c.n, "metric": study.metric,
-                                 "error": err.mean, "error_lo": err.lo, "error_hi": err.hi,
-                                 "rmse_of_mean_mse": c.rmse_of_mean_mse.mean,
-                                 "mean_run_rmse": c.rmse.mean, "bias": c.bias.signed,
-                                 "bias_significant": c.bias.significant, "seconds": c.seconds,
-                                 "efficiency": c.efficiency_of(study.metric),
-                                 "mse_rel_ci": c.mse_rel_ci, "target_met": c.target_met,
-                                 "samples_needed": c.samples_needed})
-        return pd.DataFrame(rows)
-
-    @property
-    def slopes(self):
-        """One row per (study, scene, sampler): the fitted slope b (error ∝ N^b) and its interval."""
-        import pandas as pd
-        rows = [{"study": study.name, "scene": scene.scene, "sampler": sampler, **fit.table_row()}
-                for study in self._studies() for scene in study.scenes
-                for sampler, fit in scene.slopes.items()]
-        return pd.DataFrame(rows)
-
-    def plot_convergence(self, study: str | None = None):
-        """The error-vs-samples figure of one study (by name; default the first) as a matplotlib
-        Figure, drawn from the results alone (no renders)."""
-        from drtlab.experiments.study.figures import plot_error_vs_spp
-        studies = self._studies()
-        chosen = next((s for s in studies if s.name == study), None) if study else studies[0]
-        if chosen is None:
-            raise ValueError(f"no study {study!r}; studies: {', '.join(s.name for s in studies)}")
-        return plot_error_vs_spp(chosen)
+def __getattr__(name: str):
+    # ExperimentResult lives in experiment_result.py (it imports this module); old imports still work.
+    if name == "ExperimentResult":
+        from drtlab.experiments.study.experiment_result import ExperimentResult
+        return ExperimentResult
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,6 +1,8 @@
 """experiments/examples/study.ipynb runs top to bottom (nbclient, a fresh kernel) on a tiny study:
-its tables have the rows the study defines and the figure is drawn."""
+its tables have the rows the study defines, the figure is drawn, and its results go to the
+repository's results/ even when Jupyter starts the kernel in the notebook's folder."""
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -29,11 +31,21 @@ def test_notebook_runs_on_a_tiny_study(tmp_path):
     assert not errors, errors
     tables = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
               if o.get("output_type") == "execute_result" and "text/html" in o.get("data", {})]
-    assert len(tables) == 3                     # cells, slopes, per-cell runs summary
-    cells_html = tables[0]["data"]["text/html"]
-    body = cells_html.split("<tbody>")[1]
-    assert body.count("<tr>") == 2 * 2 * 2                  # scenes x samplers x spp
+    assert len(tables) == 4                     # cells, slopes, comparisons, runs of the reopened folder
+    rows = [t["data"]["text/html"].split("<tbody>")[1].count("<tr>") for t in tables]
+    assert rows == [2 * 2 * 2, 2 * 2, 2 * 1 * 2, 2 * 2 * 2]  # scenes x samplers (- baseline) x spp
+    claims = re.findall(r"<td>([^<]*)</td>\s*</tr>", tables[2]["data"]["text/html"])  # last column
+    assert len(claims) == 4 and set(claims) <= {"better", "worse", "no difference", "not resolved"}
     images = [o for c in nb.cells for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
     assert images, "the convergence figure is shown"
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["experiment"] == "example-notebook"
+
+
+def test_notebook_results_do_not_land_beside_it(monkeypatch):
+    setup = nbformat.read(NOTEBOOK, as_version=4).cells[1]
+    monkeypatch.chdir(NOTEBOOK.parent)              # where Jupyter starts the kernel
+    monkeypatch.delenv("DRTLAB_RESULTS", raising=False)
+    names: dict = {}
+    exec(setup.source, names)
+    assert names["OUT"] == REPO / "results" / "example-notebook"
