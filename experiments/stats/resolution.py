@@ -16,7 +16,11 @@ resolved* when
   above `XI_MAX`. Gamma-like and light tails give xi <= 0 (the fit's 95th percentile is 0.04 for a
   gamma law of CV 0.3 on a ladder of 320/80/20/5 runs; below 0.13 even at CV 1), Pareto alpha = 2.5 gives
   xi = 0.4 (flagged in 96% of such ladders), log-normal sigma = 1 about 0.25 (83%). The shape needs
-  `TAIL_MIN_RUNS` pooled runs; with fewer the tail is not assessed and the report says so.
+  `TAIL_MIN_RUNS` pooled runs; with fewer the tail is not assessed and the report says so;
+* or its sampler's runs scatter about the fitted convergence law by more than `ERRATIC_SIGMA` in log
+  RMSE (`slopes.fit_rmse_slope`'s sigma: a factor 1.28): log-normal-like errors, whose tail shape
+  can look light on a few hundred runs (log-normal sigma = 1 escapes the shape test on 17% of
+  ladders, and its log-t intervals then cover 0.87) but whose scatter cannot.
 
 `tests/experiments/stats/test_resolution.py` and `drtlab audit-intervals` measure what this buys.
 """
@@ -33,6 +37,7 @@ XI_MAX = 0.1
 TAIL_FRACTION = 0.2
 TAIL_MIN_EXCEEDANCES = 10
 TAIL_MIN_RUNS = 50
+ERRATIC_SIGMA = 0.25        # sd of a run's log RMSE about the fitted line: pixel noise gives ~0.05
 
 
 def tail_shape(cells) -> dict:
@@ -59,9 +64,11 @@ def tail_shape(cells) -> dict:
     return out
 
 
-def cell_resolution(values, lo: float, heavy_tail: bool = False) -> tuple[bool, str | None]:
+def cell_resolution(values, lo: float, heavy_tail: bool = False,
+                    erratic: bool = False) -> tuple[bool, str | None]:
     """(resolved, why not) for a cell's per-run errors `values` whose mean has the interval lower end
-    `lo`; `heavy_tail` is its sampler's `tail_shape(...)["heavy"]`."""
+    `lo`; `heavy_tail` is its sampler's `tail_shape(...)["heavy"]`, `erratic` whether its sampler's
+    fitted sigma exceeds ERRATIC_SIGMA."""
     v = np.asarray(values, dtype=np.float64)
     v = v[np.isfinite(v)]
     if v.size < MIN_RUNS:
@@ -76,4 +83,7 @@ def cell_resolution(values, lo: float, heavy_tail: bool = False) -> tuple[bool, 
         return False, "dropping its largest run moves the mean below its interval"
     if heavy_tail:
         return False, f"heavy-tailed errors (generalized Pareto shape above {XI_MAX:g})"
+    if erratic:
+        return False, (f"its sampler's errors scatter by more than a factor {math.exp(ERRATIC_SIGMA):.2f} "
+                       f"about the fitted law (log-normal-like tail)")
     return True, None

@@ -34,13 +34,12 @@ from drtlab.experiments.study.run_store import load_cell
 from drtlab.experiments.seeds import short_hash
 from drtlab.experiments.stats.comparisons import assign_claims
 from drtlab.experiments.stats.cost_model import load_shift
-from drtlab.experiments.stats.resolution import cell_resolution, tail_shape
+from drtlab.experiments.stats.resolution import ERRATIC_SIGMA, cell_resolution, tail_shape
 from drtlab.experiments.stats.hypothesis_tests import Z_CI
 from drtlab.experiments.stats.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
 from drtlab.experiments.stats.slopes import STUDY_CHAIN, fit_rmse_slope, fit_typical_slope
 
 NOISE_FLOOR_FRACTION = 0.01
-ERRATIC_SIGMA = 0.25        # log-error scatter above which a sampler's errors are called heavy-tailed
 CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
                 "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
 SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
@@ -385,14 +384,15 @@ def _screen_bias(group_results: dict) -> None:
     resolved = {}
     for g, v in group_results.items():
         # A cell whose squared errors are not resolved has heavy-tailed mean errors too: no claim.
-        runs = next(iter(v.runs.values()))
+        metric, runs = next(iter(v.runs.items()))
         per = {}
         for s, n, x in zip(runs["sampler"], runs["spp"], runs["value"]):
             per.setdefault(s, {}).setdefault(n, []).append(x)
         for s, cells in per.items():
             heavy = tail_shape(list(cells.values()))["heavy"]
+            erratic = bool(getattr(v.slopes[metric].get(s), "erratic", False))
             for n, x in cells.items():
-                resolved[(g, (s, n))] = cell_resolution(x, positive_mean_ci(x)["lo"], heavy)[0]
+                resolved[(g, (s, n))] = cell_resolution(x, positive_mean_ci(x)["lo"], heavy, erratic)[0]
     tests = []
     for g, k in keys:
         b = group_results[g].cells[k].bias

@@ -24,7 +24,7 @@ import numpy as np
 from drtlab.experiments.stats import comparisons as cmp
 from drtlab.experiments.stats.cost_model import CostModel, fit_cost_model
 from drtlab.experiments.stats.intervals import positive_mean_ci
-from drtlab.experiments.stats.resolution import cell_resolution, tail_shape
+from drtlab.experiments.stats.resolution import ERRATIC_SIGMA, cell_resolution, tail_shape
 
 EXTRAPOLATION = 2.0
 NAN = float("nan")
@@ -123,9 +123,10 @@ def fit_law(spp, values, seed: int, floor: float | None, chain: dict) -> dict:
     return fit_rmse_slope(spp, values, seed=seed, floor=floor, **chain)
 
 
-def _cell(s: str, n: int, v: np.ndarray, heavy: bool, cost: CostModel, pixels: int) -> CellEstimate:
+def _cell(s: str, n: int, v: np.ndarray, tail: dict, cost: CostModel, pixels: int) -> CellEstimate:
     ci = positive_mean_ci(v)
-    ok, why = cell_resolution(v, ci["lo"] if ci["method"] != "t-upper" else NAN, heavy)
+    ok, why = cell_resolution(v, ci["lo"] if ci["method"] != "t-upper" else NAN, tail["heavy"],
+                              tail.get("erratic", False))
     if ci["method"] == "t-upper":
         ok, why = False, why or "mean at or below the noise floor"
     lo, hi = cost.seconds_interval(n * pixels)
@@ -214,7 +215,10 @@ def compare_scene(runs, batches, samplers: list, baseline: str, ladder: list, pi
             vals = [x for n in ladder if n in per for x in per[n]]
             fits[s] = fit_law(spp, vals, seed + 7919 * i, floor, chain or STUDY_CHAIN)
     tails = {s: tail_shape([values[s][n] for n in ladder if n in values.get(s, {})]) for s in samplers}
-    cells = {(s, n): _cell(s, n, values[s][n], tails[s]["heavy"], costs[s], pixels)
+    for s in samplers:
+        f = fits.get(s) or {}
+        tails[s]["erratic"] = bool(f.get("ok") and f["sigma"] > ERRATIC_SIGMA)
+    cells = {(s, n): _cell(s, n, values[s][n], tails[s], costs[s], pixels)
              for s in samplers for n in ladder if n in values.get(s, {}) and s in costs}
     rng = np.random.default_rng(seed)
     rows = [_row(s, baseline, n, cells, costs, fits, ladder, pixels, values, rng)

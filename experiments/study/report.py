@@ -4,7 +4,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from drtlab.experiments.study.analysis import ERRATIC_SIGMA, NOISE_FLOOR_FRACTION, span_text
+from drtlab.experiments.study.analysis import NOISE_FLOOR_FRACTION, span_text
+from drtlab.experiments.stats.resolution import ERRATIC_SIGMA
 from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
 from drtlab.experiments.study.ground_truth import GT_SAMPLER
@@ -44,8 +45,8 @@ INTRO = (
     "4000 draws; their intervals are the draws' percentiles.\n\n"
     "**No claim without resolution.** A cell is *not resolved* when its largest run carries over half of "
     "its error, when dropping that run moves its mean below its interval, or when its sampler's errors "
-    "have a heavy upper tail (generalized Pareto shape above 0.1 over its pooled runs): no interval of "
-    "a mean can be trusted to cover then. A comparison involving such a cell is printed as *not "
+    "have a heavy upper tail (generalized Pareto shape above 0.1 over its pooled runs, or a scatter "
+    "about the fitted law above a factor 1.28): no interval of a mean can be trusted to cover then. A comparison involving such a cell is printed as *not "
     "resolved* and makes no claim. Claims (*better*, *worse*, *no difference*) come from the resolved "
     "comparisons, with the Benjamini-Hochberg correction over every test the report states "
     "(speed-up or efficiency, and MSE ratio, per comparison) at a 5% false-discovery rate.\n")
