@@ -48,7 +48,7 @@ def test_terms_the_batches_cannot_separate_leave_the_fit():
     # keeps the per-sample term (the cost at that count is the same either way).
     one = fit_cost_model([1.0, 1.1, 0.9], [2, 2, 2], [1000, 1000, 1000])
     assert one.coef[0] == 0.0 and one.coef[1] == 0.0 and one.coef[2] > 0 and one.dof == 2
-    assert one.seconds(1000) == pytest.approx(0.5, rel=1e-9)
+    assert one.seconds(1000) == pytest.approx(0.5, rel=0.02)        # relative weights: near the mean
     # Two batch sizes at one sample count: the call overhead separates, the per-repetition term not
     # (the per-sample term carries it).
     two = fit_cost_model([1.0 + 2 * 0.5, 1.0 + 4 * 0.5, 1.0 + 2 * 0.5], [2, 4, 2], [1000] * 3)
