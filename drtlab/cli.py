@@ -512,6 +512,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_lobe_command(sub)
     from drtlab.cli_sources import add_sources_command
     add_sources_command(sub)
+    from drtlab.cli_audit import add_audit_command
+    add_audit_command(sub)
     return p
 
 
