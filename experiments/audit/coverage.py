@@ -31,7 +31,10 @@ normal interval (z = 1.96, sd / mean / sqrt(n) per side), a cell's cost as the m
 half of its batches' seconds per repetition with a t interval and a 5% systematic term, the
 efficiency ratio by the delta method over both, every row resolved and claims wherever an interval
 excludes 1, uncorrected. It must fail (a coverage interval outside the band, or false findings
-above 5%) in the equal settings (no correction over a report's tests) and the heavy-tailed ones.
+above 5%) in the equal settings, where it is bound to: eight uncorrected tests of a study make a
+false claim far more often than 5% whatever the law. Elsewhere its failure is reported, not
+required: its delta-method MSE ratio covers 0.91-0.92 under log-normal and Pareto errors, too close
+to the band for a hundred studies to tell.
 """
 from __future__ import annotations
 
@@ -120,14 +123,14 @@ def naive_control(study: Study) -> dict:
     for n in LADDER:
         (mb, sb), (ms, ss) = _naive_log_mean(vals[(BASELINE, n)]), _naive_log_mean(vals[(OTHER, n)])
         (cb, cbs), (cs, css) = cost[(BASELINE, n)], cost[(OTHER, n)]
+        eff_sd = math.sqrt(sb ** 2 + ss ** 2 + cbs ** 2 + css ** 2)
         row = {"spp": n, "resolved": True}
-        for kind, r, sd, truth in (("mse_ratio", mb / ms, math.hypot(sb, ss), T.mse_ratio(n)),
-                                   ("efficiency", mb * cb / (ms * cs), math.sqrt(sb ** 2 + ss ** 2 + cbs ** 2
-                                                                                + css ** 2), T.efficiency(n))):
+        for kind, key, r, sd, truth in (
+                ("mse_ratio", "mse", mb / ms, math.hypot(sb, ss), T.mse_ratio(n)),
+                ("efficiency", "claim", mb * cb / (ms * cs), eff_sd, T.efficiency(n))):
             lo, hi = r * math.exp(-Z_CI * sd), r * math.exp(Z_CI * sd)
             out["intervals"][kind].append((lo, hi, truth, True, f"N={n}"))
-            said = "better" if lo > 1 else "worse" if hi < 1 else "no difference"
-            row["mse" if kind == "mse_ratio" else "claim"] = _claim(said, _sign(truth))
+            row[key] = _claim("better" if lo > 1 else "worse" if hi < 1 else "no difference", _sign(truth))
         out["claims"].append(row)
     return out
 
@@ -281,7 +284,7 @@ def judge(setting: Setting, table: dict) -> list[dict]:
     what, r = _false(c["claims"], setting.equal)
     fails = [k for k in CONTROL_KINDS if not meets(c["kinds"][k]["coverage"])]
     fails += [what] if r["count"] and r["lo"] > MAX_FALSE else []
-    expected = setting.equal or setting.heavy
+    expected = setting.equal
     out.append(_criterion("control fails", bool(fails) or not expected,
                           f"fails on {', '.join(fails) or 'nothing'}", judged=expected))
     return out

@@ -8,7 +8,8 @@ E[X] = 1 drawn from the setting's law. A batch of `reps` repetitions takes
     (CALL + reps (PER_REP + c N pixels)) x noise,   log noise ~ Normal(-sd^2 / 2, sd),
 
 with sd drawn per study in NOISE_SD: the noise has mean 1, so the true cost of one repetition is
-PER_REP + c N pixels exactly (the cost model fits a mean, not a median). A load-step setting
+PER_REP + c N pixels + CALL x its share of a call exactly (the cost model fits a mean, not a median;
+the share is `cost_model.call_share` over the runner's batches, DESIGN). A load-step setting
 multiplies every batch after the middle of the sweep (in batch order) by LOAD_STEP, both samplers
 alike; its "true" cost is then ambiguous (the audit measures against the unloaded one, marked).
 """
@@ -20,6 +21,7 @@ from itertools import zip_longest
 
 import numpy as np
 
+from drtlab.experiments.stats.cost_model import call_share
 from drtlab.experiments.study.runner import batch_ranges
 
 PIXELS = 96 * 72
@@ -32,6 +34,12 @@ CALL, PER_REP = 3e-3, 5e-4                   # seconds per call, per repetition
 PER_SAMPLE = {BASELINE: 150e-9, OTHER: 170e-9}
 NOISE_SD = (0.02, 0.10)                      # range of a study's timing noise (log sd)
 LOAD_STEP = 1.3
+
+
+# Per sample count of the ladder, the mean 1/reps of the runner's batches: the design every
+# simulated cost model is fitted on, which defines a repetition's share of a call.
+DESIGN = tuple((n * PIXELS, float(np.mean([1.0 / (b - a) for a, b in batch_ranges(k, PIXELS, n)])))
+               for n, k in RUNS.items())
 
 
 def _gamma(cv: float):
@@ -105,9 +113,14 @@ class SamplerTruth:
     def mse(self, n: float) -> float:
         return self.scale * n ** (2 * self.slope)
 
-    def seconds(self, n: float, pixels: int = PIXELS) -> float:
-        """Cost of one repetition at N samples per pixel (the call's overhead is not part of it)."""
+    def work_seconds(self, n: float, pixels: int = PIXELS) -> float:
+        """Seconds of one repetition's own work (per repetition + per sample), without the call."""
         return self.per_rep + self.per_sample * n * pixels
+
+    def seconds(self, n: float, pixels: int = PIXELS) -> float:
+        """Cost of one repetition at N samples per pixel as the study renders it: with its share of
+        its batch's call (cost_model.call_share over the runner's batches of the ladder)."""
+        return self.work_seconds(n, pixels) + CALL * float(call_share(n * pixels, DESIGN)[0])
 
     def seconds_to(self, target_rmse: float, pixels: int = PIXELS) -> float:
         """Cost of one render that reaches `target_rmse` (N* from the true law, not rounded)."""
@@ -170,7 +183,7 @@ def simulate_study(setting: Setting, rng: np.random.Generator) -> Study:
     batches = {"sampler": [], "spp": [], "seconds": [], "reps": [], "time": []}
     for i, (s, n, reps) in enumerate(order, start=1):
         t = truth.of(s)
-        sec = (CALL + reps * t.seconds(n)) * rng.lognormal(-0.5 * noise_sd ** 2, noise_sd)
+        sec = (CALL + reps * t.work_seconds(n)) * rng.lognormal(-0.5 * noise_sd ** 2, noise_sd)
         if step_after is not None and i > step_after:
             sec *= LOAD_STEP
         for key, v in zip(batches, (s, n, sec, reps, i)):

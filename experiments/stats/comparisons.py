@@ -5,7 +5,7 @@ with a 95% interval and a p-value, and the claims a report may make from them.
   standard error sqrt(cv_b^2 / n_b + cv_s^2 / n_s) and Welch-Satterthwaite degrees of freedom (the
   log-t interval of each mean, `intervals.positive_mean_ci`, combined).
 * Efficiency ratio at equal N, (m_b T_b) / (m_s T_s): draws of the log MSE ratio from that t law
-  times draws of the cost ratio from both cost models (`cost_model.CostModel.coef_draws`).
+  times draws of the cost ratio from both cost models (`cost_model.CostModel.draw_seconds`).
 * Speed-up at a target error: each sampler's time to reach it, T(N*) with log RMSE = a + b log N*
   from draws of its fitted convergence law (the emcee posterior of `slopes.fit_rmse_slope`) and of
   its cost model; the ratio of the baseline's time to the sampler's, draw by draw.
@@ -93,14 +93,6 @@ def samples_to_reach(line, target: float) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         x = (math.log(target) - a) / b
         return np.where(b < 0, np.exp(np.clip(x, -LOG_CLIP, LOG_CLIP)), np.inf)
-
-
-def seconds_to_reach(line, coef, target: float, pixels: int) -> np.ndarray:
-    """Seconds of one render reaching `target`: (per repetition + per sample x N* x pixels), per row
-    of `line` ((a, b)) and of `coef` ((per repetition, per sample))."""
-    coef = np.atleast_2d(np.asarray(coef, dtype=np.float64))
-    n = samples_to_reach(line, target)
-    return coef[:, 0] + coef[:, 1] * n * pixels
 
 
 def log_time_ratio(t_base, t) -> np.ndarray:

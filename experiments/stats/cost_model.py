@@ -6,8 +6,12 @@ A batch renders `reps` repetitions of `S` samples each in one call. Its seconds 
 
 a per-call overhead, a per-repetition overhead and a per-sample cost, one model per (scene, sampler,
 variant), fitted to every batch the study rendered of it at every sample count (and its timing-only
-batches). A cell's cost is the model's cost of one more repetition, `repetition + sample * S` (the
-call's overhead is spread over a batch and shrinks with its size; a full-size render pays it once).
+batches). A cell's cost is the model's cost of one repetition as the study renders it: `repetition +
+sample * S + call x (its share of a call: the mean of 1/reps over the batches at S)`, and between
+the ladder's sample counts the share is interpolated (log-linear in S). A study sizes its batches to
+about the same number of samples, so the call's share falls with S as the per-sample cost rises: the
+two cannot be told apart (and need not be), but their sum along the batches is known to a few
+percent; the overhead of a single small render is not what a study of large images pays.
 
 The fit is weighted least squares on relative residuals (timing noise is multiplicative: another job
 slows a batch by a fraction). The coefficients are not held non-negative: batches are sized to about
@@ -41,46 +45,57 @@ LOAD_SHIFT_PERMUTATIONS = 999
 @dataclass(frozen=True)
 class CostModel:
     """Fitted coefficients (seconds per call, per repetition, per sample; 0 for a term left out) with
-    their covariance and residual degrees of freedom. A coefficient may come out below 0 within its
-    noise (see the module docstring); the costs it predicts are what is used."""
+    their covariance and residual degrees of freedom, and the batch design they were fitted on
+    (`design`: per sample count the mean of 1/repetitions over its batches). A coefficient may come
+    out below 0 within its noise (see the module docstring); the costs it predicts are what is used."""
     coef: tuple
     cov: tuple                       # (3, 3) as nested tuples: 0 rows/columns for dropped terms
     dof: int
     rel_sd: float                    # relative residual sd of a batch
     batches: int
     residuals: tuple                 # each batch's relative residual, in the order given
+    design: tuple = ()               # ((samples, mean 1/reps), ...) by increasing samples
+
+    def _x(self, samples) -> np.ndarray:
+        """Rows (share of a call, 1, samples) at `samples`: the call's share is that of the batches
+        at the nearest sample counts (log-linear between them, the end values beyond)."""
+        s = np.atleast_1d(np.asarray(samples, dtype=np.float64))
+        return np.stack([call_share(s, self.design), np.ones_like(s), s], axis=-1)
 
     def seconds(self, samples) -> np.ndarray | float:
-        """Cost of one repetition of `samples` samples (per-repetition + per-sample terms)."""
-        c = self.coef
-        v = c[1] + c[2] * np.asarray(samples, dtype=np.float64)
-        return v if np.ndim(v) else float(v)
+        """Cost of one repetition of `samples` samples as the study renders it: per repetition, per
+        sample, and its share of its batch's call."""
+        v = self._x(samples) @ np.asarray(self.coef)
+        return v if np.ndim(samples) else float(v[0])
 
     def coef_draws(self, rng, size: int) -> np.ndarray:
-        """`size` draws of (seconds per repetition, seconds per sample) from their multivariate t
-        (the fitted values repeated where the fit has no residual degree of freedom)."""
-        mean = np.asarray(self.coef[1:], dtype=np.float64)
-        cov = np.asarray(self.cov)[1:, 1:]
+        """`size` draws of the three coefficients from their multivariate t (the fitted values
+        repeated where the fit has no residual degree of freedom)."""
+        mean = np.asarray(self.coef, dtype=np.float64)
+        cov = np.asarray(self.cov)
         if self.dof < 1 or not np.all(np.isfinite(cov)):
-            return np.broadcast_to(mean, (size, 2)).copy()
-        z = rng.multivariate_normal(np.zeros(2), cov, size=size, method="eigh")
+            return np.broadcast_to(mean, (size, 3)).copy()
+        z = rng.multivariate_normal(np.zeros(3), cov, size=size, method="eigh")
         return mean[None, :] + z * np.sqrt(self.dof / rng.chisquare(self.dof, size=size))[:, None]
 
+    def seconds_of_draws(self, coef, samples) -> np.ndarray:
+        """Cost per row of `coef` (from `coef_draws`) at the matching row of `samples`, kept above a
+        thousandth of the fitted cost."""
+        x = self._x(samples)
+        return np.maximum(np.einsum("ij,ij->i", x, coef), 1e-3 * (x @ np.asarray(self.coef)))
+
     def draw_seconds(self, samples, rng, size: int) -> np.ndarray:
-        """`size` draws of one repetition's cost at each of `samples` (shape (size, len)), each kept
-        above a thousandth of the fitted cost."""
+        """`size` draws of one repetition's cost at each of `samples` (shape (size, len))."""
         s = np.atleast_1d(np.asarray(samples, dtype=np.float64))
         c = self.coef_draws(rng, size)
-        mean = np.atleast_1d(self.seconds(s))
-        return np.maximum(c[:, :1] + c[:, 1:] * s[None, :], 1e-3 * mean[None, :])
+        return np.stack([self.seconds_of_draws(c, np.full(size, v)) for v in s], axis=1)
 
     def seconds_interval(self, samples, level: float = 0.95) -> tuple[float, float]:
         """The t interval of one repetition's cost at `samples`."""
         from scipy import stats
-        s = float(samples)
-        x = np.array([1.0, s])
-        var = float(x @ np.asarray(self.cov)[1:, 1:] @ x)
-        m = float(self.seconds(s))
+        x = self._x(float(samples))[0]
+        var = float(x @ np.asarray(self.cov) @ x)
+        m = float(self.seconds(float(samples)))
         if self.dof < 1 or not math.isfinite(var):
             return float("nan"), float("nan")
         h = float(stats.t.ppf(0.5 + level / 2, self.dof)) * math.sqrt(max(var, 0.0))
@@ -89,7 +104,18 @@ class CostModel:
     def to_json(self) -> dict:
         return {"seconds_per_call": self.coef[0], "seconds_per_repetition": self.coef[1],
                 "seconds_per_sample": self.coef[2], "dof": self.dof, "rel_sd": self.rel_sd,
-                "batches": self.batches}
+                "batches": self.batches, "design": [list(d) for d in self.design]}
+
+
+def call_share(samples, design) -> np.ndarray:
+    """The share of a call one repetition at `samples` pays in a study's batches: the design's mean
+    1/reps at its sample counts (`design`: ((samples, mean 1/reps), ...)), log-linear between them
+    and the end values beyond; 1 (a render of its own) without a design."""
+    s = np.atleast_1d(np.asarray(samples, dtype=np.float64))
+    if not design:
+        return np.ones_like(s)
+    d = np.asarray(design, dtype=np.float64)
+    return np.interp(np.log(s), np.log(d[:, 0]), d[:, 1])
 
 
 def fit_cost_model(seconds, reps, samples) -> CostModel:
@@ -131,8 +157,9 @@ def fit_cost_model(seconds, reps, samples) -> CostModel:
     else:
         cov[:] = np.nan
     rel_sd = math.sqrt(s2) if dof > 0 else float("nan")
+    design = tuple((float(v), float(np.mean(1.0 / R[S == v]))) for v in np.unique(S))
     return CostModel(tuple(float(v) for v in coef), tuple(tuple(float(v) for v in row) for row in cov),
-                     int(dof), rel_sd, int(n), tuple(float(v) for v in r))
+                     int(dof), rel_sd, int(n), tuple(float(v) for v in r), design)
 
 
 def load_shift(times, residuals, seed: int = 0) -> dict:

@@ -1,6 +1,7 @@
 """One scene of one study: each sampler's cells, tail, cost model and convergence law, and its
 comparisons with the baseline at every N of the ladder. Every interval the report prints about them
-comes from here; `audit.py` feeds simulated studies with a known truth through the same functions.
+comes from here; `experiments/audit/coverage.py` (`drtlab audit-intervals`) feeds simulated studies
+with a known truth through the same functions.
 
 Inputs are plain tables, so a synthetic study needs no renderer:
   runs     sampler, spp, value                    one row per run (its squared error: MSE or relMSE)
@@ -157,8 +158,10 @@ def speedup(fit_b: dict | None, fit_s: dict | None, cost_b: CostModel, cost_s: C
     k = cmp.DRAWS
     lines_b = db[rng.integers(0, len(db), size=k)]
     lines_s = ds[rng.integers(0, len(ds), size=k)]
-    d = cmp.log_time_ratio(cmp.seconds_to_reach(lines_b, cost_b.coef_draws(rng, k), target, pixels),
-                           cmp.seconds_to_reach(lines_s, cost_s.coef_draws(rng, k), target, pixels))
+    with np.errstate(invalid="ignore"):
+        t_b = cost_b.seconds_of_draws(cost_b.coef_draws(rng, k), cmp.samples_to_reach(lines_b, target) * pixels)
+        t_s = cost_s.seconds_of_draws(cost_s.coef_draws(rng, k), cmp.samples_to_reach(lines_s, target) * pixels)
+    d = cmp.log_time_ratio(t_b, t_s)
     out.update(cmp.interval_of_draws(d, point))
     out.update(n=ns, n_base=nb)
     return out

@@ -39,7 +39,11 @@ def _band(p: float, n: int, level: float = 0.999) -> tuple[float, float]:
 def test_exact_batches_give_the_exact_model():
     m = fit_cost_model(*_batches(None, 0.0))
     assert m.coef == pytest.approx((CALL, REP, SAMPLE), rel=1e-9)
-    assert m.seconds(64 * PIXELS) == pytest.approx(REP + SAMPLE * 64 * PIXELS, rel=1e-9)
+    # one repetition as the study renders it: its work and its share of its batch's call (N = 64's
+    # batches hold 3 and 2 repetitions here: a share of (1/3 + 1/2) / 2)
+    share = (1 / 3 + 1 / 2) / 2
+    assert m.seconds(64 * PIXELS) == pytest.approx(REP + SAMPLE * 64 * PIXELS + CALL * share, rel=1e-9)
+    assert m.seconds(32 * PIXELS) > m.seconds(16 * PIXELS)          # between the ladder's counts
     assert m.dof == 7 and m.batches == 10
 
 
@@ -50,17 +54,17 @@ def test_terms_the_batches_cannot_separate_leave_the_fit():
     assert one.coef[0] == 0.0 and one.coef[1] == 0.0 and one.coef[2] > 0 and one.dof == 2
     assert one.seconds(1000) == pytest.approx(0.5, rel=0.02)        # relative weights: near the mean
     # Two batch sizes at one sample count: the call overhead separates, the per-repetition term not
-    # (the per-sample term carries it).
+    # (the per-sample term carries it); a repetition pays its mean share of a call, (1/2 + 1/4 + 1/2) / 3.
     two = fit_cost_model([1.0 + 2 * 0.5, 1.0 + 4 * 0.5, 1.0 + 2 * 0.5], [2, 4, 2], [1000] * 3)
     assert two.coef[0] == pytest.approx(1.0) and two.coef[1] == 0.0
-    assert two.seconds(1000) == pytest.approx(0.5)
+    assert two.seconds(1000) == pytest.approx(0.5 + 1.0 * (0.5 + 0.25 + 0.5) / 3)
 
 
 def test_the_cost_interval_covers_at_its_level():
     # 400 sweeps with 2-10% batch noise: the 95% t interval of one repetition's cost at N = 64 covers
     # the true cost within the 99.9% binomial band around 0.95.
     rng = np.random.default_rng(2)
-    truth = REP + SAMPLE * 64 * PIXELS
+    truth = REP + SAMPLE * 64 * PIXELS + CALL * (1 / 3 + 1 / 2) / 2     # with its share of a call
     hits = 0
     for _ in range(400):
         m = fit_cost_model(*_batches(rng, rng.uniform(0.02, 0.10)))
