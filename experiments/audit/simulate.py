@@ -11,7 +11,8 @@ with sd drawn per study in NOISE_SD: the noise has mean 1, so the true cost of o
 PER_REP + c N pixels + CALL x its share of a call exactly (the cost model fits a mean, not a median;
 the share is `cost_model.call_share` over the runner's batches, DESIGN). A load-step setting
 multiplies every batch after the middle of the sweep (in batch order) by LOAD_STEP, both samplers
-alike; its "true" cost is then ambiguous (the audit measures against the unloaded one, marked).
+alike. Each sampler's batches also share a process factor (log-normal, sd PROCESS_SD, mean 1): the
+speed of one run's process against the machine's, which its batches cannot see; its "true" cost is then ambiguous (the audit measures against the unloaded one, marked).
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from itertools import zip_longest
 
 import numpy as np
 
-from drtlab.experiments.stats.cost_model import call_share
+from drtlab.experiments.stats.cost_model import PROCESS_SD, call_share
 from drtlab.experiments.study.runner import batch_ranges
 
 PIXELS = 96 * 72
@@ -179,11 +180,13 @@ def simulate_study(setting: Setting, rng: np.random.Generator) -> Study:
             runs["value"] += list(t.mse(n) * draw(rng, k))
             per_cell.append([(s, n, b - a) for a, b in batch_ranges(k, PIXELS, n)])
     order = [b for turn in zip_longest(*per_cell) for b in turn if b is not None]
+    # Each sampler's speed in this process (cost_model.PROCESS_SD): the truth is the machine's.
+    process = {s: rng.lognormal(-0.5 * PROCESS_SD ** 2, PROCESS_SD) for s in (BASELINE, OTHER)}
     step_after = len(order) // 2 if setting.load_step else None
     batches = {"sampler": [], "spp": [], "seconds": [], "reps": [], "time": []}
     for i, (s, n, reps) in enumerate(order, start=1):
         t = truth.of(s)
-        sec = (CALL + reps * t.work_seconds(n)) * rng.lognormal(-0.5 * noise_sd ** 2, noise_sd)
+        sec = (CALL + reps * t.work_seconds(n)) * rng.lognormal(-0.5 * noise_sd ** 2, noise_sd) * process[s]
         if step_after is not None and i > step_after:
             sec *= LOAD_STEP
         for key, v in zip(batches, (s, n, sec, reps, i)):

@@ -37,6 +37,12 @@ from dataclasses import dataclass
 import numpy as np
 
 PARAMS = ("call", "repetition", "sample")     # seconds per call, per repetition, per sample
+# A process's speed differs from the next one's on the same machine (memory layout, frequency,
+# caches): between two fresh runs of the default study, the ratio of two samplers' costs moved by a
+# relative sd of 6.5% (up to 15%), which batches within one run cannot see. Each sampler's cost
+# carries this relative sd on top of its fit (sqrt(2) x 4.5% = 6.4% on a ratio).
+PROCESS_SD = 0.045
+INTERVAL_DRAWS = 20000
 LOAD_SHIFT_P = 0.01                 # a step in the residuals below this p-value is reported
 LOAD_SHIFT_MIN_SIDE = 4             # batches on each side of a split the test considers
 LOAD_SHIFT_PERMUTATIONS = 999
@@ -70,13 +76,15 @@ class CostModel:
 
     def coef_draws(self, rng, size: int) -> np.ndarray:
         """`size` draws of the three coefficients from their multivariate t (the fitted values
-        repeated where the fit has no residual degree of freedom)."""
+        where the fit has no residual degree of freedom), each row scaled by a process factor of
+        relative sd PROCESS_SD."""
         mean = np.asarray(self.coef, dtype=np.float64)
         cov = np.asarray(self.cov)
         if self.dof < 1 or not np.all(np.isfinite(cov)):
-            return np.broadcast_to(mean, (size, 3)).copy()
+            return mean[None, :] * np.exp(PROCESS_SD * rng.standard_normal(size))[:, None]
         z = rng.multivariate_normal(np.zeros(3), cov, size=size, method="eigh")
-        return mean[None, :] + z * np.sqrt(self.dof / rng.chisquare(self.dof, size=size))[:, None]
+        fit = mean[None, :] + z * np.sqrt(self.dof / rng.chisquare(self.dof, size=size))[:, None]
+        return fit * np.exp(PROCESS_SD * rng.standard_normal(size))[:, None]
 
     def seconds_of_draws(self, coef, samples) -> np.ndarray:
         """Cost per row of `coef` (from `coef_draws`) at the matching row of `samples`, kept above a
@@ -91,15 +99,14 @@ class CostModel:
         return np.stack([self.seconds_of_draws(c, np.full(size, v)) for v in s], axis=1)
 
     def seconds_interval(self, samples, level: float = 0.95) -> tuple[float, float]:
-        """The t interval of one repetition's cost at `samples`."""
-        from scipy import stats
-        x = self._x(float(samples))[0]
-        var = float(x @ np.asarray(self.cov) @ x)
-        m = float(self.seconds(float(samples)))
-        if self.dof < 1 or not math.isfinite(var):
+        """The interval of one repetition's cost at `samples`: percentiles of `INTERVAL_DRAWS` draws
+        (fixed seed), so that it is the interval the speed-ups' and efficiencies' draws imply."""
+        if self.dof < 1 or not np.all(np.isfinite(np.asarray(self.cov))):
             return float("nan"), float("nan")
-        h = float(stats.t.ppf(0.5 + level / 2, self.dof)) * math.sqrt(max(var, 0.0))
-        return max(m - h, 1e-3 * m), m + h
+        d = self.draw_seconds([float(samples)], np.random.default_rng(0), INTERVAL_DRAWS)[:, 0]
+        q = 100 * (1 - level) / 2
+        lo, hi = np.percentile(d, [q, 100 - q])
+        return float(lo), float(hi)
 
     def to_json(self) -> dict:
         return {"seconds_per_call": self.coef[0], "seconds_per_repetition": self.coef[1],
@@ -139,11 +146,15 @@ def fit_cost_model(seconds, reps, samples) -> CostModel:
     # Terms the design cannot tell apart, or that leave no residual degree of freedom, leave the
     # fit: the call overhead first, then the per-repetition one; the per-sample term stays.
     active = next((cs for cs in ([0, 1, 2], [1, 2], [0, 2]) if separable(cs)), [2])
-    w = 1.0 / y                                          # relative residuals
     scale_a = X[:, active].max(axis=0)
-    A = X[:, active] / scale_a * w[:, None]
-    sol, *_ = np.linalg.lstsq(A, y * w, rcond=None)
-    fitted = (X[:, active] / scale_a) @ sol
+    fitted = y
+    # Relative residuals, weighted by the fitted cost (iterated): weights of the observed costs
+    # would favour the batches that happened to run fast.
+    for _ in range(3):
+        w = 1.0 / fitted
+        A = X[:, active] / scale_a * w[:, None]
+        sol, *_ = np.linalg.lstsq(A, y * w, rcond=None)
+        fitted = np.maximum((X[:, active] / scale_a) @ sol, 1e-3 * y)
     r = y / fitted - 1.0
     dof = n - len(active)
     wr = (y - fitted) * w

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from drtlab.experiments.stats.cost_model import fit_cost_model, load_shift
+from drtlab.experiments.stats.cost_model import PROCESS_SD, fit_cost_model, load_shift
 from drtlab.experiments.study.run_store import MIN_TIMED_SECONDS, load_calibration
 from drtlab.experiments.study.config import load_experiment
 from drtlab.experiments.study.runner import run_experiment
@@ -23,10 +23,12 @@ CALL, REP, SAMPLE = 3e-3, 5e-4, 150e-9
 
 def _batches(rng, noise: float, spp=(1, 4, 16, 64), reps=((107, 107, 106), (27, 27, 26), (10, 10), (3, 2))):
     seconds, r, samples = [], [], []
+    # one process factor per sweep (cost_model.PROCESS_SD), then each batch's own noise
+    process = rng.lognormal(-0.5 * PROCESS_SD ** 2, PROCESS_SD) if noise else 1.0
     for n, cuts in zip(spp, reps):
         for k in cuts:
             true = CALL + k * (REP + SAMPLE * n * PIXELS)
-            seconds.append(true * (rng.lognormal(0.0, noise) if noise else 1.0))
+            seconds.append(true * process * (rng.lognormal(-0.5 * noise ** 2, noise) if noise else 1.0))
             r.append(k)
             samples.append(n * PIXELS)
     return seconds, r, samples
