@@ -206,7 +206,7 @@ def test_bad_flags_are_one_line_and_exit_2(argv, field, capsys, tmp_path):
 def test_command_writes_the_tables_and_the_same_seed_gives_the_same_ones(tmp_path, capsys):
     tables = []
     for out in ("a", "b"):
-        code = _run(["--studies", "1", "--settings", "light-s1", "--jobs", "1", "--seed", "7",
+        code = _run(["--no-renderer", "--studies", "1", "--settings", "light-s1", "--jobs", "1", "--seed", "7",
                      "--out", str(tmp_path / out)])
         assert code in (0, 1)
         printed = capsys.readouterr().out
