@@ -93,3 +93,22 @@ def sphere_grid_centres(count: int, center, size: float) -> np.ndarray:
     i, j = np.meshgrid(k, k, indexing="ij")
     offsets = np.column_stack([i.ravel(), np.zeros(i.size), j.ravel()])
     return np.asarray(center, dtype=np.float64) + offsets
+
+
+def inward_box_faces(lo, hi):
+    """(axis, side, origin, edge_u, edge_v) of each of the 6 faces of the box [lo, hi]^3, with
+    edge_u x edge_v pointing into the box (a quad with that normal emits inwards): closed boxes of
+    emitters, the white furnaces of the tests and of the interval audit."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    ext = hi - lo
+    for a in range(3):
+        b, c = (a + 1) % 3, (a + 2) % 3
+        for side in (0, 1):
+            origin = lo.copy()
+            origin[a] = hi[a] if side else lo[a]
+            eu, ev, inward = np.zeros(3), np.zeros(3), np.zeros(3)
+            eu[b], ev[c] = ext[b], ext[c]
+            inward[a] = -1.0 if side else 1.0
+            if np.dot(np.cross(eu, ev), inward) < 0:
+                eu, ev = ev, eu
+            yield a, side, origin, eu, ev

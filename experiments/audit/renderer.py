@@ -72,22 +72,10 @@ INTERVALS = ("study", "naive-z")
 
 def _inward_box_quads(half: float, material: str) -> list[dict]:
     """The 6 faces of [-half, half]^3 with edge_u x edge_v pointing into the box (they emit inwards)."""
-    lo, hi = np.full(3, -half), np.full(3, half)
-    ext = hi - lo
-    out = []
-    for a in range(3):
-        b, c = (a + 1) % 3, (a + 2) % 3
-        for side in (0, 1):
-            origin = lo.copy()
-            origin[a] = hi[a] if side else lo[a]
-            eu, ev, inward = np.zeros(3), np.zeros(3), np.zeros(3)
-            eu[b], ev[c] = ext[b], ext[c]
-            inward[a] = -1.0 if side else 1.0
-            if np.dot(np.cross(eu, ev), inward) < 0:
-                eu, ev = ev, eu
-            out.append({"kind": "quad", "material": material, "origin": [float(x) for x in origin],
-                        "edge_u": [float(x) for x in eu], "edge_v": [float(x) for x in ev]})
-    return out
+    from drtlab.kernels.procedural import inward_box_faces
+    return [{"kind": "quad", "material": material, "origin": [float(x) for x in origin],
+             "edge_u": [float(x) for x in eu], "edge_v": [float(x) for x in ev]}
+            for _, _, origin, eu, ev in inward_box_faces(np.full(3, -half), np.full(3, half))]
 
 
 def furnace_scene(res=(32, 24)) -> tuple[dict, float]:

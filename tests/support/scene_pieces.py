@@ -117,34 +117,22 @@ def sphere(center, radius, material, **kw) -> dict:
 def inward_box_quads(lo, hi, material, split_face: bool = False) -> list[dict]:
     """The 6 faces of [lo, hi]^3 as quads whose normals (edge_u x edge_v) point INTO the box, so an
     emissive material radiates inwards. `split_face` cuts the +z face in two along x (a shared edge)."""
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    ext = hi - lo
+    from drtlab.kernels.procedural import inward_box_faces
+    ext = np.asarray(hi, float) - np.asarray(lo, float)
     out = []
-    for a in range(3):
-        b, c = (a + 1) % 3, (a + 2) % 3
-        for side in (0, 1):
-            origin = lo.copy()
-            origin[a] = hi[a] if side else lo[a]
-            eu = np.zeros(3)
-            eu[b] = ext[b]
-            ev = np.zeros(3)
-            ev[c] = ext[c]
-            inward = np.zeros(3)
-            inward[a] = -1.0 if side else 1.0
-            if np.dot(np.cross(eu, ev), inward) < 0:
-                eu, ev = ev, eu
-            if split_face and a == 2 and side == 1:
-                # The +z face as two quads sharing the edge x = lo + ext / 2.
-                half = np.zeros(3)
-                half[0] = ext[0] / 2
-                e_x = eu if eu[0] != 0 else ev
-                e_o = ev if eu[0] != 0 else eu
-                first_is_u = eu[0] != 0
-                for k in range(2):
-                    o2 = origin + half * k
-                    ex = e_x / 2
-                    q = (ex, e_o) if first_is_u else (e_o, ex)
-                    out.append(quad(o2, q[0], q[1], material))
-                continue
-            out.append(quad(origin, eu, ev, material))
+    for a, side, origin, eu, ev in inward_box_faces(lo, hi):
+        if split_face and a == 2 and side == 1:
+            # The +z face as two quads sharing the edge x = lo + ext / 2.
+            half = np.zeros(3)
+            half[0] = ext[0] / 2
+            e_x = eu if eu[0] != 0 else ev
+            e_o = ev if eu[0] != 0 else eu
+            first_is_u = eu[0] != 0
+            for k in range(2):
+                o2 = origin + half * k
+                ex = e_x / 2
+                q = (ex, e_o) if first_is_u else (e_o, ex)
+                out.append(quad(o2, q[0], q[1], material))
+            continue
+        out.append(quad(origin, eu, ev, material))
     return out
