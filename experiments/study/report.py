@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from drtlab.experiments.study.analysis import NOISE_FLOOR_FRACTION, span_text
+from drtlab.experiments.study.analysis import span_text
 from drtlab.experiments.stats.resolution import ERRATIC_SIGMA
 from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
@@ -12,7 +12,11 @@ from drtlab.experiments.study.ground_truth import GT_SAMPLER
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.metrics import REL_EPS
-from drtlab.experiments.study.results import Interval, SceneResult, StudyResult, Summary
+from drtlab.experiments.study.report_sections import (
+    _ci, _cost_section, _diagnostics_section, _noise_floor_section, _ratio, _reproduce_section,
+    _where_section, fmt, fmt_ci,
+)
+from drtlab.experiments.study.results import SceneResult, StudyResult, Summary
 from drtlab.experiments.stats.slopes import RESOLVED_WIDTH
 
 ERRATIC_TXT = f"{ERRATIC_SIGMA:g} in log error (a factor {math.exp(ERRATIC_SIGMA):.2f})"
@@ -50,36 +54,6 @@ INTRO = (
     "resolved* and makes no claim. Claims (*better*, *worse*, *no difference*) come from the resolved "
     "comparisons, with the Benjamini-Hochberg correction over every test the report states "
     "(speed-up or efficiency, and MSE ratio, per comparison) at a 5% false-discovery rate.\n")
-
-
-def fmt(x, digits=3) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "–"
-    if x == 0:
-        return "0"
-    a = abs(x)
-    if a >= 1e4 or a < 1e-3:
-        return f"{x:.{digits - 1}e}"
-    return f"{x:.{digits}g}"
-
-
-def fmt_ci(m, lo, hi, digits=3) -> str:
-    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
-        return fmt(m, digits)
-    return f"{fmt(m, digits)} [{fmt(lo, digits)}, {fmt(hi, digits)}]"
-
-
-def _ratio(x, lo, hi) -> str:
-    """A ratio with its interval, as `2.1× [1.8, 2.4]`."""
-    if x is None or not math.isfinite(x):
-        return "–"
-    txt = f"{fmt(x)}×"
-    return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if lo is not None and math.isfinite(lo)
-                  and hi is not None and math.isfinite(hi) else "")
-
-
-def _ci(iv: Interval) -> str:
-    return fmt_ci(iv.mean, iv.lo, iv.hi)
 
 
 def _rel(p: Path, base: Path) -> str:
@@ -432,104 +406,6 @@ def _cell_table(study: StudyResult) -> list[str]:
 # ---------------------------------------------------------------------------------------------------
 # Experiment-wide sections
 # ---------------------------------------------------------------------------------------------------
-
-def _noise_floor_section(summary: Summary) -> list[str]:
-    lines = ["## Ground truth and noise floor\n",
-             "The reference is itself noisy: its mean per-pixel variance Var_GT adds to every measured MSE. "
-             "It is subtracted from every MSE above; it should stay below "
-             f"{100 * NOISE_FLOOR_FRACTION:.0f}% of the smallest MSE measured.\n",
-             "| Scene / integrator / resolution | Reference spp | Var_GT | Smallest cell MSE | "
-             "Var_GT ÷ smallest MSE |",
-             "|---|---|---|---|---|"]
-    for name, nf in summary.noise_floor.items():
-        frac = nf.fraction_of_smallest_mse
-        lines.append(f"| {name} | {nf.gt_spp} | {fmt(nf.gt_variance)} | {fmt(nf.smallest_mse)} | "
-                     f"{fmt(100 * frac if frac is not None else float('nan'))}%{' ⚠' if nf.warning else ''} |")
-    if summary.warnings:
-        lines.append("\n**Warnings:**\n")
-        lines += [f"- {m}" for m in summary.warnings]
-    lines.append("")
-    return lines
-
-
-def _cost_section(summary: Summary) -> list[str]:
-    """Each scene's cost models (one per sampler) and whether the machine's load moved."""
-    lines = ["## Cost models\n",
-             "CPU seconds of a batch = per call + repetitions × (per repetition + per sample × samples), "
-             "fitted per scene and sampler to every timed batch (`stats/cost_model.py`); the relative "
-             "residual sd is a batch's timing noise.\n",
-             "| Scene | Sampler | ns per sample | ms per repetition | ms per call | batches | "
-             "residual sd |", "|---|---|---|---|---|---|---|"]
-    seen = set()
-    for study in summary.studies:
-        for scene in study.scenes:
-            for s, m in scene.costs.items():
-                if (scene.scene, s) in seen:
-                    continue
-                seen.add((scene.scene, s))
-                lines.append(f"| {scene.scene} | `{s}` | {fmt(1e9 * m.coef[2])} | {fmt(1e3 * m.coef[1])} | "
-                             f"{fmt(1e3 * m.coef[0])} | {m.batches} | {fmt(100 * m.rel_sd)}% |")
-    load = summary.load or {}
-    if load.get("shifted"):
-        lines.append(f"\n**The load moved:** {load['text']}.\n")
-    elif load.get("batches"):
-        lines.append(f"\nNo step in the machine's load: a step test over the {load['batches']} batches' "
-                     f"residuals in time order gives p = {fmt(load['p'])} (reported below 0.01).\n")
-    lines.append("")
-    return lines
-
-
-def _diagnostics_section(summary: Summary) -> list[str]:
-    ch = summary.chains
-    lines = ["## Slope-fit diagnostics\n",
-             f"Model (`slopes.fit_rmse_slope`): each run's MSE is Gamma-distributed with mean "
-             f"A·N^(2b) and a coefficient of variation that changes smoothly (log-linearly) with N, so b is "
-             f"the slope of the RMSE itself, the root of the mean MSE, whatever the shape of the per-run "
-             f"law (heavy tails included); runs below the reference's noise floor count as censored. Flat "
-             f"priors, emcee (differential-evolution moves, fixed seed). Lack of fit: an F test of the "
-             f"cell means against one slope. The typical-error slope fits log RMSE = a + b·log N + ε per "
-             f"run. {ch.converged} of {ch.fits} fits pass "
-             f"the chain checks (mean acceptance fraction in [0.15, 0.8], chain longer than 50 "
-             f"autocorrelation times); acceptance fractions {fmt(ch.acceptance_fraction_range[0])}–"
-             f"{fmt(ch.acceptance_fraction_range[1])}, largest autocorrelation time "
-             f"{fmt(ch.max_autocorr_time)} steps.\n",
-             "| Scene | Sampler | Error | b | Lack of fit p | σ | Acceptance | τ | Converged | Points (dropped) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
-    seen = set()
-    for study in summary.studies:
-        for scene in study.scenes:
-            for s, f in scene.slopes.items():
-                if (scene.scene, s, study.metric) in seen or not f.ok:
-                    continue
-                seen.add((scene.scene, s, study.metric))
-                lines.append(
-                    f"| {scene.scene} | `{s}` | {study.metric_label} | {f.slope:.3f} | "
-                    f"{fmt(f.lack_of_fit_p)} | {fmt(f.sigma)} | "
-                    f"{f.acceptance_fraction:.2f} | {', '.join(f'{t:.1f}' for t in f.autocorr_time)} | "
-                    f"{'yes' if f.converged else 'NO'} | {f.n_points} ({f.dropped}) |")
-    lines.append("")
-    return lines
-
-
-def _where_section(records: dict) -> list[str]:
-    """How many runs each process rendered (`worker` in runs.csv: local, or a Dask worker)."""
-    counts: dict[str, int] = {}
-    for rec in records.values():
-        w = rec.get("worker") or "local"
-        counts[w] = counts.get(w, 0) + 1
-    if not counts:
-        return []
-    return ["## Where the runs rendered\n",
-            "; ".join(f"`{w}`: {n} runs" for w, n in sorted(counts.items())) + ".\n"]
-
-
-def _reproduce_section(exp) -> list[str]:
-    return ["## Reproduce\n",
-            f"`drtlab experiment {exp.name} --profile {exp.profile}` reruns only what is missing; "
-            f"`--fresh` starts over (the ground truth cache in `results/ground-truth/` is kept). Every run's "
-            f"seed is in `runs.csv`; versions, machine and timings are in `manifest.json`; all numbers above "
-            f"are in `summary.json`.\n"]
-
 
 def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts: dict) -> None:
     """Figures under `plots/` and `images/`, then `report.md`, all in `out_dir`."""
