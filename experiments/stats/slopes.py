@@ -23,8 +23,9 @@ it inherits the dispersion the other cells reveal, and gets little weight. Value
 `floor` (a corrected MSE <= 0: below the noise floor) are left-censored there. `lack_of_fit_p` is an
 F test of the cell means' scatter about the power law against the runs' scatter within cells: a
 small value (< 0.001; about 1% of calibrated ladders reach 0.01) means no single slope describes the
-ladder, e.g. a plateau from a bias. Where the fit shows strain (scatter above LIGHT_SIGMA, a cell
-carried by one run, lack of fit p < 0.01, or the two estimates disagreeing) the reported interval
+ladder, e.g. a plateau from a bias. Where the fit shows strain (scatter above LIGHT_SIGMA, a heavy
+pooled tail by `resolution.tail_shape`, a cell carried by one run, lack of fit p < 0.01, or the two
+estimates disagreeing) the reported interval
 (`slope_lo`, `slope_hi`) is the union of this fit's credible interval
 (`model_slope_lo/hi`) and a model-free one (`cell_means_*`: least squares of log sqrt(cell-mean MSE)
 on log N, Student-t on C - 2 degrees of freedom, from 4 cells on), because the Gamma law is wrong
@@ -63,6 +64,7 @@ import numpy as np
 from scipy import special, stats
 
 from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
+from drtlab.experiments.stats.resolution import tail_shape
 
 A_BOX = 100.0
 B_BOX = 10.0
@@ -385,7 +387,8 @@ def fit_rmse_slope(n, mse, *, seed: int = 0, nwalkers: int = 32, nsteps: int = 2
         # scatter, no cell carried by one run, no lack of fit, both estimates agreeing. There the
         # union covered 0.98-0.995 on simulated ladders (the cell means' t has C - 2 degrees of
         # freedom) and the model alone 0.93-0.96 (`drtlab audit-intervals`).
-        if not (agree and sigma <= LIGHT_SIGMA and not saturated and p_fit >= 0.01):
+        light = not tail_shape([m[n == v] for v in np.unique(n)])["heavy"]
+        if not (agree and light and sigma <= LIGHT_SIGMA and not saturated and p_fit >= 0.01):
             lo, hi = min(lo, means[1]), max(hi, means[2])
     cv = np.sqrt(np.exp(med[2] + med[3] * x))
     fitted = np.exp(float(a_med) + float(b_med) * c["x"])
