@@ -80,9 +80,7 @@ CELL_MEANS_MIN_CELLS = 4  # the model-free interval needs C - 2 >= 2 degrees of 
 LOG_CDF_MIN = -700.0             # log P(m <= floor) is clipped here (gammainc underflows to 0)
 # The chain of every study's RMSE fit: the renderer's analysis and the integrand testbed report
 # slopes side by side, so they fit them alike (fit_rmse_slope's own default serves the tests).
-# 800 kept steps of 32 walkers are ~70 autocorrelation times (tau ~11 with DE moves): ~2300
-# independent draws, plenty for 95% percentiles, at half the cost of 2000 steps.
-STUDY_CHAIN = {"nsteps": 1000, "burn": 200}
+STUDY_CHAIN = {"nsteps": 2000, "burn": 400}
 
 
 def _log_prob(theta: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
