@@ -12,6 +12,8 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     result = drtlab.run_experiment("stratified")          # or a dict shaped like an experiment file
     result.cells, result.slopes, result.comparisons, result.plot_convergence()
     result = drtlab.open_results("results/stratified")    # a finished folder: nothing re-run
+    drtlab.register_pointset(drtlab.pointset_from_table("mysobol", table))   # your own point set
+    drtlab.load_plugin("my_sets.py")                      # a file that registers some
 
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
 `drtlab.experiments` (see pyproject.toml).
@@ -56,6 +58,9 @@ def __getattr__(name: str):
     if name == "RenderResult":
         from drtlab.render_result import RenderResult
         return RenderResult
+    if name == "PointSet":
+        from drtlab.estimators.pointsets.base import PointSet
+        return PointSet
     if name == "DEFAULT_SAMPLER":
         from drtlab.estimators.defaults import DEFAULT_SAMPLER
         return DEFAULT_SAMPLER
@@ -124,3 +129,25 @@ def variance_sources(scene, spp: int = 256, **kwargs):
     maps, interaction remainder) is `drtlab.experiments.sources.decompose.variance_sources`."""
     from drtlab.experiments.sources.decompose import variance_sources as _sources
     return _sources(scene, spp=spp, **kwargs).frame()
+
+
+def register_pointset(pointset, check: bool = True):
+    """`drtlab.plugins.register_pointset`: make a `drtlab.PointSet` (your own Warp functions, or
+    `pointset_from_table(...)`) usable by name in every render, study and check."""
+    from drtlab.plugins import register_pointset as _register
+    return _register(pointset, check)
+
+
+def pointset_from_table(name: str, points, n: int | None = None, randomize: str = "owen",
+                        description: str | None = None):
+    """A PointSet from a table of points: an (M, D) array, a .npy or UTK text file, or a
+    `scipy.stats.qmc` engine / QMCPy generator with `n` points; randomized per pixel by `owen`,
+    `xor`, `shift` or `none` (estimators/pointsets/tabulated.py says which keeps what)."""
+    from drtlab.estimators.pointsets.tabulated import tabulated
+    return tabulated(name, points, n=n, randomize=randomize, description=description)
+
+
+def load_plugin(path_or_module):
+    """Import a plugin file or module (it registers its point sets); returns its record."""
+    from drtlab.plugins import load_plugin as _load
+    return _load(path_or_module, "plugin")

@@ -17,7 +17,15 @@ EXIT_BROKEN_PIPE = 128 + 13
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2."""
+    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2. Every
+    command takes `--plugin` (read by `run_main` before parsing: a plugin's names must be known to
+    the checks of the other arguments)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.add_argument("--plugin", action="append", default=None, metavar="FILE_OR_MODULE",
+                          help="load a plugin first: a .py file or a module that registers point "
+                               "sets (repeatable; see docs/plugins.md)")
 
     def error(self, message: str):
         m = re.match(r"argument ([^:]+): (.*)", message)
@@ -36,7 +44,8 @@ class Help(argparse.ArgumentDefaultsHelpFormatter):
     """Shows a flag's default where it has one; defaults that depend on the scene say so in words."""
 
     def _get_help_string(self, action):
-        if action.default is None or action.default is False or action.default is argparse.SUPPRESS:
+        # A switch (store_true / store_false) says what it does; "(default: True)" would not.
+        if action.default is None or isinstance(action.default, bool) or action.default is argparse.SUPPRESS:
             return action.help
         return super()._get_help_string(action)
 
@@ -83,6 +92,8 @@ def run_main(build_parser, argv: list[str] | None = None) -> int:
     output pipe exit 141 without a word."""
     try:
         try:
+            from drtlab.plugins import load_plugins, plugin_args
+            load_plugins(plugin_args(sys.argv[1:] if argv is None else list(argv)))
             args = build_parser().parse_args(argv)
             code = args.func(args)
         finally:

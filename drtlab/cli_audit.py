@@ -37,11 +37,7 @@ def cmd_audit_intervals(args) -> int:
         renderer_lines = ["", "## The cell MSE interval on the renderer (white furnace, 200 cells of 5 "
                           "runs, 32x24, exact reference)", ""] + [f"    {ln}" for ln in summary_lines(r)]
     result["pass"] = ok
-    lines = write_audit(result, Path(out))
-    if args.renderer:
-        lines += renderer_lines
-        with open(Path(out) / "intervals.md", "a") as f:
-            f.write("\n".join(renderer_lines) + "\n")
+    lines = write_audit(result, Path(out), renderer_lines if args.renderer else [])
     print("\n".join(lines))
     print(f"wrote {out}/: intervals.json, intervals.md")
     return 0 if ok else 1

@@ -46,8 +46,9 @@ def slots(dims: int) -> list[tuple[int, int, int]]:
 def _kernel(name: str, ps=None):
     from drtlab.estimators.registry import POINTSETS
     wp = _warp()
-    if name not in _kernels:
-        ps = POINTSETS[name] if ps is None else ps
+    ps = POINTSETS[name] if ps is None else ps
+    key = (name, ps.fingerprint)           # a replaced plugin set under the same name recompiles
+    if key not in _kernels:
         get1d, get2d, count_word = ps.get1d, ps.get2d, ps.count_word
 
         @wp.kernel(enable_backward=False, module="unique")
@@ -62,8 +63,8 @@ def _kernel(name: str, ps=None):
             else:
                 out[i, c] = get2d(seed, pixel, idx, starts[c], word)[comps[c]]
 
-        _kernels[name] = evaluate
-    return wp, _kernels[name]
+        _kernels[key] = evaluate
+    return wp, _kernels[key]
 
 
 def _uint32(value, field: str) -> int:

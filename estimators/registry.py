@@ -1,8 +1,9 @@
 """Registry of point sets, strategies and presets; `parse_sampler` accepts a preset, POINTS+STRATEGY
 or a point set's name alone.
 
-Adding a point set: one file in `pointsets/` defining POINTSET, named after it, and its name in
-`_POINTSET_MODULES`.
+Adding a built-in point set: one file in `pointsets/` defining POINTSET, named after it, and its
+name in `_POINTSET_MODULES`. A user's point set is a plugin (`drtlab.plugins`): registered by
+`drtlab.register_pointset`, found here like a built-in.
 """
 import importlib
 from collections.abc import MutableMapping
@@ -31,8 +32,10 @@ class _PointSets(MutableMapping):
     def __getitem__(self, name: str) -> PointSet:
         ps = self._loaded.get(name)
         if ps is None:
-            if name not in self._names:
+            if name not in self:
                 raise KeyError(name)
+            ps = self._loaded.get(name)
+        if ps is None:
             ps = importlib.import_module(f"drtlab.estimators.pointsets.{name}").POINTSET
             if ps.name != name:
                 raise RuntimeError(f"estimators/pointsets/{name}.py defines the point set "
@@ -50,13 +53,21 @@ class _PointSets(MutableMapping):
         self._loaded.pop(name, None)
 
     def __contains__(self, name) -> bool:
+        if name not in self._names:
+            _entry_points()                 # an installed package's plugin may define it
         return name in self._names
 
     def __iter__(self):
+        _entry_points()
         return iter(list(self._names))
 
     def __len__(self) -> int:
         return len(self._names)
+
+
+def _entry_points() -> None:
+    from drtlab.plugins import load_entry_points
+    load_entry_points()
 
 
 POINTSETS: MutableMapping[str, PointSet] = _PointSets(_POINTSET_MODULES)

@@ -19,3 +19,16 @@ def pytest_sessionfinish(session, exitstatus):
     if path and not hasattr(session.config, "workerinput"):
         with open(path, "w") as f:
             f.write(f"{int(exitstatus)} {session.testscollected}\n")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--drtlab-plugin", action="append", default=[], metavar="FILE_OR_MODULE",
+                     help="load a drtlab plugin before collection: every test parametrized over the "
+                          "registered point sets then runs on its sets too")
+
+
+def pytest_configure(config):
+    specs = config.getoption("--drtlab-plugin", default=[])
+    if specs:
+        from drtlab.plugins import load_plugins
+        load_plugins(specs, "--drtlab-plugin", Path.cwd())

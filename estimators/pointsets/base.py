@@ -51,3 +51,7 @@ class PointSet:
     # Why a draw stays above draw_costs.CHEAP times an independent draw, where it does (work the set
     # cannot make cheap without changing what it is); `drtlab samplers` prints it beside the ratio.
     cost_note: str | None = None
+    # A hash of what the set's functions compile from where the package's own code version does not
+    # cover it (a plugin's source, a table's points): part of every kernel and run key, so an edited
+    # plugin recompiles and re-renders and an unchanged one does not. "" for the built-ins.
+    fingerprint: str = ""

@@ -22,9 +22,9 @@ interval meets the band [0.92, 0.98]; light-tailed settings judge every kind ove
 intervals; heavy-tailed ones judge a kind with a resolution flag over its resolved intervals, or
 pass it when under 5% of them are resolved (then no claim rests on it). A false-finding or wrong-
 claim rate passes unless its interval lies above 5%. Load steps: `load_shift` must detect the step
-(rate not below 0.9) and not fire without one (rate not above 5%). Under a load step the true cost
-of a repetition is ambiguous: its coverage is measured against the unloaded cost and not judged
-(the ratios are: a load that multiplies both samplers alike leaves them unchanged).
+(rate not below 0.9) and not fire without one (rate not above 5%). The analysis levels a detected
+step (`compare.level_load`: later batches scaled back to the earlier load), so under a load step
+the cost of a repetition is judged against the unloaded truth like the ratios.
 
 Negative control: the method before the interval core ("today's"): the MSE ratio by a delta-method
 normal interval (z = 1.96, sd / mean / sqrt(n) per side), a cell's cost as the mean of the faster
@@ -38,7 +38,6 @@ to the band for a hundred studies to tell.
 """
 from __future__ import annotations
 
-import json
 import math
 import zlib
 from pathlib import Path
@@ -138,12 +137,13 @@ def naive_control(study: Study) -> dict:
 def audit_study(name: str, index: int, seed: int) -> dict:
     """Study `index` of setting `name`: every interval with its truth and resolution, every claim
     with the truth's direction, today's control on the same data and the load-shift test."""
-    from drtlab.experiments.study.compare import compare_scene, finish_claims
+    from drtlab.experiments.study.compare import compare_scene, finish_claims, level_load
     setting = SETTINGS[name]
     rng, analysis_seed = _seeds(seed, name, index)
     study = simulate_study(setting, rng)
     T = study.truth
-    sc = compare_scene(study.runs, study.batches, [BASELINE, OTHER], BASELINE, list(LADDER), PIXELS,
+    (batches,), load = level_load([study.batches], [PIXELS])
+    sc = compare_scene(study.runs, batches, [BASELINE, OTHER], BASELINE, list(LADDER), PIXELS,
                        seed=analysis_seed)
     iv = {k: [] for k in KINDS}
     for (s, n), c in sc.cells.items():
@@ -164,19 +164,8 @@ def audit_study(name: str, index: int, seed: int) -> dict:
                        "claim": _claim(r.claim, _sign(on)),
                        "mse": _claim(r.mse_claim, _sign(T.mse_ratio(r.spp)))})
     return {"setting": name, "index": index, "intervals": iv, "claims": claims,
-            "control": naive_control(study), "load_shifted": bool(load_test(study, sc.costs)["shifted"]),
+            "control": naive_control(study), "load_shifted": load["shifted"],
             "noise_sd": study.noise_sd}
-
-
-def load_test(study: Study, costs: dict) -> dict:
-    """`cost_model.load_shift` on the residuals of every sampler's cost model, pooled with their
-    batches' times as the study's analysis pools them."""
-    from drtlab.experiments.stats.cost_model import load_shift
-    times, resid = [], []
-    for s, model in costs.items():
-        times += [t for t, x in zip(study.batches["time"], study.batches["sampler"]) if x == s]
-        resid += list(model.residuals)
-    return load_shift(times, resid)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -266,9 +255,7 @@ def judge(setting: Setting, table: dict) -> list[dict]:
     out = []
     for kind, (_, has_flag, _) in KINDS.items():
         t = table["kinds"][kind]
-        if setting.load_step and kind == "cost":
-            out.append(_criterion(kind, True, "against the unloaded cost (ambiguous under load)", False))
-        elif setting.heavy and has_flag:
+        if setting.heavy and has_flag:
             few = t["resolved"] < UNRESOLVED_ENOUGH
             ok = few or not t["coverage_resolved"]["count"] or meets(t["coverage_resolved"])
             out.append(_criterion(kind, ok, f"resolved {t['resolved']:.3f}; among resolved "
@@ -372,21 +359,12 @@ def markdown(result: dict) -> list[str]:
     return lines
 
 
-def _plain(x):
-    """JSON without NaN: None in its place."""
-    if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_plain(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    return x.item() if isinstance(x, np.generic) else x
-
-
-def write_audit(result: dict, out: Path) -> list[str]:
-    """intervals.json and intervals.md in `out`; returns the Markdown lines."""
+def write_audit(result: dict, out: Path, extra: list[str] = ()) -> list[str]:
+    """intervals.json and intervals.md in `out` (each written whole or not at all), the Markdown
+    with `extra` lines at its end; returns the Markdown lines."""
+    from drtlab.experiments.files import atomic_write_json, atomic_write_text
     out.mkdir(parents=True, exist_ok=True)
-    lines = markdown(result)
-    (out / "intervals.json").write_text(json.dumps(_plain(result), indent=1) + "\n")
-    (out / "intervals.md").write_text("\n".join(lines) + "\n")
+    lines = markdown(result) + list(extra)
+    atomic_write_json(out / "intervals.json", result)
+    atomic_write_text(out / "intervals.md", "\n".join(lines) + "\n")
     return lines

@@ -11,8 +11,9 @@ with sd drawn per study in NOISE_SD: the noise has mean 1, so the true cost of o
 PER_REP + c N pixels + CALL x its share of a call exactly (the cost model fits a mean, not a median;
 the share is `cost_model.call_share` over the runner's batches, DESIGN). A load-step setting
 multiplies every batch after the middle of the sweep (in batch order) by LOAD_STEP, both samplers
-alike. Each sampler's batches also share a process factor (log-normal, sd PROCESS_SD, mean 1): the
-speed of one run's process against the machine's, which its batches cannot see; its "true" cost is then ambiguous (the audit measures against the unloaded one, marked).
+alike; the truth is the unloaded cost. Each sampler's batches also share a process factor
+(log-normal, sd PROCESS_SD, mean 1): the speed of one run's process against the machine's, which
+its batches cannot see.
 """
 from __future__ import annotations
 

@@ -73,7 +73,8 @@ def draw_log_ratio(r: dict, rng, size: int = DRAWS) -> np.ndarray:
 
 def interval_of_draws(log_draws, point: float, level: float = CI_LEVEL) -> dict:
     """`point` with the percentile interval of exp(draws) and the two-sided p-value of log ratio 0
-    under the draws' normal law."""
+    under the draws' normal law. An end at the clip (draws that never reach the target) is no bound:
+    0 below, inf above."""
     d = np.asarray(log_draws, dtype=np.float64)
     d = d[np.isfinite(d)]
     if d.size < 0.5 * DRAWS or not math.isfinite(point):
@@ -82,7 +83,8 @@ def interval_of_draws(log_draws, point: float, level: float = CI_LEVEL) -> dict:
     lo, hi = np.percentile(d, [q, 100 - q])
     sd = float(np.std(d, ddof=1))
     p = float(2 * stats.norm.sf(abs(float(np.mean(d))) / sd)) if sd > 0 else float(np.mean(d) == 0)
-    return {"ratio": point, "lo": float(math.exp(lo)), "hi": float(math.exp(hi)), "p": p}
+    return {"ratio": point, "lo": 0.0 if lo <= -LOG_CLIP else float(math.exp(lo)),
+            "hi": math.inf if hi >= LOG_CLIP else float(math.exp(hi)), "p": p}
 
 
 def samples_to_reach(line, target: float) -> np.ndarray:

@@ -29,11 +29,11 @@ from drtlab.experiments.study.results import (
     METRICS, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, NoiseFloor, RatioCI,
     SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
 )
-from drtlab.experiments.study.compare import compare_scene, finish_claims, fit_costs, speedup as speedup_at
+from drtlab.experiments.study.compare import (compare_scene, finish_claims, fit_costs, level_load,
+                                              speedup as speedup_at)
 from drtlab.experiments.study.run_store import load_cell
 from drtlab.experiments.seeds import short_hash
 from drtlab.experiments.stats.comparisons import assign_claims
-from drtlab.experiments.stats.cost_model import load_shift
 from drtlab.experiments.stats.resolution import ERRATIC_SIGMA, cell_resolution, tail_shape
 from drtlab.experiments.stats.hypothesis_tests import Z_CI
 from drtlab.experiments.stats.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
@@ -82,6 +82,10 @@ def _run_error(rec: dict, metric: str) -> float:
         v = rec["relmse_corrected"]
         return math.sqrt(v) if v > 0 else float("nan")
     return rec["rmse_corrected"]
+
+
+def _pixels(g) -> int:
+    return g[2][0] * g[2][1]
 
 
 def _batches(runs, records: dict, calibration: dict, cpu: bool) -> dict:
@@ -160,16 +164,15 @@ def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict, floor
                          floor if metric == "mse" else None), {})
 
 
-def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, metrics=("mse",),
-                  calibration: dict | None = None, targets: dict | None = None,
-                  cpu: bool = True) -> tuple:
-    """(GroupResult, fits to run) of one (scene, integrator, resolution). Its slope fits (one per
-    sampler and metric) come back as (metric, sampler, call) for `analyze` to run together, in
-    parallel; the GroupResult's `slopes` are empty until then."""
+def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, batches: dict, metrics=("mse",),
+                  calibration: dict | None = None, targets: dict | None = None) -> tuple:
+    """(GroupResult, fits to run) of one (scene, integrator, resolution) from its timed `batches`
+    (`_batches`, load leveled). Its slope fits (one per sampler and metric) come back as (metric,
+    sampler, call) for `analyze` to run together, in parallel; the GroupResult's `slopes` are empty
+    until then."""
     gt = load_ground_truth(gt_dir)
-    pixels = g[2][0] * g[2][1]
+    pixels = _pixels(g)
     done = [r for r in runs if r.run_id in records]
-    batches = _batches(done, records, calibration or {}, cpu)
     costs = fit_costs(batches, pixels)
     cells: dict = {}
     fit_calls: list = []
@@ -343,11 +346,14 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     for r in plan:
         for name in r.studies:
             metrics_of.setdefault(r.group, {})[by_name[name].metric] = None
+    timed = {g: _batches([r for r in runs if r.run_id in records], records, calibration or {}, cpu)
+             for g, runs in groups.items()}
+    leveled, load = level_load(list(timed.values()), [_pixels(g) for g in timed])
     group_results: dict = {}
     fit_calls: list = []
-    for g, runs in groups.items():
-        group_results[g], calls = analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"],
-                                                tuple(metrics_of[g]), calibration, targets, cpu)
+    for (g, runs), batches in zip(groups.items(), leveled):
+        group_results[g], calls = analyze_group(g, runs, records, Path(out_dir), gts[g]["dir"], batches,
+                                                tuple(metrics_of[g]), calibration, targets)
         fit_calls += [(g, metric, s, call) for metric, s, call in calls]
     for (g, metric, s, _), (fit, typical) in zip(fit_calls, pmap([call for *_, call in fit_calls])):
         # Scatter of log error around the line far above what Gaussian pixel noise gives (~0.05):
@@ -365,7 +371,7 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
             results.append(_scene_result(study, scene_ref, g, sc, rows[i:i + len(sc.rows)]))
             i += len(sc.rows)
         studies.append(_study_result(study, results))
-    load = _load_shift(group_results, log)
+    load = _load_text(load, log)
     return Summary(
         experiment=exp.name, description=exp.description, profile=exp.profile, studies=studies,
         noise_floor={group_name(g): v.noise_floor for g, v in group_results.items()},
@@ -406,24 +412,15 @@ def _screen_bias(group_results: dict) -> None:
             c.bias, significant=t["claim"] in ("better", "worse"), p=t["p"], p_adjusted=t["p_adjusted"]))
 
 
-def _load_shift(group_results: dict, log: Callable[[str], None]) -> dict:
-    """Whether the machine's load moved during the sweep: a step in time of every cost model's
-    residuals (cost_model.load_shift); a warning names when and how much."""
-    times, resid = [], []
-    for v in group_results.values():
-        for s, model in v.costs.items():
-            idx = [i for i, x in enumerate(v.batches["sampler"]) if x == s]
-            ok = [i for i in idx if v.batches["seconds"][i] > 0]
-            if len(ok) == len(model.residuals):
-                times += [v.batches["time"][i] for i in ok]
-                resid += list(model.residuals)
-    out = load_shift(times, resid)
-    out["text"] = ""
+def _load_text(load: dict, log: Callable[[str], None]) -> dict:
+    """`compare.level_load`'s test with the warning that names when the load moved and by how much."""
+    out = dict(load, text="")
     if out["shifted"]:
         import time as _time
         at = _time.strftime("%H:%M:%S", _time.localtime(out["at"]))
         out["text"] = (f"the machine's load moved during the sweep: batches from {at} on cost "
                        f"{out['ratio']:.2f}x those before (step test over {out['batches']} batches' cost "
-                       f"residuals, p = {out['p']:.3g}); costs and speed-ups mix both periods")
+                       f"residuals, p = {out['p']:.3g}); they were scaled back to the earlier load "
+                       f"before the cost models were fitted")
         log(f"warning: {out['text']}")
     return out

@@ -46,10 +46,13 @@ def scheduler_address(text: str, field: str = "--scheduler") -> str:
 # What runs on a worker (module level: pickled by reference, so workers import the installed drtlab)
 # ---------------------------------------------------------------------------------------------------
 
-def render_task(backend, scene, spp: int, sampler: str, integrator: str, seed: int, res, threads: int):
+def render_task(backend, scene, spp: int, sampler: str, integrator: str, seed: int, res, threads: int,
+                plugins: tuple = ()):
     """One render on a worker -> (RenderResult with a plain array, wall seconds, worker address)."""
     import numpy as np
     from drtlab.experiments.study.backend import RenderResult
+    from drtlab.plugins import ensure_shipped
+    ensure_shipped(plugins)
     t0 = time.perf_counter()
     r = backend.render(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed, res=res,
                        threads=threads)
@@ -62,11 +65,13 @@ def render_task(backend, scene, spp: int, sampler: str, integrator: str, seed: i
 
 
 def render_batch_task(backend, scene, spp: int, sampler: str, integrator: str, seeds: list, res,
-                      threads: int):
+                      threads: int, plugins: tuple = ()):
     """One batch of repetitions on a worker -> (BatchResult with a plain array, wall seconds, worker
-    address)."""
+    address). `plugins` (drtlab.plugins.shipped()) are loaded first, once per worker process."""
     import numpy as np
     from drtlab.experiments.study.backend import BatchResult
+    from drtlab.plugins import ensure_shipped
+    ensure_shipped(plugins)
     t0 = time.perf_counter()
     r = backend.batch(scene, spp=spp, sampler=sampler, integrator=integrator, seeds=seeds, res=res,
                       threads=threads)
@@ -175,8 +180,9 @@ class DaskExecutor:
         self.submitted += 1
         # A fresh key per submission: resubmitting the key of a just-cancelled task (a resume in the
         # same session) could otherwise pick up the cancelled one.
+        from drtlab.plugins import shipped
         return self.client.submit(render_task, backend, scene, spp, sampler, integrator, seed,
-                                  tuple(res), threads or 1,
+                                  tuple(res), threads or 1, shipped(),
                                   key=f"drtlab-{name}-{self._token}-{self.submitted}")
 
     def render_batches(self, backend, scene, batches: list, threads: int | None) -> Iterator[tuple]:
@@ -184,12 +190,15 @@ class DaskExecutor:
         finishes, so the caller commits it at once (a killed client loses only the batches still in
         flight)."""
         from distributed import as_completed
+
+        from drtlab.plugins import shipped
+        plugins = shipped()
         futures = {}
         for b in batches:
             r = b.runs[0]
             self.submitted += 1
             f = self.client.submit(render_batch_task, backend, scene, r.spp, r.sampler, r.integrator,
-                                   [x.seed for x in b.runs], tuple(r.resolution), threads or 1,
+                                   [x.seed for x in b.runs], tuple(r.resolution), threads or 1, plugins,
                                    key=f"drtlab-batch-{b.cell}-{b.batch_id}-{self._token}-{self.submitted}")
             futures[f.key] = (f, b)
         try:

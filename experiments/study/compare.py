@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from drtlab.experiments.stats import comparisons as cmp
-from drtlab.experiments.stats.cost_model import CostModel, fit_cost_model
+from drtlab.experiments.stats.cost_model import CostModel, fit_cost_model, load_shift
 from drtlab.experiments.stats.intervals import positive_mean_ci
 from drtlab.experiments.stats.resolution import ERRATIC_SIGMA, cell_resolution, tail_shape
 
@@ -116,6 +116,33 @@ def fit_costs(batches, pixels: int) -> dict:
         out[s] = fit_cost_model([b["seconds"][i] for i in idx], [b["reps"][i] for i in idx],
                                 [b["spp"][i] * pixels for i in idx])
     return out
+
+
+def level_load(tables: list, pixels: list) -> tuple[list, dict]:
+    """The timed batches of a sweep (one table per scene group, with a `time` column) with a step in
+    the machine's load taken out: every group's cost models are fitted, their relative residuals
+    pooled in time order and tested (`cost_model.load_shift`); on a step, batches from its time on
+    are divided by its ratio, so each model is fitted on one load level (the earlier one) and its
+    residuals keep the batch-to-batch spread alone. Left in, the step inflated every residual sd
+    and the efficiency and speed-up intervals covered 0.99 in the audit's load-step setting.
+    Returns the (possibly rescaled) tables as dicts of lists and the test's result."""
+    cols = [_columns(t) for t in tables]
+    times, resid = [], []
+    for b, px in zip(cols, pixels):
+        models = fit_costs(b, px)
+        for s, sec, reps, n, t in zip(b["sampler"], b["seconds"], b["reps"], b["spp"], b["time"]):
+            c = models[s].coef
+            predicted = c[0] + reps * (c[1] + c[2] * n * px)
+            if sec > 0 and predicted > 0 and math.isfinite(sec):
+                times.append(t)
+                resid.append(sec / predicted - 1.0)
+    load = load_shift(times, resid)
+    load["leveled"] = bool(load["shifted"])
+    if load["shifted"]:
+        for b in cols:
+            b["seconds"] = [sec / load["ratio"] if t >= load["at"] else sec
+                            for sec, t in zip(b["seconds"], b["time"])]
+    return cols, load
 
 
 def fit_law(spp, values, seed: int, floor: float | None, chain: dict) -> dict:

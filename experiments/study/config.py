@@ -59,7 +59,7 @@ DEFAULT_PROFILE = "quick"
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
                  "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "max_seconds",
                  "keep_images", "colour_difference_runs", "variance_sources")
-EXPERIMENT_KEYS = ("description", "seed", "integrator", "include") + SETTINGS_KEYS
+EXPERIMENT_KEYS = ("description", "seed", "integrator", "include", "plugins") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 STUDY_METRICS = ("mse", "relmse")
 SCENE_KEYS = ("name", "overrides", "label")
@@ -383,6 +383,17 @@ def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None
                  metric=metric)
 
 
+def _plugins(specs, path: Path, sources: dict) -> None:
+    """Load the experiment's plugins (paths relative to its file) before its samplers are checked;
+    each plugin's source hash joins the experiment's sources (and so its hash and manifest)."""
+    from drtlab.plugins import load_plugins
+    if not isinstance(specs, list) or not all(isinstance(x, str) for x in specs):
+        raise InputError("experiment.plugins", f"must be a list of plugin files (.py, relative to "
+                                               f"{path.name}) or module names, got {specs!r}")
+    for p in load_plugins(specs, "experiment.plugins", path.parent):
+        sources[f"plugin:{p.path or p.module}"] = p.sha256[:16]
+
+
 def _parse_file(path: Path, profile: str, stack: tuple, sources: dict,
                 profiles_seen: set) -> tuple[str, list[Study]]:
     text = path.read_text()
@@ -405,6 +416,7 @@ def _parse_data(data: dict, path: Path, profile: str, stack: tuple, sources: dic
     if "description" not in exp:
         raise InputError("experiment.description", "required (one line saying what the study asks)")
     desc = fields.nonempty_string(exp["description"], "experiment.description")
+    _plugins(exp.get("plugins", []), path, sources)
     seed = _int(exp.get("seed", 0), "experiment.seed", 0)
     integrator = exp.get("integrator", "drt")
     _integrator(integrator, "experiment.integrator")

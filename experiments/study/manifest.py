@@ -97,6 +97,11 @@ def peak_rss_mib() -> float | None:
         return None
 
 
+def _plugins() -> list:
+    from drtlab.plugins import manifest
+    return manifest()
+
+
 def write_manifest(out_dir: Path, exp, backend, plan, records: dict, gts: dict, stats: dict,
                    wall_seconds: float, argv=None) -> dict:
     recs = [records[r.run_id] for r in plan if r.run_id in records]
@@ -106,7 +111,7 @@ def write_manifest(out_dir: Path, exp, backend, plan, records: dict, gts: dict, 
         "command": argv if argv is not None else sys.argv,
         "finished": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "git": git_info(), "packages": package_versions(), "machine": machine_info(),
-        "backend": backend.name, "code_version": backend.code_version,
+        "backend": backend.name, "code_version": backend.code_version, "plugins": _plugins(),
         "seeds": {
             "scheme": "run seed = blake2b(root, scene, sampler, integrator, resolution, spp, repetition) "
                       "& 0x7fffffff; ground-truth batch seeds have the top bit set (disjoint)",

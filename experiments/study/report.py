@@ -5,7 +5,8 @@ import math
 from pathlib import Path
 
 from drtlab.experiments.study.analysis import span_text
-from drtlab.experiments.stats.resolution import ERRATIC_SIGMA
+from drtlab.experiments.stats.comparisons import ALPHA, DRAWS
+from drtlab.experiments.stats.resolution import ERRATIC_SIGMA, TAIL_FRACTION, XI_MAX
 from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
 from drtlab.experiments.study.ground_truth import GT_SAMPLER
@@ -43,17 +44,18 @@ INTRO = (
     "larger N than it saves time at equal error).\n\n"
     "**Costs are a fitted model.** A render's CPU seconds are fitted per scene and sampler as "
     "overhead per call + overhead per repetition + seconds per sample × samples, over every timed batch "
-    "of that sampler at every N (weighted least squares on relative residuals, coefficients ≥ 0); a "
-    "cell's cost is one more repetition at its N, with the model's t interval. Speed-ups and "
+    "of that sampler at every N (weighted least squares on relative residuals); a cell's cost is one "
+    "repetition at its N with its share of a batch's call, with the model's interval. Speed-ups and "
     "efficiencies draw the fitted convergence laws (emcee posterior) and the cost models together, "
-    "4000 draws; their intervals are the draws' percentiles.\n\n"
+    f"{DRAWS} draws; their intervals are the draws' percentiles.\n\n"
     "**No claim without resolution.** A cell is *not resolved* when its largest run carries over half of "
     "its error, when dropping that run moves its mean below its interval, or when its sampler's errors "
-    "have a heavy upper tail (generalized Pareto shape above 0.1 over its pooled runs, or a scatter "
-    "about the fitted law above a factor 1.28): no interval of a mean can be trusted to cover then. A comparison involving such a cell is printed as *not "
+    f"have a heavy upper tail (generalized Pareto shape above {XI_MAX:g} over the top "
+    f"{TAIL_FRACTION:.0%} of its pooled runs, or a scatter about the fitted law above a factor "
+    f"{math.exp(ERRATIC_SIGMA):.2f}): no interval of a mean can be trusted to cover then. A comparison involving such a cell is printed as *not "
     "resolved* and makes no claim. Claims (*better*, *worse*, *no difference*) come from the resolved "
     "comparisons, with the Benjamini-Hochberg correction over every test the report states "
-    "(speed-up or efficiency, and MSE ratio, per comparison) at a 5% false-discovery rate.\n")
+    f"(speed-up or efficiency, and MSE ratio, per comparison) at a {ALPHA:.0%} false-discovery rate.\n")
 
 
 def _rel(p: Path, base: Path) -> str:

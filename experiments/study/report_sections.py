@@ -30,8 +30,9 @@ def _ratio(x, lo, hi) -> str:
     if x is None or not math.isfinite(x):
         return "–"
     txt = f"{fmt(x)}×"
-    return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if lo is not None and math.isfinite(lo)
-                  and hi is not None and math.isfinite(hi) else "")
+    if lo is None or hi is None or math.isnan(lo) or math.isnan(hi):
+        return txt
+    return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if math.isfinite(hi) else f" [{fmt(lo)}, ∞)")
 
 
 def _ci(iv: Interval) -> str:

@@ -357,6 +357,13 @@ class _Sweep:
             self.log(f"compiled {facts['compiled']} kernel variants in {facts['wall_seconds']:.1f} s "
                      f"on {facts['threads']} threads ({facts['compile_seconds']:.1f} s of compiles)")
 
+    def _code(self, sampler: str) -> str:
+        """The code a sampler's runs were rendered by: the backend's, with a plugin point set's
+        fingerprint (an edited plugin re-renders its cells, and only those)."""
+        from drtlab.plugins import sampler_fingerprint
+        fp = sampler_fingerprint(sampler)
+        return self.backend.code_version if not fp else short_hash([self.backend.code_version, fp], 16)
+
     def _settings(self, r: RunSpec):
         """The settings a cell follows: those of the first study that plans it."""
         return self.studies[r.studies[0]].settings if self.studies else None
@@ -413,7 +420,7 @@ class _Sweep:
     def _cell_batches(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch]:
         """The batches of a cell still to render; a cell with stored runs of other code or another
         reference starts over (its cell file merged those runs' images)."""
-        key, code = gt.manifest.get("key"), self.backend.code_version
+        key, code = gt.manifest.get("key"), self._code(cruns[0].sampler)
         if any(rec.get("cell") == cell and (rec.get("gt_key") != key or rec.get("code_version") != code)
                for rec in self.records.values()):
             for rid in [rid for rid, rec in self.records.items() if rec.get("cell") == cell]:
@@ -428,7 +435,7 @@ class _Sweep:
         is reused: its images are in the cell file already)."""
         out = []
         for a, b in ranges:
-            fps = [_fingerprint(r, gt, self.backend.code_version) for r in cruns[a:b]]
+            fps = [_fingerprint(r, gt, self._code(r.sampler)) for r in cruns[a:b]]
             todo = [(r, fp) for r, fp in zip(cruns[a:b], fps)
                     if self.records.get(r.run_id, {}).get("fingerprint") != fp]
             self.stats["runs_reused"] += (b - a) - len(todo)
@@ -536,7 +543,7 @@ class _Sweep:
                                     colour_rows=None if limit is None else sum(r.rep < limit for r in b.runs))
         for r, fp, m in zip(b.runs, b.fingerprints, metrics):
             self.records[r.run_id] = _run_record(r, fp, b, result, wall, ctx.gt, m,
-                                                 self.backend.code_version, worker)
+                                                 self._code(r.sampler), worker)
         if b.cell not in self.cell_files:
             self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
         self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(

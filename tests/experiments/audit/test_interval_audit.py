@@ -94,14 +94,14 @@ def test_noise_has_mean_one_so_the_true_cost_is_the_model_cost():
 
 
 def test_load_shift_detects_the_step_and_stays_quiet_without_one():
-    from drtlab.experiments.study.compare import fit_costs
+    from drtlab.experiments.study.compare import level_load
 
     def shifted(name: str, k: int) -> list[bool]:
         rng = np.random.default_rng(11)
         out = []
         for _ in range(k):
             study = sim.simulate_study(sim.SETTINGS[name], rng)
-            out.append(cov.load_test(study, fit_costs(study.batches, sim.PIXELS))["shifted"])
+            out.append(level_load([study.batches], [sim.PIXELS])[1]["shifted"])
         return out
 
     step, none = shifted("load-step-equal", 40), shifted("light-equal", 40)

@@ -1,0 +1,335 @@
+"""A user's own point sets, from their own file or package, without forking drtlab.
+
+Three ways in, all ending in the same `register_*` calls a built-in's module makes:
+
+* `--plugin FILE_OR_MODULE` on any command (repeatable), read before the command's own arguments;
+* `plugins = ["my_sets.py"]` in an experiment file's [experiment] table (paths relative to it);
+* the entry-point group `drtlab.plugins` of an installed package (each entry a module, imported,
+  or a callable, called), loaded the first time a name is not found among the registered ones.
+
+A plugin is a Python file or module that calls `drtlab.register_pointset(...)` when imported. What
+it registers carries a fingerprint (the hash of the plugin's source, or of a table's points), part
+of every kernel key and run key: an edited plugin recompiles and re-renders, an unchanged one reuses
+the kernel cache and the stored runs. The manifest of every result lists the loaded plugins with
+the hash of their source (`manifest()`), and a sweep on a Dask cluster ships them to the workers
+(`shipped()` / `ensure_shipped`): a file plugin travels as its text, a module by its name (it must
+be installed on the workers).
+
+Bad plugins are one line naming the plugin and what is wrong (missing file, nothing registered, an
+error while importing it, a Warp compile error at the user's file and line, a wrong signature,
+values outside [0, 1), a name that clashes with a built-in), raised as InputError before any work.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import inspect
+import re
+import sys
+import tempfile
+import traceback
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from drtlab.errors import InputError
+
+ENTRY_POINT_GROUP = "drtlab.plugins"
+NAME = re.compile(r"^[a-z][a-z0-9_-]{0,39}$")
+CHECK_POINTS, CHECK_DIMS = 64, 12              # values drawn per (seed, pixel) at registration
+
+
+@dataclass(frozen=True)
+class Plugin:
+    spec: str                       # as given: a path or a module name
+    module: str                     # the Python module it was imported as
+    path: str | None                # its source file
+    sha256: str                     # of that file's bytes
+    registered: tuple = ()          # "pointset:NAME", ...
+
+    def to_json(self) -> dict:
+        return {"spec": self.spec, "module": self.module, "path": self.path, "sha256": self.sha256,
+                "registered": list(self.registered)}
+
+
+_loaded: dict[str, Plugin] = {}       # by resolved path or module name
+_loading: list[list] = []             # registrations of the plugins being imported (nested)
+_entry_points_done = False
+
+
+def loaded() -> list[Plugin]:
+    return list(_loaded.values())
+
+
+def manifest() -> list[dict]:
+    """The loaded plugins, as every result's manifest records them."""
+    return [p.to_json() for p in _loaded.values()]
+
+
+def _sha(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------------
+# Registration
+# ---------------------------------------------------------------------------------------------------
+
+def _source_fingerprint(*functions) -> str:
+    """Hash of the Warp functions' Python source: what an in-notebook registration compiles from."""
+    h = hashlib.sha256()
+    for f in functions:
+        try:
+            h.update(inspect.getsource(getattr(f, "func", f)).encode())
+        except (OSError, TypeError):
+            h.update(repr(id(f)).encode())      # no source to read: never reuse a kernel across objects
+    return h.hexdigest()[:16]
+
+
+def _reserved(name: str) -> str | None:
+    from drtlab.estimators import registry
+    if name in registry._POINTSET_MODULES:
+        return "a built-in point set"
+    if name in registry.PRESETS:
+        return "a built-in preset"
+    if name in registry.STRATEGIES:
+        return "a built-in strategy"
+    return None
+
+
+def _check_signature(ps, who: str) -> None:
+    import warp as wp
+    for attr, ret in (("get1d", "float"), ("get2d", "vec2")):
+        fn = getattr(ps, attr)
+        if not isinstance(fn, wp._src.context.Function):
+            raise InputError(who, f"{attr} must be a Warp function (@wp.func), got {type(fn).__name__}")
+        types = list(fn.input_types.values())
+        if len(types) != 5 or any(t is not wp.uint32 for t in types):
+            raise InputError(who, f"{attr} must take (seed, pixel, index, dim, spp), each wp.uint32; "
+                                  f"got ({', '.join(getattr(t, '__name__', str(t)) for t in types)})")
+        try:
+            got = inspect.get_annotations(fn.func, eval_str=True).get("return")
+        except Exception:                                         # noqa: BLE001 (user annotations)
+            got = fn.func.__annotations__.get("return")
+        ok = got in (float, wp.float32) if ret == "float" else got is wp.vec2
+        if not ok:
+            raise InputError(who, f"{attr} must return {'float' if ret == 'float' else 'wp.vec2'}, "
+                                  f"got {getattr(got, '__name__', got)!r}")
+
+
+def _user_frame(exc: BaseException, files: set[str]) -> str:
+    """'file:line' of the deepest frame of the exception in one of `files`, else ''."""
+    where = ""
+    for fs in traceback.extract_tb(exc.__traceback__):
+        if fs.filename in files:
+            where = f"{fs.filename}:{fs.lineno}"
+    for m in re.finditer(r'(?:File "([^"]+)", line |at ([^\s:"]+):)(\d+)', str(exc)):
+        if (m.group(1) or m.group(2)) in files:
+            where = f"{m.group(1) or m.group(2)}:{m.group(3)}"
+    return where
+
+
+def _last_words(exc: BaseException) -> str:
+    """The innermost message of an exception (Warp's codegen errors nest every enclosing function)."""
+    parts = [p.strip(" '\"\n") for p in re.split(r"\\n;|\n;|;\n", str(exc))]
+    parts = [p for p in parts if p and not p.startswith("Error while parsing function")]
+    return (parts[-1] if parts else type(exc).__name__).splitlines()[-1].strip(" '\"")
+
+
+def _check_values(ps, who: str) -> None:
+    """Draw CHECK_POINTS x CHECK_DIMS values at two seeds and pixels through a real kernel: the set
+    must compile and give finite values in [0, 1)."""
+    import numpy as np
+
+    from drtlab.estimators.points import points
+    files = {getattr(getattr(ps, a), "func").__code__.co_filename for a in ("get1d", "get2d")}
+    for seed, pixel in ((0, 0), (7, 12345)):
+        try:
+            u = points(ps, CHECK_POINTS, CHECK_DIMS, seed=seed, pixel=pixel)
+        except InputError:
+            raise
+        except Exception as e:                                    # noqa: BLE001 (user code)
+            where = _user_frame(e, files)
+            raise InputError(who, f"point set '{ps.name}' does not compile"
+                                  f"{' at ' + where if where else ''}: {_last_words(e)}") from None
+        bad = ~(np.isfinite(u) & (u >= 0.0) & (u < 1.0))
+        if bad.any():
+            i, d = (int(v) for v in np.argwhere(bad)[0])
+            raise InputError(who, f"point set '{ps.name}' gives {float(u[i, d])!r} at sample {i}, dimension "
+                                  f"{d} (seed {seed}, pixel {pixel}); values must lie in [0, 1)")
+
+
+def register_pointset(ps, check: bool = True):
+    """Register a PointSet (a user's own, or `tabulated(...)`) under its name, for renders, studies
+    and checks alike. Its name must not be a built-in's; registering a name again replaces the set
+    (an edited notebook cell). With `check`, the set is compiled and drawn once: a wrong signature,
+    a compile error or values outside [0, 1) are one InputError. Returns the registered set (with
+    its fingerprint)."""
+    from drtlab.estimators.pointsets.base import PointSet
+    from drtlab.estimators.registry import POINTSETS
+    who = _loading[-1][0] if _loading else "pointset"
+    if not isinstance(ps, PointSet):
+        raise InputError(who, f"register_pointset takes a drtlab PointSet, got {type(ps).__name__}")
+    if not isinstance(ps.name, str) or not NAME.match(ps.name):
+        raise InputError(who, f"a point set's name is lower-case letters, digits, - and _ (at most 40, "
+                              f"starting with a letter), got {ps.name!r}")
+    clash = _reserved(ps.name)
+    if clash:
+        raise InputError(who, f"'{ps.name}' is {clash}; give your point set another name")
+    _check_signature(ps, who)
+    base = _loading[-1][1] if _loading else _source_fingerprint(ps.get1d, ps.get2d, ps.pixel_key,
+                                                                ps.count_word)
+    ps = replace(ps, fingerprint=_sha(f"{base}:{ps.fingerprint}".encode())[:16])
+    if check:
+        _check_values(ps, who)
+    POINTSETS[ps.name] = ps
+    if _loading:
+        _loading[-1][2].append(f"pointset:{ps.name}")
+    return ps
+
+
+# ---------------------------------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------------------------------
+
+def _import(spec: str, base: Path | None, field: str) -> tuple[str, str | None, bytes, callable]:
+    """(module name, path, source bytes, importer) of a plugin given as a path or a module name."""
+    looks_like_path = spec.endswith(".py") or "/" in spec or "\\" in spec
+    if looks_like_path:
+        path = Path(spec).expanduser()
+        if not path.is_absolute() and base is not None:
+            path = base / path
+        path = path.resolve()
+        if not path.is_file():
+            raise InputError(field, f"no plugin file {spec!r}" + (f" (looked in {base})" if base else ""))
+        data = path.read_bytes()
+        module = f"drtlab_plugin_{re.sub(r'[^0-9a-zA-Z_]', '_', path.stem)}_{_sha(data)[:12]}"
+
+        def run():
+            s = importlib.util.spec_from_file_location(module, path)
+            m = importlib.util.module_from_spec(s)
+            sys.modules[module] = m          # Warp reads the functions' module while it compiles
+            s.loader.exec_module(m)
+            return m
+        return module, str(path), data, run
+    if not re.match(r"^[A-Za-z_][\w.]*$", spec):
+        raise InputError(field, f"a plugin is a .py file or an importable module name, got {spec!r}")
+    found = importlib.util.find_spec(spec.split(".")[0]) and importlib.util.find_spec(spec)
+    if found is None:
+        raise InputError(field, f"no plugin module {spec!r} (not installed, and not a .py path)")
+    path = found.origin if found.origin and Path(found.origin).is_file() else None
+    data = Path(path).read_bytes() if path else spec.encode()
+    return spec, path, data, lambda: importlib.import_module(spec)
+
+
+def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plugin:
+    """Import a plugin (a .py path, relative to `base` when given, or a module name) once per
+    process and content; returns its record. Loading the same file again is free; an edited file
+    is imported anew and its sets replace the old ones."""
+    if isinstance(spec, Path):
+        spec = str(spec)
+    if not isinstance(spec, str) or not spec.strip():
+        raise InputError(field, f"must be a plugin file (.py) or module name, got {spec!r}")
+    module, path, data, run = _import(spec.strip(), base, field)
+    key, sha = path or module, _sha(data)
+    if key in _loaded and _loaded[key].sha256 == sha:
+        return _loaded[key]
+    label = f"{field} {Path(path).name if path else module}"
+    _loading.append([label, sha[:16], []])
+    try:
+        run()
+    except InputError as e:
+        sys.modules.pop(module, None)
+        raise InputError(label if e.field in (label, "pointset") else f"{label}: {e.field}",
+                         e.message) from None
+    except Exception as e:                                        # noqa: BLE001 (user code)
+        sys.modules.pop(module, None)
+        where = _user_frame(e, {path} if path else set())
+        raise InputError(label, f"{type(e).__name__} while importing it"
+                                f"{' at ' + where if where else ''}: {e}") from None
+    finally:
+        _, _, registered = _loading.pop()
+    if not registered:
+        raise InputError(label, "registers nothing: a plugin calls drtlab.register_pointset(...) "
+                                "when imported")
+    _loaded[key] = Plugin(spec, module, path, sha, tuple(registered))
+    return _loaded[key]
+
+
+def load_plugins(specs, field: str = "--plugin", base: Path | None = None) -> list[Plugin]:
+    """Each of `specs` (a flag's values, or a file's list: then named `field[i]`)."""
+    return [load_plugin(s, field if field.startswith("--") else f"{field}[{i}]", base)
+            for i, s in enumerate(specs or [])]
+
+
+def load_entry_points() -> list[Plugin]:
+    """The installed packages' plugins (group `drtlab.plugins`), once per process."""
+    global _entry_points_done
+    if _entry_points_done:
+        return []
+    _entry_points_done = True
+    from importlib.metadata import entry_points
+    out = []
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        module = ep.value.split(":")[0]
+        if ":" in ep.value:
+            _loading.append([f"entry point {ep.name}", _sha(ep.value.encode())[:16], []])
+            try:
+                ep.load()()
+            finally:
+                _, _, registered = _loading.pop()
+            _loaded[ep.value] = Plugin(ep.value, module, None, _sha(ep.value.encode()), tuple(registered))
+            out.append(_loaded[ep.value])
+        else:
+            out.append(load_plugin(module, f"entry point {ep.name}"))
+    return out
+
+
+def plugin_args(argv: list[str]) -> list[str]:
+    """The values of every `--plugin X` / `--plugin=X` of a command line (before a bare `--`)."""
+    out, i = [], 0
+    while i < len(argv) and argv[i] != "--":
+        a = argv[i]
+        if a == "--plugin":
+            if i + 1 >= len(argv):
+                raise InputError("--plugin", "needs a plugin file (.py) or module name")
+            out.append(argv[i + 1])
+            i += 2
+            continue
+        if a.startswith("--plugin="):
+            out.append(a.split("=", 1)[1])
+        i += 1
+    return out
+
+
+# ---------------------------------------------------------------------------------------------------
+# Dask workers
+# ---------------------------------------------------------------------------------------------------
+
+def shipped() -> tuple:
+    """What a worker needs to load this process's plugins: (path, sha, text) per file plugin,
+    (module, sha, None) per module plugin."""
+    return tuple((p.path or p.module, p.sha256, Path(p.path).read_text() if p.path else None)
+                 for p in _loaded.values() if p.path or p.module)
+
+
+def ensure_shipped(items: tuple) -> None:
+    """Load the plugins `shipped()` sent: a file from its own path when it is there with the same
+    content, else from a copy of its text in the temporary folder; a module by name."""
+    for where, sha, text in items or ():
+        if where in _loaded and _loaded[where].sha256 == sha:
+            continue
+        if text is None:
+            load_plugin(where, "worker plugin")
+            continue
+        path = Path(where)
+        if not (path.is_file() and _sha(path.read_bytes()) == sha):
+            path = Path(tempfile.gettempdir()) / "drtlab-plugins" / sha[:16] / Path(where).name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        load_plugin(str(path), "worker plugin")
+
+
+def sampler_fingerprint(sampler: str) -> str:
+    """The fingerprint of a sampler's point set ("" for the built-ins)."""
+    from drtlab.estimators.registry import parse_sampler
+    return parse_sampler(sampler).pointset.fingerprint
