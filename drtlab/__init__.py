@@ -132,9 +132,9 @@ def variance_sources(scene, spp: int = 256, **kwargs):
 
 
 def register_pointset(pointset, check: bool = True):
-    """`drtlab.plugins.register_pointset`: make a `drtlab.PointSet` (your own Warp functions, or
+    """`drtlab.estimators.plugins.register_pointset`: make a `drtlab.PointSet` (your own Warp functions, or
     `pointset_from_table(...)`) usable by name in every render, study and check."""
-    from drtlab.plugins import register_pointset as _register
+    from drtlab.estimators.plugins import register_pointset as _register
     return _register(pointset, check)
 
 
@@ -149,5 +149,5 @@ def pointset_from_table(name: str, points, n: int | None = None, randomize: str 
 
 def load_plugin(path_or_module):
     """Import a plugin file or module (it registers its point sets); returns its record."""
-    from drtlab.plugins import load_plugin as _load
+    from drtlab.estimators.plugins import load_plugin as _load
     return _load(path_or_module, "plugin")

@@ -514,11 +514,22 @@ def build_parser() -> argparse.ArgumentParser:
     add_sources_command(sub)
     from drtlab.cli_audit import add_audit_command
     add_audit_command(sub)
+    # Every command takes --plugin; `main` loads the plugins before parsing (a plugin's names must be
+    # known to the checks of the other arguments), so here it is only listed and accepted.
+    for parser in [p, *sub.choices.values()]:
+        parser.add_argument("--plugin", action="append", default=None, metavar="FILE_OR_MODULE",
+                            help="load a plugin first: a .py file or an installed module that "
+                                 "registers point sets (repeatable; docs/plugins.md)")
     return p
 
 
+def _load_plugins(argv: list[str]) -> None:
+    from drtlab.estimators.plugins import load_plugins, plugin_args
+    load_plugins(plugin_args(argv))
+
+
 def main(argv: list[str] | None = None) -> int:
-    return run_main(build_parser, argv)
+    return run_main(build_parser, argv, prepare=_load_plugins)
 
 
 def run() -> None:

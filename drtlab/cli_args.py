@@ -17,15 +17,7 @@ EXIT_BROKEN_PIPE = 128 + 13
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2. Every
-    command takes `--plugin` (read by `run_main` before parsing: a plugin's names must be known to
-    the checks of the other arguments)."""
-
-    def __init__(self, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.add_argument("--plugin", action="append", default=None, metavar="FILE_OR_MODULE",
-                          help="load a plugin first: a .py file or a module that registers point "
-                               "sets (repeatable; see docs/plugins.md)")
+    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2."""
 
     def error(self, message: str):
         m = re.match(r"argument ([^:]+): (.*)", message)
@@ -87,13 +79,14 @@ def _silence_stdout() -> None:
         pass
 
 
-def run_main(build_parser, argv: list[str] | None = None) -> int:
+def run_main(build_parser, argv: list[str] | None = None, prepare=None) -> int:
     """Parse and run a command; bad input is one stderr line and exit 2, Ctrl-C exit 130, a closed
-    output pipe exit 141 without a word."""
+    output pipe exit 141 without a word. `prepare(argv)` runs first, under the same rules (the
+    `drtlab` program loads its plugins there)."""
     try:
         try:
-            from drtlab.plugins import load_plugins, plugin_args
-            load_plugins(plugin_args(sys.argv[1:] if argv is None else list(argv)))
+            if prepare is not None:
+                prepare(sys.argv[1:] if argv is None else list(argv))
             args = build_parser().parse_args(argv)
             code = args.func(args)
         finally:

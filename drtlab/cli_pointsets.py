@@ -56,6 +56,19 @@ def cmd_pointset(args) -> int:
     return 0
 
 
+def cmd_check(args) -> int:
+    from drtlab.experiments.pointsets.check import check
+    if args.out is not None:
+        fields.writable_location(args.out, "--out")
+    card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
+    print("\n".join(card.text()))
+    if args.out is not None:
+        from drtlab.experiments.files import atomic_write_json
+        atomic_write_json(args.out, card.to_json())
+        print(f"wrote {args.out}")
+    return 0 if card.passed else 1
+
+
 def cmd_validate(args) -> int:
     result = V.validate(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
     print("\n".join(result.lines()))
@@ -106,3 +119,24 @@ def add_pointset_commands(sub) -> None:
     v.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
                    metavar="P", help="pixels sampled (more: more power, longer)")
     v.set_defaults(func=cmd_validate)
+
+    c = sub.add_parser(
+        "check", formatter_class=Help,
+        help="the scorecard a built-in point set gets, for any registered one (yours: --plugin)",
+        description="Every check drtlab runs on its own point sets, as one scorecard: purity (same "
+                    "key, same value), bit-identical renders across threads and tiles, the range "
+                    "[0, 1), the statistical battery of `drtlab validate`, unbiasedness in the "
+                    "renderer (a white furnace with an exact answer), convergence on a smooth and a "
+                    "discontinuous integrand beside the built-ins' rates, and the render cost "
+                    "against independent points. Exit 0 when every judged line passes, 1 when any "
+                    "fails. About 30 s.")
+    c.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
+    c.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
+                   help="seed of every sample drawn")
+    c.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
+                   help="false-alarm probability of the scorecard's tests together")
+    c.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
+                   metavar="P", help="pixels of the battery")
+    c.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+                   help="also write the scorecard as JSON")
+    c.set_defaults(func=cmd_check)

@@ -2,7 +2,7 @@
 or a point set's name alone.
 
 Adding a built-in point set: one file in `pointsets/` defining POINTSET, named after it, and its
-name in `_POINTSET_MODULES`. A user's point set is a plugin (`drtlab.plugins`): registered by
+name in `_POINTSET_MODULES`. A user's point set is a plugin (`estimators/plugins.py`): registered by
 `drtlab.register_pointset`, found here like a built-in.
 """
 import importlib
@@ -66,7 +66,7 @@ class _PointSets(MutableMapping):
 
 
 def _entry_points() -> None:
-    from drtlab.plugins import load_entry_points
+    from drtlab.estimators.plugins import load_entry_points
     load_entry_points()
 
 

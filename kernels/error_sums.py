@@ -22,6 +22,7 @@ from drtlab.kernels.launch_pool import cpu_threads, launch_pool
 from drtlab.warp_runtime import warp as _wp
 
 # The sums of one row, in this order (columns of `BatchSums.sums`).
+REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
 SUMS = ("error", "squared", "weighted_squared", "absolute", "non_finite", "ciede2000")
 # Small enough that a 96x72 batch splits over the cores and a chunk's running moments stay in cache.
 CHUNK_PIXELS = 512

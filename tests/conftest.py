@@ -30,5 +30,5 @@ def pytest_addoption(parser):
 def pytest_configure(config):
     specs = config.getoption("--drtlab-plugin", default=[])
     if specs:
-        from drtlab.plugins import load_plugins
+        from drtlab.estimators.plugins import load_plugins
         load_plugins(specs, "--drtlab-plugin", Path.cwd())

@@ -29,7 +29,7 @@ from drtlab.estimators.defaults import DEFAULT_SAMPLER
 from drtlab.experiments.bench.primitives import plot_primitives, primitives
 from drtlab.experiments.bench.startup import print_startup, startup
 from drtlab.experiments.paths import default_out_dir, results_root
-from drtlab.experiments.study.manifest import peak_rss_mib as _peak_rss_mib
+from drtlab.experiments.provenance import peak_rss_mib as _peak_rss_mib
 
 # The scaling sweeps: each varies one setting of --scaling-scene, the others at their defaults.
 RESOLUTIONS = (32, 64, 128, 256, 512)           # square images, SCALING_SPP samples per pixel

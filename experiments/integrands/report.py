@@ -11,7 +11,7 @@ from pathlib import Path
 
 from drtlab.experiments.files import atomic_write_bytes, atomic_write_json, atomic_write_text
 from drtlab.experiments.integrands.functions import KINDS
-from drtlab.experiments.study.manifest import git_info, machine_info, package_versions, peak_rss_mib
+from drtlab.experiments.provenance import git_info, machine_info, package_versions, peak_rss_mib
 
 
 def plot_path(kind: str) -> str:

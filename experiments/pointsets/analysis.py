@@ -224,7 +224,7 @@ def write_analysis(result: Analysis, out_dir: Path, argv=None) -> list[Path]:
 def _manifest(result: Analysis, argv) -> dict:
     import datetime as dt
     from drtlab import __version__
-    from drtlab.experiments.study.manifest import machine_info, package_versions, peak_rss_mib
+    from drtlab.experiments.provenance import machine_info, package_versions, peak_rss_mib
     from drtlab.kernels import CODE_VERSION
     return {"what": "drtlab pointset analysis", "command": argv if argv is not None else sys.argv,
             "finished": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),

@@ -126,7 +126,7 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     centre = pilot.image
     H, W = centre.shape[:2]
     # Every term is a product of two differences of f: weighting a pixel by w scales f by sqrt(w).
-    from drtlab.experiments.study.metrics import REL_EPS
+    from drtlab.kernels.error_sums import REL_EPS
     scale = 1.0 if metric == "mse" else 1.0 / np.sqrt(np.square(centre) + REL_EPS)
     per_batch = max(1, BATCH_PIXELS // (H * W * len(codes)))
     terms = None

@@ -51,7 +51,7 @@ def render_task(backend, scene, spp: int, sampler: str, integrator: str, seed: i
     """One render on a worker -> (RenderResult with a plain array, wall seconds, worker address)."""
     import numpy as np
     from drtlab.experiments.study.backend import RenderResult
-    from drtlab.plugins import ensure_shipped
+    from drtlab.estimators.plugins import ensure_shipped
     ensure_shipped(plugins)
     t0 = time.perf_counter()
     r = backend.render(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed, res=res,
@@ -67,10 +67,10 @@ def render_task(backend, scene, spp: int, sampler: str, integrator: str, seed: i
 def render_batch_task(backend, scene, spp: int, sampler: str, integrator: str, seeds: list, res,
                       threads: int, plugins: tuple = ()):
     """One batch of repetitions on a worker -> (BatchResult with a plain array, wall seconds, worker
-    address). `plugins` (drtlab.plugins.shipped()) are loaded first, once per worker process."""
+    address). `plugins` (drtlab.estimators.plugins.shipped()) are loaded first, once per worker process."""
     import numpy as np
     from drtlab.experiments.study.backend import BatchResult
-    from drtlab.plugins import ensure_shipped
+    from drtlab.estimators.plugins import ensure_shipped
     ensure_shipped(plugins)
     t0 = time.perf_counter()
     r = backend.batch(scene, spp=spp, sampler=sampler, integrator=integrator, seeds=seeds, res=res,
@@ -180,7 +180,7 @@ class DaskExecutor:
         self.submitted += 1
         # A fresh key per submission: resubmitting the key of a just-cancelled task (a resume in the
         # same session) could otherwise pick up the cancelled one.
-        from drtlab.plugins import shipped
+        from drtlab.estimators.plugins import shipped
         return self.client.submit(render_task, backend, scene, spp, sampler, integrator, seed,
                                   tuple(res), threads or 1, shipped(),
                                   key=f"drtlab-{name}-{self._token}-{self.submitted}")
@@ -191,7 +191,7 @@ class DaskExecutor:
         flight)."""
         from distributed import as_completed
 
-        from drtlab.plugins import shipped
+        from drtlab.estimators.plugins import shipped
         plugins = shipped()
         futures = {}
         for b in batches:

@@ -386,7 +386,7 @@ def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None
 def _plugins(specs, path: Path, sources: dict) -> None:
     """Load the experiment's plugins (paths relative to its file) before its samplers are checked;
     each plugin's source hash joins the experiment's sources (and so its hash and manifest)."""
-    from drtlab.plugins import load_plugins
+    from drtlab.estimators.plugins import load_plugins
     if not isinstance(specs, list) or not all(isinstance(x, str) for x in specs):
         raise InputError("experiment.plugins", f"must be a list of plugin files (.py, relative to "
                                                f"{path.name}) or module names, got {specs!r}")

@@ -13,7 +13,6 @@ import numpy as np
 
 from drtlab.experiments.stats.hypothesis_tests import CI_LEVEL
 
-REL_EPS = 1e-2          # relMSE = (x - y)^2 / (y^2 + eps), as in Rousselle et al. 2011
 
 
 def reference_lab(ref: np.ndarray) -> np.ndarray:
@@ -114,7 +113,7 @@ def score_batch(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                 colour_rows: int | None = None):
     """(`batch_metrics`' rows, the batch's `error_sums.BatchSums`: its moments come from the same
     pass over the pixels)."""
-    from drtlab.kernels.error_sums import SUMS, batch_sums
+    from drtlab.kernels.error_sums import REL_EPS, SUMS, batch_sums
     x = np.asarray(images, dtype=np.float64)
     gt = np.asarray(gt, dtype=np.float64)
     if x.shape[1:] != gt.shape:

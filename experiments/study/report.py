@@ -12,7 +12,6 @@ from drtlab.experiments.study.figures import plot_study, slug, strip_job
 from drtlab.experiments.study.ground_truth import GT_SAMPLER
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.parallel import pmap
-from drtlab.experiments.study.metrics import REL_EPS
 from drtlab.experiments.study.report_sections import (
     _ci, _cost_section, _diagnostics_section, _noise_floor_section, _ratio, _reproduce_section,
     _where_section, fmt, fmt_ci,
@@ -111,6 +110,7 @@ def _study_intro(study: StudyResult) -> list[str]:
         f"resolution {res}; reference {study.gt_spp} spp (`{GT_SAMPLER}`, same integrator); "
         f"root seed {study.seed}.\n")
     if study.metric != "mse":
+        from drtlab.kernels.error_sums import REL_EPS
         lines.append(
             f"This study ranks samplers by the {study.metric_label}: the relative MSE (x − y)² / (y² + {REL_EPS:g}) "
             f"weighs every pixel alike, where the plain MSE would be dominated by a few very bright pixels "

@@ -82,7 +82,7 @@ class Metric:
 
 
 # "mse": RMSE over pixels and channels (noise floor removed). "relmse": relative MSE
-# (x - y)^2 / (y^2 + metrics.REL_EPS), for scenes whose RMSE is dominated by a few very bright pixels (directly
+# (x - y)^2 / (y^2 + error_sums.REL_EPS), for scenes whose RMSE is dominated by a few very bright pixels (directly
 # seen small lights), reported as its square root ("relative RMSE").
 METRICS = {
     "mse": Metric("rmse_of_mean_mse", "mse_corrected", "efficiency", "RMSE", "MSE"),

@@ -360,7 +360,7 @@ class _Sweep:
     def _code(self, sampler: str) -> str:
         """The code a sampler's runs were rendered by: the backend's, with a plugin point set's
         fingerprint (an edited plugin re-renders its cells, and only those)."""
-        from drtlab.plugins import sampler_fingerprint
+        from drtlab.estimators.plugins import sampler_fingerprint
         fp = sampler_fingerprint(sampler)
         return self.backend.code_version if not fp else short_hash([self.backend.code_version, fp], 16)
 

@@ -415,7 +415,7 @@ def write_lobe(result: LobeResult, out_dir: Path, argv=None) -> list[Path]:
 def _manifest(result: LobeResult, argv) -> dict:
     import datetime as dt
 
-    from drtlab.experiments.study.manifest import (
+    from drtlab.experiments.provenance import (
         git_info,
         machine_info,
         package_versions,

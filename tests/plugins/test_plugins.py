@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import drtlab
-from drtlab import plugins
+from drtlab.estimators import plugins
 from drtlab.errors import InputError
 from drtlab.estimators.points import points
 from drtlab.estimators.registry import POINTSETS, parse_sampler
@@ -178,8 +178,13 @@ def test_the_examples_register_their_sets(clean_registry):
     r2 = plugins.load_plugin(EXAMPLES / "r2.py")
     tab = plugins.load_plugin(EXAMPLES / "qmc_sobol.py")
     assert r2.registered == ("pointset:r2",) and tab.registered == ("pointset:qmc-sobol",)
-    u = points("r2", 64, 2, seed=0, pixel=5)
-    # R2 points shifted mod 1: consecutive differences are i a mod 1, the same in every pixel
-    v = points("r2", 64, 2, seed=4, pixel=77)
-    np.testing.assert_allclose(np.mod(np.diff(u, axis=0), 1.0), np.mod(np.diff(v, axis=0), 1.0), atol=2e-6)
+    # each pixel's 64 points in x are {frac(i a1 + s)}, i < 64: seen from one of them, every other
+    # lies at frac(k a1) for an integer |k| < 64, whatever the pixel's shift and permutation
+    a1 = 0.7548776662466927
+    lattice = np.mod(np.arange(-63, 64) * a1, 1.0)
+    for seed, pixel in ((0, 5), (4, 77)):
+        x = points("r2", 64, 2, seed=seed, pixel=pixel)[:, 0]
+        d = np.mod(x - x[0], 1.0)
+        gap = np.abs(d[:, None] - lattice[None, :])
+        assert np.minimum(gap, 1 - gap).min(axis=1).max() < 1e-5
     assert drtlab.load_plugin(EXAMPLES / "r2.py") is r2

@@ -50,7 +50,7 @@ from drtlab.experiments.bench.mitsuba.render import (DRTLAB, LLVM, REF_SEED0, RE
 from drtlab.experiments.bench.mitsuba.report import markdown
 from drtlab.experiments.files import atomic_savez, atomic_write_text
 from drtlab.experiments.paths import results_root
-from drtlab.experiments.study.manifest import cpu_model, package_versions, peak_rss_mib
+from drtlab.experiments.provenance import cpu_model, package_versions, peak_rss_mib
 
 VERSIONED = ("drtlab", "warp-lang", "mitsuba", "drjit", "numpy")
 

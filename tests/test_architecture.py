@@ -1,0 +1,99 @@
+"""ARCHITECTURE.md's import claims, checked on every import in the code (module level and inside
+functions alike): the table "What may import what" as rules, and no cycle between folders."""
+import ast
+import collections
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+LAYERS = ("estimators", "kernels", "experiments")
+ROOT_LEAVES = ("errors", "fields", "warp_runtime", "cli_args", "__version__")
+EXPERIMENT_LEAVES = ("paths", "seeds", "files", "parallel", "plotting", "provenance")
+
+
+def _module(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts if parts[0] == "drtlab" else ["drtlab", *parts])
+
+
+def _imports(path: Path, module_level_only: bool = False) -> set[str]:
+    tree = ast.parse(path.read_text())
+    nodes = tree.body if module_level_only else ast.walk(tree)
+    out = set()
+    for node in nodes:
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("drtlab"):
+            out.add(node.module)
+            if node.module == "drtlab":
+                out.update(f"drtlab.{a.name}" for a in node.names)
+        elif isinstance(node, ast.Import):
+            out.update(a.name for a in node.names if a.name.startswith("drtlab"))
+    return out
+
+
+def _graph() -> dict[str, set[str]]:
+    g = {}
+    for folder in ("drtlab", *LAYERS):
+        for path in (ROOT / folder).rglob("*.py"):
+            g[_module(path)] = _imports(path)
+    g["drtlab"] = _imports(ROOT / "drtlab" / "__init__.py", module_level_only=True)
+    return g
+
+
+def _kind(m: str) -> str:
+    """'estimators', 'kernels', 'experiments.<sub>', 'experiments.leaf', 'leaf' or 'surface'."""
+    p = m.split(".")
+    if len(p) > 1 and p[1] in LAYERS:
+        if p[1] != "experiments":
+            return p[1]
+        if len(p) == 2 or p[2] in EXPERIMENT_LEAVES:
+            return "experiments.leaf"
+        return f"experiments.{p[2]}"
+    if m == "drtlab" or (len(p) > 1 and p[1] in ROOT_LEAVES):
+        return "leaf"
+    return "surface"
+
+
+def _violations(rule, graph=None) -> list[tuple[str, str]]:
+    return sorted((m, t) for m, targets in (graph or _graph()).items() for t in targets
+                  if _kind(m) != _kind(t) and rule(_kind(m), _kind(t)))
+
+
+def test_the_root_leaves_import_no_layer_and_no_layer_imports_the_surface():
+    assert _violations(lambda a, b: a == "leaf" and b != "leaf") == []
+    assert _violations(lambda a, b: a != "surface" and b == "surface") == []
+
+
+def test_estimators_import_no_kernels_and_kernels_no_experiments():
+    assert _violations(lambda a, b: a == "estimators" and b not in ("leaf",)) == []
+    assert _violations(lambda a, b: a == "kernels" and b not in ("leaf", "estimators")) == []
+
+
+def test_experiments_leaves_and_stats_import_nothing_of_experiments():
+    assert _violations(lambda a, b: a == "experiments.leaf" and b.startswith("experiments")) == []
+    assert _violations(lambda a, b: a == "experiments.stats" and b.startswith("experiments")
+                       and b != "experiments.leaf") == []
+
+
+def test_no_two_folders_import_each_other():
+    edges = collections.defaultdict(set)
+    for m, targets in _graph().items():
+        for t in targets:
+            if _kind(m) != _kind(t):
+                edges[_kind(m)].add(_kind(t))
+    assert sorted((a, b) for a in edges for b in edges[a] if a < b and a in edges.get(b, ())) == []
+
+
+def test_the_checker_sees_a_violation():
+    # negative control: the real graph plus one forbidden edge (a kernel importing the study)
+    graph = _graph()
+    graph["drtlab.kernels.render"] = graph["drtlab.kernels.render"] | {"drtlab.experiments.study.runner"}
+    assert _violations(lambda a, b: a == "kernels" and b not in ("leaf", "estimators"), graph) == [
+        ("drtlab.kernels.render", "drtlab.experiments.study.runner")]
+
+
+def test_every_folder_the_map_names_exists():
+    text = (ROOT / "ARCHITECTURE.md").read_text()
+    rows = [line.split("|")[1].strip().strip("`") for line in text.splitlines()
+            if line.startswith("| `") and line.split("|")[1].strip().endswith("/`")]
+    assert rows and all((ROOT / r.split(" ")[0]).is_dir() for r in rows), rows
