@@ -199,3 +199,20 @@ def test_cli_passes_the_cluster_to_the_runner(cluster, tmp_path, monkeypatch, ca
     assert main(base) == 0
     assert seen == [cluster.workers(), ["w"] * 3, None] and started == [3]
     capsys.readouterr()
+
+
+def test_a_plugin_point_set_renders_alike_on_the_workers(cluster, tmp_path):
+    # The study's file names its plugin (the example R2 set); the workers have never imported it:
+    # each task carries it (estimators.plugins.shipped) and the tables agree with an in-process sweep.
+    from repo_paths import REPO
+    plugin = REPO / "examples" / "plugins" / "r2.py"
+    text = tiny_real_experiment("plugin on a cluster", ["aa-edges"]).replace(
+        'samplers = ["uniform", "stratified"]', 'samplers = ["uniform", "r2"]').replace(
+        "seed = 5\n", f'seed = 5\nplugins = ["{plugin}"]\n')
+    (tmp_path / "p.toml").write_text(text)
+    exp = load_experiment(str(tmp_path / "p.toml"))
+    sweep(exp, tmp_path / "local", tmp_path / "gt1", threads=2)
+    s = sweep(exp, tmp_path / "dist", tmp_path / "gt2", executor=cluster)
+    ref, got = rows(tmp_path / "local" / "runs.csv"), rows(tmp_path / "dist" / "runs.csv")
+    assert s.stats["runs_new"] == 8 and {r["sampler"] for r in got} == {"uniform", "r2+uniform"}
+    assert without_timing(got) == without_timing(ref)
