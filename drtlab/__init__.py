@@ -13,6 +13,8 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     result.cells, result.slopes, result.comparisons, result.plot_convergence()
     result = drtlab.open_results("results/stratified")    # a finished folder: nothing re-run
     drtlab.register_pointset(drtlab.pointset_from_table("mysobol", table))   # your own point set
+    drtlab.register_light_selection(drtlab.LightSelection("nearest", ..., pick, pmf))
+    drtlab.register_strategy("importance-nearest", "...", like="importance", light_selection="nearest")
     drtlab.load_plugin("my_sets.py")                      # a file that registers some
 
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
@@ -61,6 +63,9 @@ def __getattr__(name: str):
     if name == "PointSet":
         from drtlab.estimators.pointsets.base import PointSet
         return PointSet
+    if name == "LightSelection":
+        from drtlab.kernels.light_selection import LightSelection
+        return LightSelection
     if name == "DEFAULT_SAMPLER":
         from drtlab.estimators.defaults import DEFAULT_SAMPLER
         return DEFAULT_SAMPLER
@@ -151,3 +156,38 @@ def load_plugin(path_or_module):
     """Import a plugin file or module (it registers its point sets); returns its record."""
     from drtlab.estimators.plugins import load_plugin as _load
     return _load(path_or_module, "plugin")
+
+
+def register_light_selection(selection):
+    """Register a `drtlab.LightSelection` (two Warp functions: pick(sd, x, u) -> light index and
+    pmf(sd, x, li) -> its probability; kernels/light_selection.py) for strategies to name."""
+    from drtlab.estimators.plugins import attribute
+    from drtlab.kernels.light_selection import register
+    who, fingerprint = attribute("light_selection", getattr(selection, "name", "?"),
+                                 getattr(selection, "pick", None), getattr(selection, "pmf", None))
+    return register(selection, who, fingerprint)
+
+
+def register_strategy(name: str, description: str, like: str = "importance", *,
+                      light_selection: str | None = None):
+    """A strategy composed of registered routines: the built-in strategy `like` with another light
+    selection (a built-in or `register_light_selection`'s); used as POINTS+NAME in any sampler."""
+    from dataclasses import replace
+
+    from drtlab.errors import InputError
+    from drtlab.estimators.plugins import register_strategy as _register
+    from drtlab.estimators.strategies import STRATEGIES
+    from drtlab.kernels.light_selection import LIGHT_SELECTIONS
+    if like not in STRATEGIES or STRATEGIES[like].light is None:
+        raise InputError("like", f"must be a strategy that samples lights "
+                                 f"({', '.join(k for k, v in STRATEGIES.items() if v.light)}), got {like!r}")
+    base = STRATEGIES[like]
+    light, fingerprint = base.light, base.fingerprint
+    if light_selection is not None:
+        if light_selection not in LIGHT_SELECTIONS:
+            raise InputError("light_selection", f"unknown light selection {light_selection!r}; "
+                                                f"registered: {', '.join(LIGHT_SELECTIONS)}")
+        light = replace(light, pick=light_selection)
+        fingerprint = LIGHT_SELECTIONS[light_selection].fingerprint
+    return _register(replace(base, name=name, description=description, light=light,
+                             fingerprint=fingerprint))

@@ -91,7 +91,7 @@ def _reserved(name: str) -> str | None:
         return "a built-in point set"
     if name in registry.PRESETS:
         return "a built-in preset"
-    if name in registry.STRATEGIES:
+    if name in registry.BUILT_IN_STRATEGIES:
         return "a built-in strategy"
     return None
 
@@ -166,7 +166,7 @@ def register_pointset(ps, check: bool = True):
     its fingerprint)."""
     from drtlab.estimators.pointsets.base import PointSet
     from drtlab.estimators.registry import POINTSETS
-    who = _loading[-1][0] if _loading else "pointset"
+    who = _who("pointset")
     if not isinstance(ps, PointSet):
         raise InputError(who, f"register_pointset takes a drtlab PointSet, got {type(ps).__name__}")
     if not isinstance(ps.name, str) or not NAME.match(ps.name):
@@ -176,15 +176,57 @@ def register_pointset(ps, check: bool = True):
     if clash:
         raise InputError(who, f"'{ps.name}' is {clash}; give your point set another name")
     _check_signature(ps, who)
-    base = _loading[-1][1] if _loading else _source_fingerprint(ps.get1d, ps.get2d, ps.pixel_key,
-                                                                ps.count_word)
-    ps = replace(ps, fingerprint=_sha(f"{base}:{ps.fingerprint}".encode())[:16])
+    ps = replace(ps, fingerprint=_fingerprint(ps.fingerprint, ps.get1d, ps.get2d, ps.pixel_key,
+                                              ps.count_word))
     if check:
         _check_values(ps, who)
     POINTSETS[ps.name] = ps
-    if _loading:
-        _loading[-1][2].append(f"pointset:{ps.name}")
+    _note("pointset", ps.name)
     return ps
+
+
+def _who(kind: str) -> str:
+    """What an error of a registration names: the plugin being imported, else the API call."""
+    return _loading[-1][0] if _loading else f"register_{kind}"
+
+
+def _fingerprint(own: str, *functions) -> str:
+    """A registration's fingerprint: the plugin's source hash while one is imported, else the hash
+    of the functions' source; with `own` (a table's hash) mixed in."""
+    base = _loading[-1][1] if _loading else _source_fingerprint(*functions)
+    return _sha(f"{base}:{own}".encode())[:16]
+
+
+def _note(kind: str, name: str) -> None:
+    if _loading:
+        _loading[-1][2].append(f"{kind}:{name}")
+
+
+def attribute(kind: str, name: str, *functions) -> tuple[str, str]:
+    """(who, fingerprint) of a registration made outside this module (a light selection, in
+    kernels/light_selection.py), recorded as the importing plugin's."""
+    who, fp = _who(kind), _fingerprint("", *functions)
+    _note(kind, name)
+    return who, fp
+
+
+def register_strategy(strategy):
+    """Register a Strategy (a composition of the registered routines: a built-in's fields with
+    another light selection, say) under its name; its fingerprint says what it compiles from."""
+    from drtlab.estimators.strategies import STRATEGIES, Strategy
+    who = _who("strategy")
+    if not isinstance(strategy, Strategy):
+        raise InputError(who, f"register_strategy takes a drtlab Strategy, got {type(strategy).__name__}")
+    if not isinstance(strategy.name, str) or not NAME.match(strategy.name):
+        raise InputError(who, f"a strategy's name is lower-case letters, digits, - and _ (at most 40, "
+                              f"starting with a letter), got {strategy.name!r}")
+    clash = _reserved(strategy.name)
+    if clash:
+        raise InputError(who, f"'{strategy.name}' is {clash}; give your strategy another name")
+    strategy = replace(strategy, fingerprint=_fingerprint(strategy.fingerprint))
+    STRATEGIES[strategy.name] = strategy
+    _note("strategy", strategy.name)
+    return strategy
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -249,8 +291,8 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
     finally:
         _, _, registered = _loading.pop()
     if not registered:
-        raise InputError(label, "registers nothing: a plugin calls drtlab.register_pointset(...) "
-                                "when imported")
+        raise InputError(label, "registers nothing: a plugin calls drtlab.register_pointset(...), "
+                                "register_light_selection(...) or register_strategy(...) when imported")
     _loaded[key] = Plugin(spec, module, path, sha, tuple(registered))
     return _loaded[key]
 
@@ -330,6 +372,8 @@ def ensure_shipped(items: tuple) -> None:
 
 
 def sampler_fingerprint(sampler: str) -> str:
-    """The fingerprint of a sampler's point set ("" for the built-ins)."""
+    """The fingerprint of a sampler's point set and strategy ("" for the built-ins)."""
     from drtlab.estimators.registry import parse_sampler
-    return parse_sampler(sampler).pointset.fingerprint
+    spec = parse_sampler(sampler)
+    both = [f for f in (spec.pointset.fingerprint, spec.strategy.fingerprint) if f]
+    return "" if not both else both[0] if len(both) == 1 else _sha(":".join(both).encode())[:16]

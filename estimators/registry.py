@@ -13,6 +13,8 @@ from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY  # noq
 from drtlab.estimators.integrators import INTEGRATORS, Integrator
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
+
+BUILT_IN_STRATEGIES = tuple(STRATEGIES)       # before any plugin adds its own
 from drtlab.errors import InputError
 
 # The modules of pointsets/, each named after the POINTSET it defines, in the order listings show.

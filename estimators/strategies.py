@@ -31,7 +31,8 @@ class LightSampling:
                         # solid angle the light subtends (a sphere's cone, a rectangle's spherical
                         # rectangle, a mesh face's spherical triangle; kernels/lights.py has the
                         # thresholds below which flat lights fall back to area)
-    pick: str           # "uniform" over lights or "power" (proportional to emitted power)
+    pick: str           # the light selection (kernels/light_selection.py): "uniform" over lights,
+                        # "power" (proportional to emitted power) or a plugin's
     mis: bool = False   # combine with scattered-ray hits by the power heuristic
     environment: str = "image"  # the environment's sampler: "uniform" | "cosine" | "image"
 
@@ -47,6 +48,7 @@ class Strategy:
     direction: str
     light: LightSampling | None = None
     microfacet: str = "vndf"
+    fingerprint: str = ""          # a plugin strategy's (and its light selection's) source hash
 
     @property
     def combine(self) -> str:
@@ -65,10 +67,6 @@ class Strategy:
     @property
     def environment_sampler(self) -> str:
         return self.light.environment if self.light is not None else "image"
-
-    @property
-    def power_pick(self) -> bool:
-        return self.light is not None and self.light.pick == "power"
 
     @property
     def mis(self) -> bool:

@@ -121,6 +121,7 @@ class LightData:
     shape: wp.array(dtype=int)                 # its index among the shapes of its kind
     pmf: wp.array(dtype=float)                 # by power
     cdf: wp.array(dtype=float)
+    center: wp.array(dtype=wp.vec3)            # where it is, for light selection (light_center)
     n_area: int
     point_position: wp.array(dtype=wp.vec3)
     point_intensity: wp.array(dtype=wp.vec3)
@@ -331,6 +332,18 @@ def emitter_powers(scene: Scene) -> list[float]:
             for s in (scene.shapes[i] for i in scene.emitter_shapes())]
 
 
+def light_center(s) -> np.ndarray:
+    """Where an area light is, for a light selection's distance heuristics: a sphere's centre, a
+    quad's middle, a mesh's area-weighted centroid (at shutter open)."""
+    if s.kind == "sphere":
+        return np.asarray(s.center, dtype=np.float64)
+    if s.kind == "quad":
+        return np.asarray(s.origin) + 0.5 * (np.asarray(s.edge_u) + np.asarray(s.edge_v))
+    v, f = s.mesh.vertices, s.mesh.faces
+    w = s.mesh.triangle_areas()
+    return (v[f].mean(axis=1) * w[:, None]).sum(axis=0) / max(float(w.sum()), 1e-300)
+
+
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
                 power: list, arr: Callable) -> None:
     """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
@@ -344,6 +357,7 @@ def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes:
     lights.shape = arr([index[id(s)] for s in emitters], int, (1,))
     lights.pmf = arr(pmf, float, (1,))
     lights.cdf = arr(cdf, float, (1,))
+    lights.center = arr([light_center(s) for s in emitters], wp.vec3, (1, 3))
     lights.n_area = len(emitters)
     points, dirs = scene.point_lights, scene.directional_lights
     lights.point_position = arr([pl.position for pl in points], wp.vec3, (1, 3))

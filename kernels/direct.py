@@ -102,11 +102,11 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                                       dt)
             ul = (ul - pe) / (1.0 - pe)
             share = 1.0 - pe
-        li = pick_light(sd, ul)
+        li = pick_light(sd, h.p, ul)
         ls = sample_light(sd, li, h.p, u_point, bounce, dt)
         probe = float(0.0)
         if wp.static(TWICE_SAMPLE_LIGHT):
-            probe += sample_light(sd, pick_light(sd, 1.0 - ul), h.p,
+            probe += sample_light(sd, pick_light(sd, h.p, 1.0 - ul), h.p,
                                   wp.vec2(u_point[1], u_point[0]), bounce, dt).pdf
         if wp.static(ENV):
             ls.pdf = ls.pdf * share

@@ -144,7 +144,8 @@ def sample_image(env: EnvironmentData, u: wp.vec2) -> wp.vec3:
 
 def make_environment(strategy: Strategy) -> Environment:
     SAMPLER = strategy.environment_sampler
-    POWER_PICK = strategy.power_pick
+    from drtlab.kernels.light_selection import selection_of      # it imports device_scene, which imports us
+    POWER_PICK = selection_of(strategy).environment_share == "power"
 
     @wp.func
     def env_pick(env: EnvironmentData) -> float:

@@ -2,7 +2,7 @@
 
 `make_lights(features, strategy, motion=motion)` (motion from intersection/motion.py) returns
 AreaLights, Warp functions callable on their own:
-    pick_light(sd, u) -> light index;  light_pick_pmf(sd, li) -> its probability
+    pick_light(sd, x, u) -> light index;  light_pick_pmf(sd, x, li) -> its probability from x
     sample_light(sd, li, x, u, bounce, dt) -> LightSample (direction, distance, radiance,
         solid-angle pdf including the light choice) from x, a path vertex of bounce index `bounce`
     light_pdf(sd, li, x, y, ny, prim, bounce, dt) -> the density sample_light has of proposing
@@ -14,7 +14,8 @@ angle, where that solid angle lies in [SPHERICAL_MIN, SPHERICAL_MAX], x is not n
 plane (SPHERICAL_MIN_ELEVATION) and, for a rectangle, where it pays per unit time: A cos_l / d^2 at
 its centre >= SPHERICAL_PAYS and x is a path vertex of bounce index <= SPHERICAL_MAX_BOUNCE (0: the
 camera ray's hit); area sampling elsewhere, and for quads that are not rectangles. Otherwise every
-flat light is area-sampled. `strategy.power_pick` picks lights proportionally to emitted power.
+flat light is area-sampled. The strategy's light selection (`kernels/light_selection.py`: `uniform`,
+`power`, or a plugin's) picks the light from the shading point.
 The fault features.LIGHT_JACOBIAN in `features.faults` drops the cosine at the light. `features.meshes` compiles in emitting triangle meshes: a triangle
 picked with probability proportional to its area (MeshData.tri_cdf), then a uniform point on it (area
 sampling: the density is 1 / (the mesh's area) everywhere on it) or its spherical triangle; the fault
@@ -35,6 +36,7 @@ from drtlab.kernels.device_scene import MESH, SPHERE, SceneData
 from drtlab.kernels.features import (LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT, SPHERICAL_LINEAR,
                                      SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX, Features)
 from drtlab.kernels.intersection.motion import Motion
+from drtlab.kernels.light_selection import selection_of
 
 # Solid-angle sampling of a rectangle or triangle only where the solid angle Omega (sr) it subtends
 # from x lies in [SPHERICAL_MIN, SPHERICAL_MAX] and x stands at least SPHERICAL_MIN_ELEVATION x (the
@@ -148,8 +150,8 @@ def sphere_cone(sd: SceneData, c: wp.vec3, r: float, x: wp.vec3) -> wp.vec2:
 
 
 class AreaLights(NamedTuple):
-    pick_light: wp.Function         # (sd, u) -> light index
-    light_pick_pmf: wp.Function     # (sd, li) -> the probability pick_light picks li
+    pick_light: wp.Function         # (sd, x, u) -> light index
+    light_pick_pmf: wp.Function     # (sd, x, li) -> the probability pick_light picks li from x
     sample_light: wp.Function       # (sd, li, x, u, bounce, dt) -> LightSample
     light_pdf: wp.Function          # (sd, li, x, y, ny, prim, bounce, dt) -> density of y
 
@@ -241,7 +243,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
     sphere_center = motion.sphere_center
     quad_origin = motion.quad_origin
     SOLID_ANGLE = strategy.solid_angle
-    POWER_PICK = strategy.power_pick
+    SELECTION = selection_of(strategy)
     MESHES = f.meshes
     wrong_jacobian = LIGHT_JACOBIAN in f.faults
     MIS_AREA = SPHERICAL_MIS_AREA in f.faults
@@ -271,22 +273,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
         f.meshes, MESH_PDF_HIGH_10PCT in f.faults, motion.mesh_shift, SOLID_ANGLE,
         maps.square_to_spherical_triangle)
 
-    @wp.func
-    def light_pick_pmf(sd: SceneData, li: int) -> float:
-        if wp.static(POWER_PICK):
-            return sd.lights.pmf[li]
-        return 1.0 / float(sd.lights.n_area)
-
-    @wp.func
-    def pick_light(sd: SceneData, u: float) -> int:
-        li = int(0)
-        if wp.static(POWER_PICK):
-            # Few lights: a linear scan of the cdf is cheaper than a search.
-            while li < sd.lights.n_area - 1 and u >= sd.lights.cdf[li]:
-                li += 1
-        else:
-            li = wp.min(int(u * float(sd.lights.n_area)), sd.lights.n_area - 1)
-        return li
+    pick_light, light_pick_pmf = SELECTION.pick, SELECTION.pmf
 
     @wp.func
     def light_pdf(sd: SceneData, li: int, x: wp.vec3, y: wp.vec3, ny: wp.vec3, prim: int,
@@ -331,7 +318,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                             sa_pdf = 1.0 / rect.solid_angle
                 if sa_pdf > 0.0:
                     pdf = sa_pdf
-        return pdf * light_pick_pmf(sd, li)
+        return pdf * light_pick_pmf(sd, x, li)
 
     @wp.func
     def sample_light(sd: SceneData, li: int, x: wp.vec3, u: wp.vec2, bounce: int,
@@ -420,7 +407,7 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
             if wp.dot(ny, ls.wi) >= 0.0:
                 return ls
         ls.radiance = sd.materials.emission[m]
-        ls.pdf = pdf * light_pick_pmf(sd, li)
+        ls.pdf = pdf * light_pick_pmf(sd, x, li)
         ls.valid = 1
         return ls
 

@@ -170,7 +170,7 @@ KIND_INDEX = MATERIAL_CODE
 ALL_KINDS = frozenset(MATERIAL_KINDS)
 
 
-def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick: bool = False,
+def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick=False,
                     meshes: bool = False, faults: frozenset = frozenset(),
                     microfacet: str = "vndf") -> tuple:
     """(features, strategy) to build one sampling routine from, as the kernel factories take them:
@@ -179,8 +179,8 @@ def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick: b
                         kinds=ALL_KINDS, checker=False, area_lights=True, point_lights=False,
                         dir_lights=False, roulette=False, background=False,
                         faults=frozenset(faults), meshes=meshes)
-    light = LightSampling("solid_angle" if solid_angle else "area",
-                          "power" if power_pick else "uniform")
+    pick = power_pick if isinstance(power_pick, str) else ("power" if power_pick else "uniform")
+    light = LightSampling("solid_angle" if solid_angle else "area", pick)
     return features, Strategy("chi2", "a chi-square adapter's routine",
                               "lobe" if lobe else "uniform", light, microfacet=microfacet)
 
@@ -315,13 +315,17 @@ class LightAdapter:
     _SAMPLES = LightSamples
     _EXTRA: tuple = ()          # names of the kept outputs past LightSamples' (the face: unused)
 
-    def __init__(self, solid_angle: bool, power_pick: bool, wrong_jacobian: bool = False,
+    def __init__(self, solid_angle: bool, power_pick, wrong_jacobian: bool = False,
                  faults=()):
-        key = (bool(solid_angle), bool(power_pick), bool(wrong_jacobian), frozenset(faults))
+        """`power_pick`: True (power), False (uniform) or a registered light selection's name."""
+        from drtlab.kernels.light_selection import LIGHT_SELECTIONS
+        pick = power_pick if isinstance(power_pick, str) else bool(power_pick)
+        key = (bool(solid_angle), pick, bool(wrong_jacobian), frozenset(faults))
         kernels = type(self)._kernels
-        if key not in kernels:
-            kernels[key] = self._build(*key)
-        self.kernel = kernels[key]
+        cached = (key, LIGHT_SELECTIONS[pick].fingerprint if isinstance(pick, str) else "")
+        if cached not in kernels:
+            kernels[cached] = self._build(*key)
+        self.kernel = kernels[cached]
 
     @staticmethod
     def _build(*key):
@@ -361,7 +365,7 @@ def face_normal(sd: SceneData, face: int) -> wp.vec3:
     return wp.normalize(wp.cross(sd.meshes.points[idx[1]] - a, sd.meshes.points[idx[2]] - a))
 
 
-def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
+def make_light_kernel(solid_angle: bool, power_pick, wrong_jacobian: bool,
                       faults=frozenset(), meshes: bool = False, mesh_fault: bool = False):
     """The light-sampling kernel of LightAdapter (spheres and quads) and, with `meshes`, of
     chi2.mesh_adapter.MeshLightAdapter (mesh lights too; `mesh_fault` compiles its negative control).
@@ -423,11 +427,11 @@ def make_light_kernel(solid_angle: bool, power_pick: bool, wrong_jacobian: bool,
         tid = wp.tid()
         if mode == 0:
             i = wp.uint32(tid)
-            li = pick_light(sd, uniform(seed, i, 0))
+            li = pick_light(sd, x, uniform(seed, i, 0))
             ls = sample_light(sd, li, x, wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2)), 0,
                               0.0)
             out_light[tid] = li
-            out_pmf[tid] = pick_pmf(sd, li)
+            out_pmf[tid] = pick_pmf(sd, x, li)
             out_valid[tid] = ls.valid
             if ls.valid == 1:
                 out_wi[tid] = ls.wi
