@@ -6,33 +6,20 @@ its two tests), fixed seeds."""
 import json
 import subprocess
 import sys
-from pathlib import Path
 
-import numpy as np
-import pytest
 from scipy.stats import qmc
 
 from drtlab.estimators import plugins
-from drtlab.estimators.registry import POINTSETS
 from drtlab.experiments.pointsets.check import check
 
-ROOT = Path(__file__).resolve().parents[2]
-EXAMPLES = ROOT / "examples" / "plugins"
+from repo_paths import PLUGIN_EXAMPLES, REPO as ROOT
 
-
-@pytest.fixture
-def clean_registry():
-    names, loaded, was = list(POINTSETS._names), dict(POINTSETS._loaded), dict(plugins._loaded)
-    yield
-    POINTSETS._names[:], POINTSETS._loaded = names, loaded
-    plugins._loaded.clear()
-    plugins._loaded.update(was)
 
 
 def test_the_example_plugin_passes_its_scorecard_from_the_command_line(tmp_path):
     out = tmp_path / "card.json"
     r = subprocess.run([sys.executable, "-m", "drtlab.cli", "check", "r2", "--plugin",
-                        str(EXAMPLES / "r2.py"), "--pixels", "1024", "--out", str(out)],
+                        str(PLUGIN_EXAMPLES / "r2.py"), "--pixels", "1024", "--out", str(out)],
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     card = json.loads(out.read_text())
@@ -55,7 +42,7 @@ def test_an_unrandomized_table_fails_the_battery_and_the_furnace(clean_registry)
 
 def test_pytest_runs_its_point_set_tests_on_a_plugin(tmp_path):
     r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                        "--drtlab-plugin", str(EXAMPLES / "r2.py"), "-k", "r2",
+                        "--drtlab-plugin", str(PLUGIN_EXAMPLES / "r2.py"), "-k", "r2",
                         str(ROOT / "tests" / "estimators" / "test_pointsets.py")],
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 0, r.stdout[-2000:]

@@ -12,12 +12,10 @@ from scipy import stats
 import drtlab
 from drtlab.errors import InputError
 from drtlab.estimators import plugins
-from drtlab.estimators.registry import POINTSETS
-from drtlab.estimators.strategies import STRATEGIES
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.light_selection import LIGHT_SELECTIONS
 
-from test_plugins import EXAMPLES
+from repo_paths import PLUGIN_EXAMPLES
+
 
 ALPHA = 0.01
 LEVEL = C.sidak(ALPHA, 3)
@@ -54,20 +52,6 @@ drtlab.register_light_selection(drtlab.LightSelection("off-by-10", "power, pmf 1
 '''
 
 
-@pytest.fixture
-def clean_registry():
-    names, loaded, was = list(POINTSETS._names), dict(POINTSETS._loaded), dict(plugins._loaded)
-    sels, strats = dict(LIGHT_SELECTIONS), dict(STRATEGIES)
-    yield
-    POINTSETS._names[:], POINTSETS._loaded = names, loaded
-    plugins._loaded.clear()
-    plugins._loaded.update(was)
-    LIGHT_SELECTIONS.clear()
-    LIGHT_SELECTIONS.update(sels)
-    STRATEGIES.clear()
-    STRATEGIES.update(strats)
-
-
 def _expected_pmf() -> np.ndarray:
     lum = lambda c: 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
     area_q = np.linalg.norm(np.cross(QUAD["edge_u"], QUAD["edge_v"]))
@@ -78,7 +62,7 @@ def _expected_pmf() -> np.ndarray:
 
 
 def test_the_plugin_selection_samples_what_it_claims(clean_registry):
-    p = plugins.load_plugin(EXAMPLES / "nearest_light.py")
+    p = plugins.load_plugin(PLUGIN_EXAMPLES / "nearest_light.py")
     assert p.registered == ("light_selection:nearest", "strategy:importance-nearest")
     sd = C.upload_scene(SCENE)[0]
     ad = C.LightAdapter(True, "nearest")
@@ -106,7 +90,7 @@ def test_a_pmf_off_by_ten_percent_is_rejected(clean_registry, tmp_path):
 
 
 def test_with_one_light_it_renders_as_the_power_pick(clean_registry):
-    plugins.load_plugin(EXAMPLES / "nearest_light.py")
+    plugins.load_plugin(PLUGIN_EXAMPLES / "nearest_light.py")
     scene = drtlab.load_scene("soft-shadows", {"scene.resolution": [24, 18]})
     a = drtlab.render(scene, spp=4, sampler="stratified+importance-nearest", seed=2)
     b = drtlab.render(scene, spp=4, sampler="stratified+importance", seed=2)

@@ -14,7 +14,8 @@ from drtlab.errors import InputError
 from drtlab.estimators.points import points
 from drtlab.estimators.registry import POINTSETS, parse_sampler
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "plugins"
+from repo_paths import PLUGIN_EXAMPLES
+
 
 PLUGIN = '''
 import warp as wp
@@ -39,17 +40,6 @@ drtlab.register_pointset(drtlab.PointSet("{NAME}", "hashed points", mine_1d, min
 def _write(path: Path, name: str = "mine", salt: int = 1, bad: str = "") -> Path:
     path.write_text(PLUGIN.replace("SALT", str(salt)).replace("{NAME}", name).replace("{BAD}", bad))
     return path
-
-
-@pytest.fixture
-def clean_registry():
-    """The registry and the loaded plugins as they were before the test."""
-    names, loaded = list(POINTSETS._names), dict(POINTSETS._loaded)
-    was = dict(plugins._loaded)
-    yield
-    POINTSETS._names[:], POINTSETS._loaded = names, loaded
-    plugins._loaded.clear()
-    plugins._loaded.update(was)
 
 
 def test_a_plugin_file_registers_a_set_used_like_a_built_in(tmp_path, clean_registry):
@@ -175,8 +165,8 @@ def test_an_installed_package_plugs_in_by_its_entry_point(tmp_path, clean_regist
 
 
 def test_the_examples_register_their_sets(clean_registry):
-    r2 = plugins.load_plugin(EXAMPLES / "r2.py")
-    tab = plugins.load_plugin(EXAMPLES / "qmc_sobol.py")
+    r2 = plugins.load_plugin(PLUGIN_EXAMPLES / "r2.py")
+    tab = plugins.load_plugin(PLUGIN_EXAMPLES / "qmc_sobol.py")
     assert r2.registered == ("pointset:r2",) and tab.registered == ("pointset:qmc-sobol",)
     # each pixel's 64 points in x are {frac(i a1 + s)}, i < 64: seen from one of them, every other
     # lies at frac(k a1) for an integer |k| < 64, whatever the pixel's shift and permutation
@@ -187,4 +177,12 @@ def test_the_examples_register_their_sets(clean_registry):
         d = np.mod(x - x[0], 1.0)
         gap = np.abs(d[:, None] - lattice[None, :])
         assert np.minimum(gap, 1 - gap).min(axis=1).max() < 1e-5
-    assert drtlab.load_plugin(EXAMPLES / "r2.py") is r2
+    assert drtlab.load_plugin(PLUGIN_EXAMPLES / "r2.py") is r2
+
+
+def test_the_example_study_loads_with_its_plugins(clean_registry):
+    from drtlab.experiments.study.config import load_experiment
+    exp = load_experiment(str(PLUGIN_EXAMPLES / "compare.toml"))
+    samplers = {s for st in exp.studies for s in st.samplers}
+    assert {"r2+uniform", "qmc-sobol+uniform", "independent+importance-nearest"} <= samplers
+    assert sum(k.startswith("plugin:") for k in exp.sources) == 3

@@ -5,3 +5,4 @@ REPO = Path(__file__).resolve().parents[2]
 SUPPORT = Path(__file__).resolve().parent
 PYTHON = REPO / ".venv" / "bin" / "python"
 DRTLAB = REPO / ".venv" / "bin" / "drtlab"
+PLUGIN_EXAMPLES = REPO / "examples" / "plugins"
