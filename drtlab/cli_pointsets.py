@@ -56,6 +56,16 @@ def cmd_pointset(args) -> int:
     return 0
 
 
+def _battery_arguments(p, name_help: str, level_help: str) -> None:
+    p.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
+    p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
+                   help="the point set's seed")
+    p.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
+                   help=level_help)
+    p.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
+                   metavar="P", help="pixels of the battery (more: more power, longer)")
+
+
 def cmd_check(args) -> int:
     from drtlab.experiments.pointsets.check import check
     if args.out is not None:
@@ -111,13 +121,7 @@ def add_pointset_commands(sub) -> None:
                     "and verdict at the level, Sidak-corrected over the tests. Exit 0 when every "
                     "test passes, 1 when any fails. Tests: "
                     + "; ".join(f"{k}: {w}" for k, w in V.TESTS.items()) + ".")
-    v.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
-    v.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
-                   help="the point set's seed")
-    v.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
-                   help="false-alarm probability of the whole battery")
-    v.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
-                   metavar="P", help="pixels sampled (more: more power, longer)")
+    _battery_arguments(v, name_help, "false-alarm probability of the whole battery")
     v.set_defaults(func=cmd_validate)
 
     c = sub.add_parser(
@@ -130,13 +134,7 @@ def add_pointset_commands(sub) -> None:
                     "discontinuous integrand beside the built-ins' rates, and the render cost "
                     "against independent points. Exit 0 when every judged line passes, 1 when any "
                     "fails. About 30 s.")
-    c.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
-    c.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
-                   help="seed of every sample drawn")
-    c.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
-                   help="false-alarm probability of the scorecard's tests together")
-    c.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
-                   metavar="P", help="pixels of the battery")
+    _battery_arguments(c, name_help, "false-alarm probability of the scorecard's tests together")
     c.add_argument("--out", type=Path, default=None, metavar="FILE.json",
                    help="also write the scorecard as JSON")
     c.set_defaults(func=cmd_check)

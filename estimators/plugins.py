@@ -166,15 +166,7 @@ def register_pointset(ps, check: bool = True):
     its fingerprint)."""
     from drtlab.estimators.pointsets.base import PointSet
     from drtlab.estimators.registry import POINTSETS
-    who = _who("pointset")
-    if not isinstance(ps, PointSet):
-        raise InputError(who, f"register_pointset takes a drtlab PointSet, got {type(ps).__name__}")
-    if not isinstance(ps.name, str) or not NAME.match(ps.name):
-        raise InputError(who, f"a point set's name is lower-case letters, digits, - and _ (at most 40, "
-                              f"starting with a letter), got {ps.name!r}")
-    clash = _reserved(ps.name)
-    if clash:
-        raise InputError(who, f"'{ps.name}' is {clash}; give your point set another name")
+    who = _checked_name(ps, PointSet, "pointset", "point set")
     _check_signature(ps, who)
     ps = replace(ps, fingerprint=_fingerprint(ps.fingerprint, ps.get1d, ps.get2d, ps.pixel_key,
                                               ps.count_word))
@@ -183,6 +175,20 @@ def register_pointset(ps, check: bool = True):
     POINTSETS[ps.name] = ps
     _note("pointset", ps.name)
     return ps
+
+
+def _checked_name(obj, cls, kind: str, words: str) -> str:
+    """`obj` is a `cls` with a free, well-formed name; returns what its errors name."""
+    who = _who(kind)
+    if not isinstance(obj, cls):
+        raise InputError(who, f"register_{kind} takes a drtlab {cls.__name__}, got {type(obj).__name__}")
+    if not isinstance(obj.name, str) or not NAME.match(obj.name):
+        raise InputError(who, f"a {words}'s name is lower-case letters, digits, - and _ (at most 40, "
+                              f"starting with a letter), got {obj.name!r}")
+    clash = _reserved(obj.name)
+    if clash:
+        raise InputError(who, f"'{obj.name}' is {clash}; give your {words} another name")
+    return who
 
 
 def _who(kind: str) -> str:
@@ -214,15 +220,7 @@ def register_strategy(strategy):
     """Register a Strategy (a composition of the registered routines: a built-in's fields with
     another light selection, say) under its name; its fingerprint says what it compiles from."""
     from drtlab.estimators.strategies import STRATEGIES, Strategy
-    who = _who("strategy")
-    if not isinstance(strategy, Strategy):
-        raise InputError(who, f"register_strategy takes a drtlab Strategy, got {type(strategy).__name__}")
-    if not isinstance(strategy.name, str) or not NAME.match(strategy.name):
-        raise InputError(who, f"a strategy's name is lower-case letters, digits, - and _ (at most 40, "
-                              f"starting with a letter), got {strategy.name!r}")
-    clash = _reserved(strategy.name)
-    if clash:
-        raise InputError(who, f"'{strategy.name}' is {clash}; give your strategy another name")
+    _checked_name(strategy, Strategy, "strategy", "strategy")
     strategy = replace(strategy, fingerprint=_fingerprint(strategy.fingerprint))
     STRATEGIES[strategy.name] = strategy
     _note("strategy", strategy.name)
