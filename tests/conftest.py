@@ -3,6 +3,8 @@ import os
 import sys
 from pathlib import Path
 
+import pytest
+
 # The shared test utilities (scene pieces, statistics procedure, fakes, data) live in tests/support/;
 # test modules in every subfolder import them by name.
 sys.path.insert(0, str(Path(__file__).resolve().parent / "support"))
@@ -32,3 +34,22 @@ def pytest_configure(config):
     if specs:
         from drtlab.estimators.plugins import load_plugins
         load_plugins(specs, "--drtlab-plugin", Path.cwd())
+
+
+@pytest.fixture
+def clean_registry():
+    """The point sets, light selections, strategies and loaded plugins as they were before the test:
+    a test that registers a plugin leaves no trace for the tests after it (in its worker)."""
+    from drtlab.estimators import plugins
+    from drtlab.estimators.registry import POINTSETS
+    from drtlab.estimators.strategies import STRATEGIES
+    from drtlab.kernels.light_selection import LIGHT_SELECTIONS
+    names, loaded, was = list(POINTSETS._names), dict(POINTSETS._loaded), dict(plugins._loaded)
+    sels, strats = dict(LIGHT_SELECTIONS), dict(STRATEGIES)
+    yield
+    POINTSETS._names[:], POINTSETS._loaded = names, loaded
+    plugins._loaded.clear()
+    plugins._loaded.update(was)
+    for registry, before in ((LIGHT_SELECTIONS, sels), (STRATEGIES, strats)):
+        registry.clear()
+        registry.update(before)

@@ -201,7 +201,7 @@ def test_cli_passes_the_cluster_to_the_runner(cluster, tmp_path, monkeypatch, ca
     capsys.readouterr()
 
 
-def test_a_plugin_point_set_renders_alike_on_the_workers(cluster, tmp_path):
+def test_a_plugin_point_set_renders_alike_on_the_workers(cluster, tmp_path, clean_registry):
     # The study's file names its plugin (the example R2 set); the workers have never imported it:
     # each task carries it (estimators.plugins.shipped) and the tables agree with an in-process sweep.
     from repo_paths import REPO
