@@ -524,6 +524,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _load_plugins(argv: list[str]) -> None:
+    if not any(a.startswith("--plugin") for a in argv):
+        return                  # most commands: no plugin machinery imported at start-up
     from drtlab.estimators.plugins import load_plugins, plugin_args
     load_plugins(plugin_args(argv))
 

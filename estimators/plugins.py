@@ -96,24 +96,32 @@ def _reserved(name: str) -> str | None:
     return None
 
 
+def check_warp_function(fn, what: str, args: tuple, ret, who: str, shape: str | None = None) -> None:
+    """`fn` is a Warp function taking `args` (types) and returning `ret`, else one InputError naming
+    `what`; `shape` words the expected parameters (default: the type names). float and int stand
+    for Warp's float32 and int32."""
+    import warp as wp
+    if not isinstance(fn, wp._src.context.Function):
+        raise InputError(who, f"{what} must be a Warp function (@wp.func), got {type(fn).__name__}")
+    same = {float: wp.float32, int: wp.int32}
+    name = lambda t: getattr(t, "__name__", str(t))                           # noqa: E731
+    got = tuple(same.get(t, t) for t in fn.input_types.values())
+    if len(got) != len(args) or any(g is not same.get(a, a) for g, a in zip(got, args)):
+        raise InputError(who, f"{what} must take {shape or '(' + ', '.join(map(name, args)) + ')'}; "
+                              f"got ({', '.join(map(name, got))})")
+    try:
+        r = inspect.get_annotations(fn.func, eval_str=True).get("return")
+    except Exception:                                             # noqa: BLE001 (user annotations)
+        r = fn.func.__annotations__.get("return")
+    if same.get(r, r) is not same.get(ret, ret):
+        raise InputError(who, f"{what} must return {name(ret)}, got {name(r)!r}")
+
+
 def _check_signature(ps, who: str) -> None:
     import warp as wp
-    for attr, ret in (("get1d", "float"), ("get2d", "vec2")):
-        fn = getattr(ps, attr)
-        if not isinstance(fn, wp._src.context.Function):
-            raise InputError(who, f"{attr} must be a Warp function (@wp.func), got {type(fn).__name__}")
-        types = list(fn.input_types.values())
-        if len(types) != 5 or any(t is not wp.uint32 for t in types):
-            raise InputError(who, f"{attr} must take (seed, pixel, index, dim, spp), each wp.uint32; "
-                                  f"got ({', '.join(getattr(t, '__name__', str(t)) for t in types)})")
-        try:
-            got = inspect.get_annotations(fn.func, eval_str=True).get("return")
-        except Exception:                                         # noqa: BLE001 (user annotations)
-            got = fn.func.__annotations__.get("return")
-        ok = got in (float, wp.float32) if ret == "float" else got is wp.vec2
-        if not ok:
-            raise InputError(who, f"{attr} must return {'float' if ret == 'float' else 'wp.vec2'}, "
-                                  f"got {getattr(got, '__name__', got)!r}")
+    for attr, ret in (("get1d", float), ("get2d", wp.vec2)):
+        check_warp_function(getattr(ps, attr), attr, (wp.uint32,) * 5, ret, who,
+                            "(seed, pixel, index, dim, spp), each wp.uint32")
 
 
 def _user_frame(exc: BaseException, files: set[str]) -> str:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import warp as wp
 
 from drtlab.errors import InputError
+from drtlab.estimators.plugins import check_warp_function
 from drtlab.kernels.device_scene import SceneData
 
 ENVIRONMENT_SHARES = ("power", "uniform")
@@ -75,22 +76,6 @@ def selection_of(strategy) -> LightSelection:
     return LIGHT_SELECTIONS[name]
 
 
-def _check_function(fn, what: str, args: tuple, ret, who: str) -> None:
-    import inspect
-    if not isinstance(fn, wp._src.context.Function):
-        raise InputError(who, f"{what} must be a Warp function (@wp.func), got {type(fn).__name__}")
-    same = {float: wp.float32, int: wp.int32}
-    got = tuple(same.get(t, t) for t in fn.input_types.values())
-    want = tuple(same.get(t, t) for t in args)
-    if len(got) != len(want) or any(g is not a for g, a in zip(got, want)):
-        names = ", ".join(getattr(t, "__name__", str(t)) for t in args)
-        raise InputError(who, f"{what} must take ({names}), got "
-                              f"({', '.join(getattr(t, '__name__', str(t)) for t in got)})")
-    r = inspect.get_annotations(fn.func, eval_str=True).get("return")
-    if same.get(r, r) is not same.get(ret, ret):
-        raise InputError(who, f"{what} must return {ret.__name__}, got {getattr(r, '__name__', r)!r}")
-
-
 def register(sel: LightSelection, who: str, fingerprint: str) -> LightSelection:
     """Add a user's selection (checked: signatures, name, environment share); a name registered
     again is replaced (an edited plugin)."""
@@ -102,8 +87,8 @@ def register(sel: LightSelection, who: str, fingerprint: str) -> LightSelection:
     if sel.environment_share not in ENVIRONMENT_SHARES:
         raise InputError(who, f"environment_share must be one of {', '.join(ENVIRONMENT_SHARES)}, "
                               f"got {sel.environment_share!r}")
-    _check_function(sel.pick, "pick", (SceneData, wp.vec3, float), int, who)
-    _check_function(sel.pmf, "pmf", (SceneData, wp.vec3, int), float, who)
+    check_warp_function(sel.pick, "pick", (SceneData, wp.vec3, float), int, who)
+    check_warp_function(sel.pmf, "pmf", (SceneData, wp.vec3, int), float, who)
     sel = replace(sel, fingerprint=fingerprint)
     LIGHT_SELECTIONS[sel.name] = sel
     return sel
