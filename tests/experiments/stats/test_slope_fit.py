@@ -1,4 +1,4 @@
-"""The emcee convergence-slope fits recover known slopes, and their 95% intervals cover the truth in
+"""The convergence-slope fits (the RMSE slope by emcee, the typical slope from its exact posterior) recover known slopes, and their 95% intervals cover the truth in
 about 95% of seeded trials: the typical-error fit (`fit_typical_slope`) on Gaussian
 errors, the RMSE-slope fit (`fit_rmse_slope`) on Gaussian AND heavy-tailed errors, where the typical
 fit must fail (negative control).
@@ -82,12 +82,12 @@ def test_recovers_known_slope(beta):
     rng = np.random.default_rng(123)
     n, r = synth(beta, rng, reps=4)
     f = fit_typical_slope(n, r, seed=1)
-    assert f["ok"] and f["converged"]
+    assert f["ok"]
     assert f["slope_lo"] < -beta < f["slope_hi"]
     assert abs(f["slope"] + beta) < 0.03
-    assert 0.15 <= f["acceptance_fraction"] <= 0.8
-    assert len(f["autocorr_time"]) == 3 and max(f["autocorr_time"]) * 50 <= f["steps"] - f["burn"]
-    assert abs(f["slope"] - f["ols_slope"]) < 0.01
+    # The exact posterior's interval is the least-squares t-interval; its draws' band agrees with it.
+    assert np.allclose((f["slope_lo"], f["slope_hi"]), t_interval(n, r), rtol=0, atol=1e-12)
+    assert f["line"]["lo"][0] < math.exp(f["intercept"]) < f["line"]["hi"][0]
     # The fit is reproducible: a fixed seed gives the same numbers.
     g = fit_typical_slope(n, r, seed=1)
     assert (g["slope"], g["slope_lo"], g["slope_hi"]) == (f["slope"], f["slope_lo"], f["slope_hi"])
@@ -99,17 +99,13 @@ def test_credible_interval_coverage():
     trials = 400 if FULL else 60
     rng = np.random.default_rng(2024)
     data = [synth(0.5 if i % 2 else 0.75, rng) for i in range(trials)]
-    fits = pmap([(fit_typical_slope, (n, r), {"seed": i, "nsteps": 600, "burn": 150})
+    fits = pmap([(fit_typical_slope, (n, r), {"seed": i})
                  for i, (n, r) in enumerate(data)])
-    covered, width_ratio = 0, []
+    covered = 0
     for i, ((n, r), f) in enumerate(zip(data, fits)):
         beta = 0.5 if i % 2 else 0.75
         covered += f["slope_lo"] <= -beta <= f["slope_hi"]
-        lo, hi = t_interval(n, r)
-        width_ratio.append((f["slope_hi"] - f["slope_lo"]) / (hi - lo))
-    coverage = covered / trials
-    assert coverage >= (0.92 if FULL else 0.85), coverage
-    assert abs(np.mean(width_ratio) - 1.0) < 0.12, np.mean(width_ratio)
+    assert calibrated(covered, trials), covered / trials
 
 
 def test_drops_unusable_points_and_reports_too_few():
@@ -134,7 +130,7 @@ def test_rmse_slope_recovers_known_slope(family, beta):
     else:
         n, m = heavy(beta, rng, ladder=LADDER, reps=8)
     f = fit_rmse_slope(n, m, seed=3)
-    typical = fit_typical_slope(n, np.sqrt(m), seed=3, nsteps=300, burn=100)
+    typical = fit_typical_slope(n, np.sqrt(m), seed=3)
     assert set(typical) <= set(f), set(typical) - set(f)        # downstream keys kept
     assert f["ok"] and f["converged"] and f["estimand"] == "rmse"
     assert f["slope_lo"] < -beta < f["slope_hi"]
@@ -197,7 +193,7 @@ def test_rmse_slope_coverage_heavy_tailed_and_typical_fit_fails():
     # Negative control: the geometric-mean fit of the same runs (the first half: it fails by far)
     # estimates a far shallower slope and its intervals miss the RMSE slope about half of the time.
     typical = [(b, n, np.sqrt(m)) for b, n, m in data[: trials // 2]]
-    covered_t, fits_t = _coverage(typical, fit_typical_slope, {"nsteps": 300, "burn": 100})
+    covered_t, fits_t = _coverage(typical, fit_typical_slope, {})
     assert not calibrated(covered_t, len(typical)), covered_t / len(typical)
     assert covered_t / len(typical) < 0.75
     assert np.median([f["slope"] + b for (b, _, _), f in zip(typical, fits_t)]) > 0.1
