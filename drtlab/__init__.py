@@ -15,6 +15,7 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     drtlab.register_pointset(drtlab.pointset_from_table("mysobol", table))   # your own point set
     drtlab.register_light_selection(drtlab.LightSelection("nearest", ..., pick, pmf))
     drtlab.register_strategy("importance-nearest", "...", like="importance", light_selection="nearest")
+    drtlab.register_metric("edge-mse", per_run)   # a study's error: per_run(images, ref, ref_stderr)
     drtlab.load_plugin("my_sets.py")                      # a file that registers some
 
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
@@ -166,6 +167,15 @@ def register_light_selection(selection):
     who, fingerprint = attribute("light_selection", getattr(selection, "name", "?"),
                                  getattr(selection, "pick", None), getattr(selection, "pmf", None))
     return register(selection, who, fingerprint)
+
+
+def register_metric(name: str, per_run, description: str = "", label: str | None = None,
+                    mse_label: str | None = None):
+    """Register an error metric a study may rank samplers by (`metric = NAME`): `per_run(images,
+    reference, reference_stderr)` gives each image's mean squared error, the reference's noise removed
+    (experiments/error_metrics/base.py); reports print `label` (its root) and `mse_label`."""
+    from drtlab.experiments.error_metrics import register_metric as _register
+    return _register(name, per_run, description, label, mse_label)
 
 
 def register_strategy(name: str, description: str, like: str = "importance", *,

@@ -298,7 +298,8 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
         _, _, registered = _loading.pop()
     if not registered:
         raise InputError(label, "registers nothing: a plugin calls drtlab.register_pointset(...), "
-                                "register_light_selection(...) or register_strategy(...) when imported")
+                                "register_light_selection(...), register_strategy(...) or "
+                                "register_metric(...) when imported")
     _loaded[key] = Plugin(spec, module, path, sha, tuple(registered))
     return _loaded[key]
 

@@ -25,8 +25,9 @@ import numpy as np
 from drtlab.experiments.study.ground_truth import GroundTruth, load_ground_truth
 from drtlab.experiments.study.metrics import cell_bias, mean_ci
 from drtlab.experiments.parallel import pmap
+from drtlab.experiments.error_metrics import METRICS, plugin_metrics, record_key
 from drtlab.experiments.study.results import (
-    METRICS, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, NoiseFloor, RatioCI,
+    BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, MetricCell, NoiseFloor, RatioCI,
     SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
 )
 from drtlab.experiments.study.compare import (compare_scene, finish_claims, fit_costs, level_load,
@@ -78,10 +79,9 @@ def group_name(g) -> str:
 
 
 def _run_error(rec: dict, metric: str) -> float:
-    if metric == "relmse":
-        v = rec["relmse_corrected"]
-        return math.sqrt(v) if v > 0 else float("nan")
-    return rec["rmse_corrected"]
+    """A run's error (the root of its squared error), NaN where the noise floor's removal left none."""
+    v = rec.get(record_key(metric), NAN)
+    return math.sqrt(v) if v > 0 else NAN
 
 
 def _pixels(g) -> int:
@@ -113,7 +113,7 @@ def _batches(runs, records: dict, calibration: dict, cpu: bool) -> dict:
 
 
 def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: GroundTruth,
-          cost, pixels: int, calibrated: bool, target: dict | None) -> Cell:
+          cost, pixels: int, calibrated: bool, target: dict | None, metrics=()) -> Cell:
     recs = [records[r.run_id] for r in cell_runs]
     moments = load_cell(out_dir, cell_runs[0].cell).moments
     stats = {m: _interval(m, [rec[m] for rec in recs]) for m in CELL_METRICS}
@@ -122,13 +122,21 @@ def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: G
     bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))
     seconds = float(cost.seconds(spp * pixels))
     lo, hi = cost.seconds_interval(spp * pixels)
-    efficiency = {m.efficiency: _efficiency(stats[m.mse].mean, seconds) for m in METRICS.values()}
-    need = {m: repetitions_for_precision([rec[METRICS[m].mse] for rec in recs], PRECISION)
-            for m in METRICS}
-    return Cell(sampler=sampler, spp=spp, n=len(recs), **stats,
+    builtin = [m for m in METRICS.values() if m.cell_fields]
+    efficiency = {m.cell_fields[2]: _efficiency(stats[m.record].mean, seconds) for m in builtin}
+    plugins = {}
+    for m in plugin_metrics(metrics):
+        if not any(m.record in rec for rec in recs):
+            continue                                  # a cell of other studies only: not scored
+        values = [rec.get(m.record, NAN) for rec in recs]
+        mean = _interval(m.record, values)
+        plugins[m.name] = MetricCell(Interval.of(rmse_ci(values)), mean, _efficiency(mean.mean, seconds))
+    need = {m: repetitions_for_precision([rec[METRICS[m].record] for rec in recs], PRECISION)
+            for m in [m.name for m in builtin] + list(plugins)}
+    return Cell(sampler=sampler, spp=spp, n=len(recs), **stats, metrics=plugins,
                 rmse_of_mean_mse=Interval.of(rmse_ci([rec["mse_corrected"] for rec in recs])),
                 rrmse_of_mean_relmse=Interval.of(rmse_ci([rec["relmse_corrected"] for rec in recs])),
-                repetitions_for_10pct={m: need[m]["repetitions"] for m in METRICS},
+                repetitions_for_10pct={m: v["repetitions"] for m, v in need.items()},
                 mse_rel_ci=need["mse"]["current_rel_halfwidth"],
                 target_rel_ci=target["target_rel_ci"] if target else None,
                 target_met=target["target_met"] if target else None,
@@ -159,7 +167,7 @@ def _slope_call(g, sampler: str, metric: str, sampler_runs, records: dict, floor
     fit_seed = int(short_hash([g[0].key, g[1], sampler] + ([metric] if metric != "mse" else []), 8),
                    16) & 0x7FFFFFFF
     recs = [records[r.run_id] for r in sampler_runs]
-    return (fit_slopes, ([r.spp for r in sampler_runs], [rec[METRICS[metric].mse] for rec in recs],
+    return (fit_slopes, ([r.spp for r in sampler_runs], [rec.get(record_key(metric), NAN) for rec in recs],
                          [_run_error(rec, metric) for rec in recs], fit_seed,
                          floor if metric == "mse" else None), {})
 
@@ -183,12 +191,13 @@ def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, batches: dict, 
             cell_runs = [r for r in sampler_runs if r.spp == spp]
             cell = cell_runs[0].cell
             cells[(s, spp)] = _cell(s, spp, cell_runs, records, out_dir, gt, costs[s], pixels,
-                                    bool((calibration or {}).get(cell)), (targets or {}).get(cell))
+                                    bool((calibration or {}).get(cell)), (targets or {}).get(cell),
+                                    metrics)
         if sampler_runs:
             fit_calls += [(metric, s, _slope_call(g, s, metric, sampler_runs, records, gt.variance))
                           for metric in metrics]
     table = {m: {"sampler": [r.sampler for r in done], "spp": [r.spp for r in done],
-                 "value": [records[r.run_id][METRICS[m].mse] for r in done]} for m in metrics}
+                 "value": [records[r.run_id].get(record_key(m), NAN) for r in done]} for m in metrics}
     return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), table, batches,
                        costs, pixels, {m: {} for m in metrics}), fit_calls
 

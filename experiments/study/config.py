@@ -49,6 +49,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable
 
+from drtlab.experiments.error_metrics import check_name
 from drtlab.experiments.seeds import short_hash
 from drtlab import fields
 from drtlab.errors import InputError
@@ -61,7 +62,6 @@ SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp
                  "keep_images", "colour_difference_runs", "variance_sources")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include", "plugins") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
-STUDY_METRICS = ("mse", "relmse")
 SCENE_KEYS = ("name", "overrides", "label")
 DEFAULTS: dict[str, Any] = {
     "spp": (1, 4, 16, 64, 256),
@@ -375,9 +375,7 @@ def _study(t, i, exp_name, seed, default_integrator, settings, base: Path | None
     desc = t.get("description", "")
     if not isinstance(desc, str):
         raise InputError(f"{fld}.description", f"must be a string, got {desc!r}")
-    metric = t.get("metric", "mse")
-    if metric not in STUDY_METRICS:
-        raise InputError(f"{fld}.metric", f"must be one of {', '.join(STUDY_METRICS)}, got {metric!r}")
+    metric = check_name(t.get("metric", "mse"), f"{fld}.metric")
     return Study(name=name, description=desc, experiment=exp_name, seed=seed, scenes=refs,
                  samplers=canon, baseline=baseline, integrator=integrator, settings=settings,
                  metric=metric)

@@ -11,6 +11,7 @@ from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
 from drtlab.experiments.study.figures import plot_study, slug, strip_job
 from drtlab.experiments.study.ground_truth import GT_SAMPLER
 from drtlab.experiments.files import atomic_write_text
+from drtlab.experiments.error_metrics import METRICS
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.report_sections import (
     _ci, _cost_section, _diagnostics_section, _noise_floor_section, _ratio, _reproduce_section,
@@ -109,13 +110,18 @@ def _study_intro(study: StudyResult) -> list[str]:
         f"(baseline `{study.baseline}`); N ∈ {study.spp}; {study.repetitions_text}{per_cell}; "
         f"resolution {res}; reference {study.gt_spp} spp (`{GT_SAMPLER}`, same integrator); "
         f"root seed {study.seed}.\n")
-    if study.metric != "mse":
+    if study.metric == "relmse":
         from drtlab.kernels.error_sums import REL_EPS
         lines.append(
             f"This study ranks samplers by the {study.metric_label}: the relative MSE (x − y)² / (y² + {REL_EPS:g}) "
             f"weighs every pixel alike, where the plain MSE would be dominated by a few very bright pixels "
             f"(directly visible small lights, whose antialiasing noise no strategy changes). "
             f"Slopes, speed-ups and efficiencies below use it; the cell table also lists the RMSE.\n")
+    elif study.metric != "mse":
+        m = METRICS[study.metric]
+        lines.append(f"This study ranks samplers by the {m.label}, the root of `{m.name}` (a plugin's metric: "
+                     f"{m.description or 'no description'}). Slopes, speed-ups and efficiencies below use "
+                     f"it; the cell table also lists the RMSE.\n")
     return lines
 
 

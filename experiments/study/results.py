@@ -11,6 +11,7 @@ import types
 import typing
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 
+from drtlab.experiments.error_metrics import METRICS
 from drtlab.experiments.study.compare import Comparison
 
 NAN = float("nan")
@@ -72,26 +73,6 @@ def _fields_json(o, skip_none: bool = False, **special) -> dict:
 
 
 @dataclass(frozen=True)
-class Metric:
-    """The error a study ranks samplers by, and the cell fields that hold it."""
-    error: str            # Cell field: the error (an RMSE-like interval)
-    mse: str              # Cell field: the squared error it is the root of
-    efficiency: str       # Cell field: 1 / (squared error x seconds)
-    label: str
-    mse_label: str
-
-
-# "mse": RMSE over pixels and channels (noise floor removed). "relmse": relative MSE
-# (x - y)^2 / (y^2 + error_sums.REL_EPS), for scenes whose RMSE is dominated by a few very bright pixels (directly
-# seen small lights), reported as its square root ("relative RMSE").
-METRICS = {
-    "mse": Metric("rmse_of_mean_mse", "mse_corrected", "efficiency", "RMSE", "MSE"),
-    "relmse": Metric("rrmse_of_mean_relmse", "relmse_corrected", "efficiency_relmse",
-                     "relative RMSE (√relMSE)", "relMSE"),
-}
-
-
-@dataclass(frozen=True)
 class Interval:
     """A mean with its 95% interval over repetitions (`sd` only where it was measured)."""
     mean: float
@@ -125,6 +106,15 @@ class Bias:
     significant: bool                   # Benjamini-Hochberg over every cell of the experiment
     p: float = NAN
     p_adjusted: float = NAN
+
+
+@dataclass(frozen=True)
+class MetricCell:
+    """A plugin metric's view of a cell (the built-ins' are Cell fields): the root of its mean
+    squared error, that mean, and 1 / (it x seconds)."""
+    error: Interval
+    mse: Interval
+    efficiency: float
 
 
 # Cell fields that summarise one number per run over the repetitions (named run_X in summary.json).
@@ -166,15 +156,21 @@ class Cell:
     samples_needed: int | None = None   # samples per pixel (runs x spp) the target would need
     resolved: bool | None = None        # its interval may carry a claim (stats/resolution.py)
     unresolved_why: str | None = None
+    metrics: dict[str, MetricCell] = field(default_factory=dict)   # the plugin metrics' (error_metrics)
+
+    def _metric(self, metric: str, i: int):
+        if metric in self.metrics:               # a plugin's: read back without the plugin loaded
+            return getattr(self.metrics[metric], ("error", "mse", "efficiency")[i])
+        return getattr(self, METRICS[metric].cell_fields[i])
 
     def error(self, metric: str) -> Interval:
-        return getattr(self, METRICS[metric].error)
+        return self._metric(metric, 0)
 
     def error_mse(self, metric: str) -> Interval:
-        return getattr(self, METRICS[metric].mse)
+        return self._metric(metric, 1)
 
     def efficiency_of(self, metric: str) -> float:
-        return getattr(self, METRICS[metric].efficiency)
+        return self._metric(metric, 2)
 
     @staticmethod
     def json_key(name: str) -> str:

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.experiments.error_metrics.base import PLUGIN_PREFIX
 from drtlab.experiments.files import atomic_savez, atomic_write_bytes, atomic_write_json, atomic_write_text
 
 RUNS_FILE = "runs.parquet"
@@ -174,7 +175,7 @@ def write_table(out_dir: Path, records: dict, order: list) -> None:
     ids = [i for i in order if i in records] + sorted(set(records) - set(order))
     rows = [records[i] for i in ids]
     # Column by column into Arrow: a pandas frame of row dicts cost 20x more, at every commit.
-    table = pa.table({k: [row.get(k) for row in rows] for k in TABLE_COLUMNS})
+    table = pa.table({k: [row.get(k) for row in rows] for k in _with_plugin_metrics(TABLE_COLUMNS, rows)})
     buf = pa.BufferOutputStream()
     # Plain encoding: dictionaries halved the write's speed and saved nothing (1.29 MB against
     # 1.23 MB for the default study's 10,200 rows).
@@ -191,8 +192,13 @@ def commit(out_dir: Path, records: dict, order: list, cells: dict, compress: boo
         save_cell(out_dir, cell, cf, compress)
 
 
-def _record_row(rec: dict, studies: tuple[str, ...]) -> dict:
-    row = {k: rec.get(k, "") for k in CSV_COLUMNS}
+def _with_plugin_metrics(columns: tuple, rows) -> tuple:
+    """`columns` and the plugin metrics' columns any of `rows` holds (error_metrics.base)."""
+    return columns + tuple(sorted({k for row in rows for k in row if k.startswith(PLUGIN_PREFIX)}))
+
+
+def _record_row(rec: dict, studies: tuple[str, ...], columns: tuple) -> dict:
+    row = {k: rec.get(k, "") for k in columns}
     row["studies"] = ";".join(studies)
     row["worker"] = rec.get("worker") or "local"
     return row
@@ -203,13 +209,14 @@ def write_runs_csv(path: Path, plan: list, records: dict) -> int:
     studies), in plan order; floats as repr (round-trip exact). Returns the number of rows."""
     import csv
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=CSV_COLUMNS, lineterminator="\n")
+    columns = _with_plugin_metrics(CSV_COLUMNS, (records[r.run_id] for r in plan if r.run_id in records))
+    w = csv.DictWriter(buf, fieldnames=columns, lineterminator="\n")
     w.writeheader()
     n = 0
     for r in plan:
         rec = records.get(r.run_id)
         if rec is not None:
-            row = _record_row(rec, r.studies)
+            row = _record_row(rec, r.studies, columns)
             for k, v in row.items():
                 if isinstance(v, float):
                     row[k] = repr(v)

@@ -30,7 +30,8 @@ from drtlab.experiments.study.config import Experiment, SceneRef
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.study.metrics import compile_metric_kernels, reference_lab, score_batch
-from drtlab.experiments.study.results import METRICS, ExperimentResult
+from drtlab.experiments.error_metrics import plugin_metrics, record_key
+from drtlab.experiments.study.results import ExperimentResult
 from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
 from drtlab.experiments.stats.intervals import repetitions_for_precision
@@ -358,11 +359,17 @@ class _Sweep:
                      f"on {facts['threads']} threads ({facts['compile_seconds']:.1f} s of compiles)")
 
     def _code(self, sampler: str) -> str:
-        """The code a sampler's runs were rendered by: the backend's, with a plugin point set's
-        fingerprint (an edited plugin re-renders its cells, and only those)."""
+        """The code a sampler's runs were rendered and scored by: the backend's, with a plugin point
+        set's fingerprint (an edited plugin re-renders its cells, and only those) and the plugin
+        metrics' (a run keeps no image to score again)."""
         from drtlab.estimators.plugins import sampler_fingerprint
-        fp = sampler_fingerprint(sampler)
-        return self.backend.code_version if not fp else short_hash([self.backend.code_version, fp], 16)
+        fps = [fp for fp in [sampler_fingerprint(sampler)] + [m.fingerprint for m in self._plugin_metrics()] if fp]
+        return self.backend.code_version if not fps else short_hash([self.backend.code_version, *fps], 16)
+
+    def _plugin_metrics(self, studies=None) -> list:
+        """The plugin metrics of `studies` (names; default: every study of the experiment)."""
+        names = self.studies if studies is None else studies
+        return plugin_metrics(self.studies[s].metric for s in names) if self.studies else []
 
     def _settings(self, r: RunSpec):
         """The settings a cell follows: those of the first study that plans it."""
@@ -452,7 +459,7 @@ class _Sweep:
             return None
         have = [r for r in self.plan if r.cell == cell]
         study = self.studies[cruns[0].studies[0]]
-        key = METRICS[study.metric].mse
+        key = record_key(study.metric)
         values = [self.records[r.run_id][key] for r in have if r.run_id in self.records]
         prec = repetitions_for_precision(values, target)
         budget = settings.max_runs_at(cruns[0].spp)
@@ -491,7 +498,7 @@ class _Sweep:
             return None
         have = [r for r in self.plan if r.cell == cell]
         recs = [self.records[r.run_id] for r in have if r.run_id in self.records]
-        values = [rec[METRICS[study.metric].mse] for rec in recs]
+        values = [rec[record_key(study.metric)] for rec in recs]
         if not recs or cell_resolution(values, positive_mean_ci(values)["lo"])[0]:
             return None
         per_rep = float(np.mean([rec["render_seconds"] for rec in recs]))
@@ -541,6 +548,9 @@ class _Sweep:
         limit = getattr(self._settings(b.runs[0]), "colour_difference_runs", None)
         metrics, sums = score_batch(images, ctx.gt.mean, ctx.gt.stderr, ctx.gt_lab,
                                     colour_rows=None if limit is None else sum(r.rep < limit for r in b.runs))
+        for m in self._plugin_metrics(b.runs[0].studies):
+            for row, value in zip(metrics, m.score(images, ctx.gt.mean, ctx.gt.stderr)):
+                row[m.record] = value
         for r, fp, m in zip(b.runs, b.fingerprints, metrics):
             self.records[r.run_id] = _run_record(r, fp, b, result, wall, ctx.gt, m,
                                                  self._code(r.sampler), worker)

@@ -128,7 +128,8 @@ def test_runs_of_a_plugin_set_carry_its_fingerprint(tmp_path, clean_registry):
     from drtlab.experiments.study.runner import _Sweep as Runner
     path = _write(tmp_path / "mine.py", salt=1)
     plugins.load_plugin(path)
-    fake = type("R", (), {"backend": type("B", (), {"code_version": "abc"})()})()
+    fake = type("R", (), {"backend": type("B", (), {"code_version": "abc"})(),
+                          "_plugin_metrics": lambda self: []})()
     code = Runner._code
     first = code(fake, "mine")
     assert code(fake, "uniform") == "abc" and first != "abc"
@@ -185,4 +186,5 @@ def test_the_example_study_loads_with_its_plugins(clean_registry):
     exp = load_experiment(str(PLUGIN_EXAMPLES / "compare.toml"))
     samplers = {s for st in exp.studies for s in st.samplers}
     assert {"r2+uniform", "qmc-sobol+uniform", "independent+importance-nearest"} <= samplers
-    assert sum(k.startswith("plugin:") for k in exp.sources) == 3
+    assert sum(k.startswith("plugin:") for k in exp.sources) == 4
+    assert [st.metric for st in exp.studies] == ["mse", "mse", "edge-mse"]
