@@ -67,7 +67,11 @@ def plugin_metrics(names) -> list[ErrorMetric]:
 
 
 def check_name(name, field: str) -> str:
-    """`name` if a registered metric, else InputError naming `field` and the allowed values."""
+    """`name` if a registered metric (an installed package's plugins are loaded on a miss), else
+    InputError naming `field` and the allowed values."""
+    if name not in METRICS:
+        from drtlab.estimators.plugins import load_entry_points
+        load_entry_points()
     if name not in METRICS:
         raise InputError(field, f"must be one of {', '.join(METRICS)}, got {name!r}")
     return name
