@@ -179,14 +179,15 @@ def register_metric(name: str, per_run, description: str = "", label: str | None
 
 
 def register_strategy(name: str, description: str, like: str = "importance", *,
-                      light_selection: str | None = None):
+                      light_selection: str | None = None, heuristic: str | None = None):
     """A strategy composed of registered routines: the built-in strategy `like` with another light
-    selection (a built-in or `register_light_selection`'s); used as POINTS+NAME in any sampler."""
+    selection (a built-in or `register_light_selection`'s) and/or another MIS heuristic ("power" or
+    "balance", kernels/mis.py); used as POINTS+NAME in any sampler."""
     from dataclasses import replace
 
     from drtlab.errors import InputError
     from drtlab.estimators.plugins import register_strategy as _register
-    from drtlab.estimators.strategies import STRATEGIES
+    from drtlab.estimators.strategies import MIS_HEURISTICS, STRATEGIES
     from drtlab.kernels.light_selection import LIGHT_SELECTIONS
     if like not in STRATEGIES or STRATEGIES[like].light is None:
         raise InputError("like", f"must be a strategy that samples lights "
@@ -199,5 +200,10 @@ def register_strategy(name: str, description: str, like: str = "importance", *,
                                                 f"registered: {', '.join(LIGHT_SELECTIONS)}")
         light = replace(light, pick=light_selection)
         fingerprint = LIGHT_SELECTIONS[light_selection].fingerprint
+    if heuristic is not None:
+        if heuristic not in MIS_HEURISTICS or not light.mis:
+            raise InputError("heuristic", f"must be one of {', '.join(MIS_HEURISTICS)} for a strategy that "
+                                          f"combines by MIS, got {heuristic!r} (like={like!r})")
+        light = replace(light, heuristic=heuristic)
     return _register(replace(base, name=name, description=description, light=light,
                              fingerprint=fingerprint))

@@ -14,7 +14,8 @@ in variance. Fields are compile-time switches read by the kernel factory.
                 all else equal, so a study isolates the choice (no effect on other kinds)
 A strategy's `combine` follows from `light`: "nee" (light samples without MIS): emitters count only
 through light samples after a non-delta bounce; "bsdf" (no light sampling): only through scattered
-rays; "mis" (light samples with MIS): both, power heuristic (Veach 1995).
+rays; "mis" (light samples with MIS): both, weighted by `light.heuristic` ("power", Veach 1995's
+recommendation, in every built-in strategy, or "balance"; kernels/mis.py).
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 
 
 ENVIRONMENT_SAMPLERS = ("uniform", "cosine", "image")
+MIS_HEURISTICS = ("power", "balance")          # kernels/mis.py defines each
 
 
 @dataclass(frozen=True)
@@ -33,12 +35,15 @@ class LightSampling:
                         # thresholds below which flat lights fall back to area)
     pick: str           # the light selection (kernels/light_selection.py): "uniform" over lights,
                         # "power" (proportional to emitted power) or a plugin's
-    mis: bool = False   # combine with scattered-ray hits by the power heuristic
+    mis: bool = False   # combine with scattered-ray hits by MIS
     environment: str = "image"  # the environment's sampler: "uniform" | "cosine" | "image"
+    heuristic: str = "power"    # the MIS weight: "power" | "balance"
 
     def __post_init__(self):
         if self.environment not in ENVIRONMENT_SAMPLERS:
             raise ValueError(f"environment sampler {self.environment!r}: one of {ENVIRONMENT_SAMPLERS}")
+        if self.heuristic not in MIS_HEURISTICS:
+            raise ValueError(f"MIS heuristic {self.heuristic!r}: one of {MIS_HEURISTICS}")
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_c
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.lights import AreaLights
 from drtlab.kernels.materials import Bsdf
+from drtlab.kernels.mis import heuristic_of
 
 
 class DirectLighting(NamedTuple):
@@ -43,6 +44,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     POINTS = f.point_lights
     DIRS = f.dir_lights
     MIS = strategy.mis
+    mis_weight = heuristic_of(strategy)
     COUNT_HITS = strategy.counts_hits
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
     MESHES = f.meshes
@@ -132,7 +134,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                     w = float(1.0)
                     if wp.static(MIS):
                         pb = pdf_bsdf(kind, exponent, ior, ns, wo, ls.wi)
-                        w = ls.pdf * ls.pdf / (ls.pdf * ls.pdf + pb * pb)
+                        w = mis_weight(ls.pdf, pb)
                     est = wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
                     if wp.static(TWICE_SAMPLE_LIGHT or TWICE_VISIBLE):
                         est += wp.vec3(1.0e-30 * probe)
@@ -152,7 +154,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 pl = light_pdf(sd, h.light, prev_p, h.p, h.n, h.index, prev_bounce, dt)
                 if wp.static(ENV):
                     pl = pl * (1.0 - env_pick(sd.environment))
-                w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
+                w = mis_weight(prev_pdf, pl)
             elif wp.static(not COUNT_HITS):
                 w = 0.0
         return w

@@ -23,6 +23,7 @@ from drtlab.kernels.features import DROP_COSINE, Features
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.materials import Bsdf
+from drtlab.kernels.mis import heuristic_of
 
 
 class EnvironmentLighting(NamedTuple):
@@ -41,6 +42,7 @@ def oriented(ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
 def make_environment_lighting(f: Features, strategy: Strategy, *, rays: SceneRays,
                               bsdf: Bsdf) -> EnvironmentLighting:
     MIS = strategy.mis
+    mis_weight = heuristic_of(strategy)
     COUNT_HITS = strategy.counts_hits
     MESHES = f.meshes
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
@@ -73,7 +75,7 @@ def make_environment_lighting(f: Features, strategy: Strategy, *, rays: SceneRay
                     w = float(1.0)
                     if wp.static(MIS):
                         pb = pdf_bsdf(kind, exponent, ior, ns, wo, es.wi)
-                        w = pdf * pdf / (pdf * pdf + pb * pb)
+                        w = mis_weight(pdf, pb)
                     return wp.cw_mul(beta, c) * (w / pdf)
         return wp.vec3(0.0)
 
@@ -84,7 +86,7 @@ def make_environment_lighting(f: Features, strategy: Strategy, *, rays: SceneRay
         if prev_delta == 0:
             if wp.static(MIS):
                 pl = env_pick(sd.environment) * env_pdf(sd.environment, prev_n, d)
-                w = prev_pdf * prev_pdf / (prev_pdf * prev_pdf + pl * pl)
+                w = mis_weight(prev_pdf, pl)
             elif wp.static(not COUNT_HITS):
                 w = 0.0
         return env_radiance(sd.environment, d) * w

@@ -82,9 +82,8 @@ if hasattr(os, "register_at_fork"):
 
 def _variant_key(features: Features, spec: SamplerSpec, device: str) -> tuple:
     """What tells two compiled kernels apart (features as Features.code_key() gives them; a plugin's
-    point set by its fingerprint too, so an edited one recompiles)."""
-    return (features, spec.pointset.name, spec.pointset.fingerprint, spec.strategy.name,
-            spec.strategy.fingerprint, device)
+    point set by its fingerprint too, so an edited one recompiles; a strategy by all its fields)."""
+    return (features, spec.pointset.name, spec.pointset.fingerprint, spec.strategy, device)
 
 
 def get_kernel(features: Features, spec: SamplerSpec, device: str):
