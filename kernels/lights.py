@@ -268,6 +268,23 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
         if area * wp.abs(wp.dot(c, n)) >= wp.static(PAYS) * d2 * wp.sqrt(d2):
             return 1
         return 0
+
+    @wp.func
+    def rect_to_sample(sd: SceneData, s: int, x: wp.vec3, q0: wp.vec3, bounce: int) -> SphericalRect:
+        """The spherical rectangle by which quad s (origin q0 now) is sampled from x, a vertex of
+        bounce index `bounce`, or one of solid angle 0: sampled by area. The one place that decides:
+        sample_light draws by it and light_pdf gives its density, and MIS is unbiased only while
+        the two agree."""
+        uu = sd.quads.u[s]
+        vv = sd.quads.v[s]
+        out = SphericalRect()
+        if is_rectangle(uu, vv) == 1 and rect_pays(x, q0, uu, vv, sd.quads.normal[s], sd.quads.area[s],
+                                                   bounce) == 1:
+            rect = spherical_rect(x, q0, uu, vv)
+            if rect_ok(rect) == 1:
+                out = rect
+        return out
+
     to_rect = maps.square_to_spherical_rect
     flat_area, sample_triangle, face_solid_angle_pdf = _make_mesh_lights(
         f.meshes, MESH_PDF_HIGH_10PCT in f.faults, motion.mesh_shift, SOLID_ANGLE,
@@ -305,17 +322,12 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                     if k == MESH:
                         sa_pdf = face_solid_angle_pdf(sd, s, prim, x, dt)
                 if k != MESH:
-                    uu = sd.quads.u[s]
-                    vv = sd.quads.v[s]
-                    q0 = quad_origin(sd, s, dt)
                     b = bounce
                     if wp.static(MIS_FIRST_VERTEX):
                         b = 0
-                    if is_rectangle(uu, vv) == 1 and rect_pays(
-                            x, q0, uu, vv, sd.quads.normal[s], sd.quads.area[s], b) == 1:
-                        rect = spherical_rect(x, q0, uu, vv)
-                        if rect_ok(rect) == 1:
-                            sa_pdf = 1.0 / rect.solid_angle
+                    rect = rect_to_sample(sd, s, x, quad_origin(sd, s, dt), b)
+                    if rect.solid_angle > 0.0:
+                        sa_pdf = 1.0 / rect.solid_angle
                 if sa_pdf > 0.0:
                     pdf = sa_pdf
         return pdf * light_pick_pmf(sd, x, li)
@@ -373,12 +385,10 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                 vv = sd.quads.v[s]
                 ny = sd.quads.normal[s]
                 if wp.static(SOLID_ANGLE):
-                    if is_rectangle(uu, vv) == 1 and rect_pays(
-                            x, q0, uu, vv, ny, sd.quads.area[s], bounce) == 1:
-                        rect = spherical_rect(x, q0, uu, vv)
-                        if rect_ok(rect) == 1:
-                            y = to_rect(rect, x, u)
-                            spherical = 1.0 / rect.solid_angle
+                    rect = rect_to_sample(sd, s, x, q0, bounce)
+                    if rect.solid_angle > 0.0:
+                        y = to_rect(rect, x, u)
+                        spherical = 1.0 / rect.solid_angle
                 if spherical == 0.0:
                     y = q0 + uu * u[0] + vv * u[1]
         if pdf == 0.0:
