@@ -25,7 +25,14 @@ at a time), each a distributed effect of Cook 1984:
                translucency, the first diffuse bounce)
     later      every dimension of bounces 1, 2, ... and the first hit's Russian roulette: what the
                path does after its first scattering, together
+
+Everything that computes with the layout is here, in Python (`split`, `slot`, `label`, `group_of`,
+`tracer_dims`) and in Warp (`warp_functions()`: a bounce's first dimension, a dimension's offset
+within its bounce, its group), so that no other module redoes the arithmetic.
 """
+import functools
+from typing import NamedTuple
+
 PIXEL = 0
 LENS = 2
 TIME = 4
@@ -42,6 +49,52 @@ def bounce_dim(bounce: int, offset: int) -> int:
     return BOUNCE_BASE + PER_BOUNCE * bounce + offset
 
 
+def split(dim: int) -> tuple[int, int] | None:
+    """(bounce, offset within it) of a per-bounce dimension; None for the camera's (pixel, lens, time)."""
+    return None if dim < BOUNCE_BASE else divmod(dim - BOUNCE_BASE, PER_BOUNCE)
+
+
+def slot(dim: int) -> tuple[int, int]:
+    """(1 or 2, first dimension of the slot): how the tracer reads dimension `dim` (get1d, or one
+    component of a get2d pair: pixel, lens, light position, direction)."""
+    for start in (PIXEL, LENS):
+        if start <= dim < start + 2:
+            return 2, start
+    at = split(dim)
+    if at is not None:
+        base = dim - at[1]
+        for offset in (LIGHT_POSITION, DIRECTION):
+            if base + offset <= dim < base + offset + 2:
+                return 2, base + offset
+    return 1, dim
+
+
+_BOUNCE_LABELS = {LIGHT_CHOICE: "light_choice", LIGHT_POSITION: "light_pos.x",
+                  LIGHT_POSITION + 1: "light_pos.y", LOBE_CHOICE: "lobe_choice",
+                  DIRECTION: "direction.x", DIRECTION + 1: "direction.y", ROULETTE: "roulette"}
+_CAMERA_LABELS = {PIXEL: "pixel.x", PIXEL + 1: "pixel.y", LENS: "lens.x", LENS + 1: "lens.y",
+                  TIME: "time"}
+
+
+def label(dim: int) -> str:
+    """What the tracer reads dimension `dim` for: `pixel.x`, `direction0.y`, `reserved1` (a
+    per-bounce dimension the tracer never reads)."""
+    at = split(dim)
+    if at is None:
+        return _CAMERA_LABELS[dim]
+    bounce, offset = at
+    name = _BOUNCE_LABELS.get(offset)
+    if name is None:
+        return f"reserved{bounce}"
+    head, _, tail = name.partition(".")
+    return f"{head}{bounce}" + (f".{tail}" if tail else "")
+
+
+def tracer_dims(bounces: int) -> list[int]:
+    """The dimensions a path of `bounces` bounces reads, in order (the reserved ones left out)."""
+    return [d for d in range(bounce_dim(bounces, 0)) if not label(d).startswith("reserved")]
+
+
 GROUPS = ("pixel", "lens", "time", "light", "direction", "later")
 
 
@@ -54,7 +107,49 @@ def group_of(dim: int) -> int:
         return 1
     if dim < BOUNCE_BASE:
         return 2
-    bounce, offset = divmod(dim - BOUNCE_BASE, PER_BOUNCE)
+    bounce, offset = split(dim)
     if bounce > 0 or offset >= ROULETTE:
         return 5
     return 3 if offset < LOBE_CHOICE else 4
+
+
+class WarpDimensions(NamedTuple):
+    bounce_base: object      # (depth: int) -> uint32, the first dimension of bounce `depth`
+    bounce_offset: object    # (dim: uint32) -> int, the offset within its bounce, -1 for the camera's
+    group: object            # (dim: uint32) -> int, group_of
+
+
+@functools.cache
+def warp_functions() -> WarpDimensions:
+    """The layout's arithmetic as Warp functions (built on first use: this module stays Warp-free
+    for the analysis code that imports it)."""
+    import warp as wp
+
+    @wp.func
+    def bounce_base(depth: int) -> wp.uint32:
+        return wp.uint32(wp.static(BOUNCE_BASE)) + wp.uint32(wp.static(PER_BOUNCE)) * wp.uint32(depth)
+
+    @wp.func
+    def bounce_offset(dim: wp.uint32) -> int:
+        if dim < wp.uint32(wp.static(BOUNCE_BASE)):
+            return -1
+        return int((dim - wp.uint32(wp.static(BOUNCE_BASE))) % wp.uint32(wp.static(PER_BOUNCE)))
+
+    @wp.func
+    def group(dim: wp.uint32) -> int:
+        d = int(dim)
+        if d < wp.static(LENS):
+            return 0
+        if d < wp.static(TIME):
+            return 1
+        if d < wp.static(BOUNCE_BASE):
+            return 2
+        rel = d - wp.static(BOUNCE_BASE)
+        offset = rel % wp.static(PER_BOUNCE)
+        if rel >= wp.static(PER_BOUNCE) or offset >= wp.static(ROULETTE):
+            return 5
+        if offset < wp.static(LOBE_CHOICE):
+            return 3
+        return 4
+
+    return WarpDimensions(bounce_base, bounce_offset, group)

@@ -24,23 +24,9 @@ from drtlab.warp_runtime import warp as _warp
 _kernels: dict = {}
 
 
-def slot(dim: int) -> tuple[int, int]:
-    """(1 or 2, first dimension of the slot): how the tracer reads dimension `dim`."""
-    for start in (D.PIXEL, D.LENS):
-        if start <= dim < start + 2:
-            return 2, start
-    if dim < D.BOUNCE_BASE:
-        return 1, dim
-    base = dim - (dim - D.BOUNCE_BASE) % D.PER_BOUNCE
-    for offset in (D.LIGHT_POSITION, D.DIRECTION):
-        if base + offset <= dim < base + offset + 2:
-            return 2, base + offset
-    return 1, dim
-
-
 def slots(dims: int) -> list[tuple[int, int, int]]:
     """(1 or 2, slot start, component) for dimensions 0 ... dims - 1."""
-    return [(kind, start, d - start) for d in range(dims) for kind, start in [slot(d)]]
+    return [(kind, start, d - start) for d in range(dims) for kind, start in [D.slot(d)]]
 
 
 def _kernel(name: str, ps=None):

@@ -36,6 +36,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                lighting: DirectLighting, environment=None) -> wp.Function:
     get1d = pointset.get1d
     get2d = pointset.get2d
+    bounce_base = dims.warp_functions().bounce_base
     AREA = f.area_lights
     # An environment (kernels/environment_lighting.py) is a light to sample and what escaping rays see.
     ENV = environment is not None
@@ -107,8 +108,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             kind = sd.materials.kind[m]
             if kind == EMITTER:
                 break
-            base = wp.uint32(wp.static(dims.BOUNCE_BASE)) + wp.uint32(
-                wp.static(dims.PER_BOUNCE)) * wp.uint32(depth)
+            base = bounce_base(depth)
             if wp.static(RR):
                 if depth >= sd.rr_depth:
                     q = wp.min(wp.max(beta[0], wp.max(beta[1], beta[2])), 0.95)

@@ -22,23 +22,7 @@ CODE_B = 255
 _B_SALT = wp.constant(wp.uint32(0x2545F491))
 
 
-@wp.func
-def dimension_group(dim: wp.uint32) -> int:
-    """dimensions.group_of in Warp."""
-    d = int(dim)
-    if d < wp.static(dims.LENS):
-        return 0
-    if d < wp.static(dims.TIME):
-        return 1
-    if d < wp.static(dims.BOUNCE_BASE):
-        return 2
-    rel = d - wp.static(dims.BOUNCE_BASE)
-    offset = rel % wp.static(dims.PER_BOUNCE)
-    if rel >= wp.static(dims.PER_BOUNCE) or offset >= wp.static(dims.ROULETTE):
-        return 5
-    if offset < wp.static(dims.LOBE_CHOICE):
-        return 3
-    return 4
+dimension_group = dims.warp_functions().group        # dimensions.group_of in Warp
 
 
 def pick_freeze_seed(base: int, code: int) -> int:

@@ -33,9 +33,6 @@ K = 16          # table size: 4 x 4 jittered strata
 SIDE = 4
 _K = wp.constant(wp.uint32(K))
 _SIDE = wp.constant(wp.uint32(SIDE))
-_BASE = wp.constant(wp.uint32(D.BOUNCE_BASE))
-_PER = wp.constant(wp.uint32(D.PER_BOUNCE))
-_DIR = wp.constant(wp.uint32(D.DIRECTION))
 # Fixed keys (below 2**31: plain int32 literals in the generated C++) standing in for seed and pixel
 # in the fixed table: the table's "seed".
 _TABLE = wp.constant(wp.uint32(0x3C6EF372))
@@ -43,15 +40,16 @@ _PERM = wp.constant(wp.uint32(0x1B873593))
 _JIT = wp.constant(wp.uint32(0x0B4A5E27))
 
 
+_bounce_offset = D.warp_functions().bounce_offset
+
+
 @wp.func
 def direction_component(dim: wp.uint32) -> int:
     """0 / 1 where dim is the x / y dimension of a bounce's direction slot, else -1."""
-    if dim < _BASE:
-        return -1
-    r = (dim - _BASE) % _PER
-    if r == _DIR:
+    r = _bounce_offset(dim)
+    if r == wp.static(D.DIRECTION):
         return 0
-    if r == _DIR + wp.uint32(1):
+    if r == wp.static(D.DIRECTION + 1):
         return 1
     return -1
 

@@ -342,6 +342,7 @@ def _draw_kernel(pointset):
     from drtlab.estimators import dimensions as D
     get1d, get2d = pointset.get1d, pointset.get2d
     pixel_key, count_word = pointset.pixel_key, pointset.count_word
+    bounce_base = D.warp_functions().bounce_base
 
     @wp.kernel(enable_backward=False, module="unique")
     def draws(seed: wp.uint32, width: int, spp: int, bounces: int, out: wp.array(dtype=float)):
@@ -352,8 +353,7 @@ def _draw_kernel(pointset):
         for i in range(spp):
             idx = wp.uint32(i)
             for b in range(bounces):
-                base = wp.uint32(wp.static(D.BOUNCE_BASE)) + wp.uint32(wp.static(D.PER_BOUNCE)) * \
-                    wp.uint32(b)
+                base = bounce_base(b)
                 u = get2d(seed, pix, idx, base + wp.uint32(wp.static(D.DIRECTION)), word)
                 acc += u[0] + u[1] + get1d(seed, pix, idx, base + wp.uint32(wp.static(D.ROULETTE)),
                                            word)

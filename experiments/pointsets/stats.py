@@ -18,37 +18,13 @@ from scipy import stats
 from scipy.stats import qmc
 
 from drtlab.estimators import dimensions as D
-from drtlab.estimators.points import slot
 
 # A float32 value in [0, 1) sits on a grid no finer than 2^-24: per-pixel means of such values can
 # be off by that much with no bias in the point set, so it floors every standard error below.
 FLOAT32_FLOOR = 2.0 ** -24
 
-_BOUNCE_LABELS = {D.LIGHT_CHOICE: "light_choice", D.LIGHT_POSITION: "light_pos.x",
-                  D.LIGHT_POSITION + 1: "light_pos.y", D.LOBE_CHOICE: "lobe_choice",
-                  D.DIRECTION: "direction.x", D.DIRECTION + 1: "direction.y",
-                  D.ROULETTE: "roulette"}
-_CAMERA_LABELS = {D.PIXEL: "pixel.x", D.PIXEL + 1: "pixel.y", D.LENS: "lens.x",
-                  D.LENS + 1: "lens.y", D.TIME: "time"}
-
-
-def dimension_label(d: int) -> str:
-    """What the tracer reads dimension d for (estimators/dimensions.py): `pixel.x`, `direction0.y`,
-    `reserved1` (a per-bounce dimension the tracer never reads)."""
-    if d < D.BOUNCE_BASE:
-        return _CAMERA_LABELS[d]
-    bounce, offset = divmod(d - D.BOUNCE_BASE, D.PER_BOUNCE)
-    label = _BOUNCE_LABELS.get(offset)
-    if label is None:
-        return f"reserved{bounce}"
-    head, _, tail = label.partition(".")
-    return f"{head}{bounce}" + (f".{tail}" if tail else "")
-
-
-def tracer_dims(bounces: int) -> list[int]:
-    """The dimensions a path of `bounces` bounces reads, in order (the reserved ones left out)."""
-    top = D.BOUNCE_BASE + D.PER_BOUNCE * bounces
-    return [d for d in range(top) if not dimension_label(d).startswith("reserved")]
+dimension_label = D.label
+tracer_dims = D.tracer_dims
 
 
 def slot_pairs(dims: list[int]) -> list[tuple[int, int]]:
@@ -56,7 +32,7 @@ def slot_pairs(dims: list[int]) -> list[tuple[int, int]]:
     direction): where a 2D point set promises its 2D strata."""
     col = {d: i for i, d in enumerate(dims)}
     return [(col[d], col[d + 1]) for d in dims
-            if slot(d) == (2, d) and d + 1 in col]
+            if D.slot(d) == (2, d) and d + 1 in col]
 
 
 def pairs(n: int) -> list[tuple[int, int]]:
