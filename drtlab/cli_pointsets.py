@@ -18,6 +18,16 @@ def _pointset_name(text: str, field: str) -> str:
     return text
 
 
+def _checkable_name(text: str, field: str) -> str:
+    """A registered point set or light selection (what `drtlab check` scores)."""
+    from drtlab.estimators.registry import POINTSETS
+    from drtlab.kernels.light_selection import LIGHT_SELECTIONS
+    if text in POINTSETS or text in LIGHT_SELECTIONS:
+        return text
+    raise InputError(field, f"unknown point set or light selection {text!r}; point sets: "
+                            f"{', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}")
+
+
 def _level_text(text: str, field: str) -> float:
     rule = "in (0, 0.5], e.g. 0.01"
     try:
@@ -56,10 +66,10 @@ def cmd_pointset(args) -> int:
     return 0
 
 
-def _battery_arguments(p, name_help: str, level_help: str) -> None:
-    p.add_argument("name", metavar="NAME", type=flag(_pointset_name), help=name_help)
+def _battery_arguments(p, name_help: str, level_help: str, name_type=_pointset_name) -> None:
+    p.add_argument("name", metavar="NAME", type=flag(name_type), help=name_help)
     p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
-                   help="the point set's seed")
+                   help="the seed of the points and samples")
     p.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
                    help=level_help)
     p.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
@@ -67,10 +77,15 @@ def _battery_arguments(p, name_help: str, level_help: str) -> None:
 
 
 def cmd_check(args) -> int:
-    from drtlab.experiments.pointsets.check import check
+    from drtlab.estimators.registry import POINTSETS
     if args.out is not None:
         fields.writable_location(args.out, "--out")
-    card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
+    if args.name in POINTSETS:
+        from drtlab.experiments.checks.pointset import check
+        card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
+    else:
+        from drtlab.experiments.checks import light_selection
+        card = light_selection.check(args.name, seed=args.seed, level=args.level)
     print("\n".join(card.text()))
     if args.out is not None:
         from drtlab.experiments.files import atomic_write_json
@@ -126,15 +141,23 @@ def add_pointset_commands(sub) -> None:
 
     c = sub.add_parser(
         "check", formatter_class=Help,
-        help="the scorecard a built-in point set gets, for any registered one (yours: --plugin)",
-        description="Every check drtlab runs on its own point sets, as one scorecard: purity (same "
-                    "key, same value), bit-identical renders across threads and tiles, the range "
-                    "[0, 1), the statistical battery of `drtlab validate`, unbiasedness in the "
-                    "renderer (a white furnace with an exact answer), convergence on a smooth and a "
-                    "discontinuous integrand beside the built-ins' rates, and the render cost "
-                    "against independent points. Exit 0 when every judged line passes, 1 when any "
-                    "fails. About 30 s.")
-    _battery_arguments(c, name_help, "false-alarm probability of the scorecard's tests together")
+        help="the scorecard a built-in point set or light selection gets, for any registered one "
+             "(yours: --plugin)",
+        description="Every check drtlab runs on its own point sets or light selections, as one "
+                    "scorecard. A point set: purity (same key, same value), bit-identical renders "
+                    "across threads and tiles, the range [0, 1), the statistical battery of `drtlab "
+                    "validate`, unbiasedness in the renderer (a white furnace with an exact answer), "
+                    "convergence on a smooth and a discontinuous integrand beside the built-ins' "
+                    "rates, and the render cost against independent points (about 30 s). A light "
+                    "selection: its pmf sums to 1, pick frequencies against that pmf at three "
+                    "points, light-sample directions against the density MIS evaluates "
+                    "(chi-square), that density against the samples', finite values at a tiny, a "
+                    "huge and a grazing light, the white furnace with importance sampling composed "
+                    "with it, and its render cost against the power pick (about 30 s). Exit 0 when "
+                    "every judged line passes, 1 when any fails.")
+    _battery_arguments(c, "a registered point set or light selection (`drtlab samplers` lists the "
+                          "point sets; a plugin's with --plugin)",
+                       "false-alarm probability of the scorecard's tests together", _checkable_name)
     c.add_argument("--out", type=Path, default=None, metavar="FILE.json",
                    help="also write the scorecard as JSON")
     c.set_defaults(func=cmd_check)

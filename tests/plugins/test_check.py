@@ -1,4 +1,4 @@
-"""`drtlab check NAME` (experiments/pointsets/check.py) on a user's plugin: the example R2 set passes
+"""`drtlab check NAME` (experiments/checks/pointset.py) on a user's plugin: the example R2 set passes
 every judged line, and the negative controls fail where they must: a table served unrandomized (the
 same points in every pixel and seed) fails the battery and the renderer's unbiasedness, and a set
 that renders differently across threads fails that line. Levels: the scorecard's 0.01 (Sidak over
@@ -10,7 +10,7 @@ import sys
 from scipy.stats import qmc
 
 from drtlab.estimators import plugins
-from drtlab.experiments.pointsets.check import check
+from drtlab.experiments.checks.pointset import check
 
 from repo_paths import PLUGIN_EXAMPLES, REPO as ROOT
 
@@ -48,3 +48,42 @@ def test_pytest_runs_its_point_set_tests_on_a_plugin(tmp_path):
     assert r.returncode == 0, r.stdout[-2000:]
     passed = int(next(w for w in r.stdout.split() if w.isdigit()) if "passed" in r.stdout else 0)
     assert passed >= 3, r.stdout[-500:]
+
+
+OFF_BY_10 = '''
+import warp as wp
+import drtlab
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.light_selection import power_pick
+
+
+@wp.func
+def wrong_pmf(sd: SceneData, x: wp.vec3, li: int) -> float:
+    p = sd.lights.pmf[li]
+    if li == 0:
+        p = p * 1.1
+    return p
+
+
+drtlab.register_light_selection(drtlab.LightSelection("off-by-10", "power, pmf 10% high on light 0",
+                                                      power_pick, wrong_pmf))
+'''
+
+
+def test_a_light_selection_plugin_gets_its_scorecard_from_the_command_line(tmp_path):
+    """experiments/checks/light_selection.py: the example nearest-light selection passes every judged
+    line (level 0.01, Sidak over its 5 tests); a pmf 10% high on one light (the negative control)
+    fails the pmf sum, the pick frequencies and the furnace, with exit status 1."""
+    (tmp_path / "off.py").write_text(OFF_BY_10)
+    cards = {}
+    for name, plugin in (("nearest", PLUGIN_EXAMPLES / "nearest_light.py"), ("off-by-10", tmp_path / "off.py")):
+        out = tmp_path / f"{name}.json"
+        r = subprocess.run([sys.executable, "-m", "drtlab.cli", "check", name, "--plugin", str(plugin),
+                            "--out", str(out)], capture_output=True, text=True, cwd=tmp_path)
+        cards[name] = (r.returncode, {x["name"]: x["passed"] for x in json.loads(out.read_text())["lines"]})
+    code, good = cards["nearest"]
+    assert code == 0 and set(good) >= {"pmf", "pick frequencies", "directions", "MIS density", "hard cases",
+                                       "renderer unbiasedness"} and all(v for v in good.values() if v is not None)
+    code, bad = cards["off-by-10"]
+    assert code == 1 and not bad["pmf"] and not bad["pick frequencies"] and not bad["renderer unbiasedness"]
+    assert bad["hard cases"] and bad["MIS density"]

@@ -24,11 +24,10 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from drtlab.errors import InputError
+from drtlab.experiments.checks.scorecard import Line, Scorecard, per_test
 
 FURNACE_RUNS, FURNACE_SPP, FURNACE_RES = 48, 4, (32, 24)
 CONVERGENCE_N = (16, 64, 256)
@@ -38,45 +37,8 @@ BESIDE = ("independent", "stratified", "sobol")
 TESTS = 2                  # the p-valued lines: battery, renderer unbiasedness
 
 
-@dataclass
-class Line:
-    name: str
-    passed: bool | None          # None: reported, not judged
-    figure: str
-    p: float = float("nan")
-
-
-@dataclass
-class Scorecard:
-    name: str
-    level: float
-    lines: list[Line] = field(default_factory=list)
-    seconds: float = 0.0
-
-    @property
-    def passed(self) -> bool:
-        return all(x.passed is not False for x in self.lines)
-
-    def text(self) -> list[str]:
-        out = [f"drtlab check {self.name}: level {self.level:g} over its {TESTS} tests "
-               f"({_per_line(self.level):.3g} each, Sidak)"]
-        for x in self.lines:
-            verdict = "info" if x.passed is None else ("pass" if x.passed else "FAIL")
-            out.append(f"  {x.name:24s} {verdict:5s} {x.figure}")
-        bad = [x.name for x in self.lines if x.passed is False]
-        out.append(f"{self.name}: " + (f"every check passes ({self.seconds:.0f} s)" if not bad else
-                                       f"{len(bad)} check(s) FAIL: {', '.join(bad)}"))
-        return out
-
-    def to_json(self) -> dict:
-        return {"name": self.name, "level": self.level, "passed": self.passed, "seconds": self.seconds,
-                "lines": [{"name": x.name, "passed": x.passed, "figure": x.figure,
-                           "p": None if math.isnan(x.p) else x.p} for x in self.lines]}
-
-
 def _per_line(level: float) -> float:
-    from drtlab.experiments.stats.hypothesis_tests import sidak
-    return sidak(level, TESTS)
+    return per_test(level, TESTS)
 
 
 def _purity(name: str) -> list[Line]:
@@ -91,7 +53,7 @@ def _purity(name: str) -> list[Line]:
                                  f"{'yes' if other else 'NO, the set ignores its seed'}")]
 
 
-def _furnace(sampler: str, seeds: list[int], threads=None, tile=None):
+def furnace(sampler: str, seeds: list[int], threads=None, tile=None):
     from drtlab.experiments.audit.renderer import furnace_scene
     from drtlab.kernels.render import render_batch_with_stats
     from drtlab.kernels.scene_file import scene_from_dict
@@ -102,26 +64,28 @@ def _furnace(sampler: str, seeds: list[int], threads=None, tile=None):
 
 
 def _threads_tiles(name: str) -> Line:
-    a, _, _ = _furnace(name, [11, 12], threads=1, tile=8)
-    b, _, _ = _furnace(name, [11, 12], threads=2, tile=16)
+    a, _, _ = furnace(name, [11, 12], threads=1, tile=8)
+    b, _, _ = furnace(name, [11, 12], threads=2, tile=16)
     same = np.array_equal(a, b)
     return Line("threads and tiles", same, "furnace at 4 spp, 1 thread / 8-pixel tiles against 2 threads / "
                                           f"16-pixel tiles: {'bit-identical' if same else 'DIFFERENT images'}")
 
 
-def _unbiased(name: str, seed: int, level: float) -> Line:
+def furnace_unbiased(sampler: str, seed: int, per_line: float) -> Line:
+    """The renderer-unbiasedness line: `sampler`'s white furnace at FURNACE_RUNS seeds, t test of
+    the runs' mean error against 0 at `per_line`."""
     from scipy import stats
     from drtlab.experiments.seeds import run_seed
-    seeds = [run_seed(seed, "check-furnace", name, "path", list(FURNACE_RES), FURNACE_SPP, k)
+    seeds = [run_seed(seed, "check-furnace", sampler, "path", list(FURNACE_RES), FURNACE_SPP, k)
              for k in range(FURNACE_RUNS)]
-    images, exact, _ = _furnace(name, seeds)
+    images, exact, _ = furnace(sampler, seeds)
     err = images.mean(axis=(1, 2, 3)) - exact
     sd = float(err.std(ddof=1))
     if sd == 0:
         p = 1.0 if np.all(err == 0) else 0.0
     else:
         p = float(2 * stats.t.sf(abs(err.mean()) / (sd / math.sqrt(err.size)), err.size - 1))
-    ok = p >= _per_line(level)
+    ok = p >= per_line
     return Line("renderer unbiasedness", ok, f"white furnace, {FURNACE_RUNS} runs x {FURNACE_SPP} spp: "
                                             f"mean error {err.mean():+.2e} (exact {exact:g}, sd of a run "
                                             f"{sd:.2e}), t test p = {p:.3g}", p)
@@ -164,7 +128,7 @@ def check(name: str, seed: int = 0, level: float = 0.01, pixels: int | None = No
     from drtlab.experiments.pointsets import validate as V
     t0 = time.perf_counter()
     V.check_pointset(name)
-    card = Scorecard(name, level)
+    card = Scorecard(name, level, TESTS)
     card.lines += _purity(name)
     card.lines.append(_threads_tiles(name))
     try:
@@ -185,10 +149,10 @@ def check(name: str, seed: int = 0, level: float = 0.01, pixels: int | None = No
         if strat:
             card.lines.append(Line("stratification claims", None,
                                    ", ".join(f"{k} {v:.3g}" for k, v in strat.items())))
-    card.lines.append(_unbiased(name, seed, level))
+    card.lines.append(furnace_unbiased(name, seed, _per_line(level)))
     card.lines += _convergence(name, seed)
-    ref = min(_furnace("independent", [1, 2, 3, 4])[2] for _ in range(3))
-    mine = min(_furnace(name, [1, 2, 3, 4])[2] for _ in range(3))
+    ref = min(furnace("independent", [1, 2, 3, 4])[2] for _ in range(3))
+    mine = min(furnace(name, [1, 2, 3, 4])[2] for _ in range(3))
     card.lines.append(Line("render cost", None, f"furnace render {mine / ref:.2f}x independent's "
                                                 f"(best of 3, {FURNACE_RES[0]}x{FURNACE_RES[1]}, 4 seeds)"))
     card.seconds = time.perf_counter() - t0
