@@ -3,7 +3,7 @@
 The scene loader reads which keys a kind takes (`MaterialKind.keys`), the kernels its integer code
 (`MATERIAL_CODE`) and which of their code paths it needs (features.SPLITTING_KINDS,
 materials.LOBE_CHOICE_KINDS), the lobe tool which kinds have a lobe to plot and how
-(experiments/tools/lobes.py). A new kind is one row here, then its BSDF in kernels/materials.py.
+(experiments/tools/lobes.py). A new kind is one row here, then its BSDF in kernels/materials/.
 """
 from __future__ import annotations
 

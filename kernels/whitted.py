@@ -16,8 +16,8 @@ from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
-                                      GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted,
-                                      interface, refract_dir, surface_albedo)
+                                      GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
+from drtlab.kernels.materials.dielectric import interface, refract_dir
 
 
 def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,

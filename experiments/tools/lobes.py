@@ -7,7 +7,7 @@ right). A direction w of the plane has the signed angle alpha = atan2(w_x, w_z) 
 (degrees in the figure; beyond +-90 it lies below the surface: transmission).
 
 For every incident angle, all through the chi-square adapters (experiments/stats/chi2/adapters.py
-`BSDFAdapter`, i.e. kernels/materials.py make_bsdf: no BSDF maths is repeated here):
+`BSDFAdapter`, i.e. kernels/materials/bsdf.py make_bsdf: no BSDF maths is repeated here):
 
 * the lobe: eval_bsdf = f(wo, w) |cos theta| at w in the plane (exact, mean over R, G, B), polar;
 * the sampling density: N directions from sample_bsdf, those within `band` degrees of the plane

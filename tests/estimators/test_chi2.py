@@ -335,7 +335,7 @@ def test_negative_control_sampler_failing_more_than_its_pdf_admits():
 
 
 # ---------------------------------------------------------------------------------------------------
-# BSDFs (kernels/materials.py make_bsdf)
+# BSDFs (kernels/materials/bsdf.py make_bsdf)
 # ---------------------------------------------------------------------------------------------------
 
 def bsdf_setup(kind, lobe, exponent, ior, theta, below, cap):

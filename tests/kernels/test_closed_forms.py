@@ -456,7 +456,7 @@ def gd_case(exponent, ior, theta, side):
                          ids=[c[0] for c in GD_CASES])
 def test_glossy_dielectric_directional_albedo(cid, exponent, ior, theta, side, lobe, controls):
     """Directional albedo (reflected + transmitted f|cos| over the sphere, for one wo) of the glossy
-    dielectric BSDF: an independent float64 quadrature of the formula of kernels/materials.py
+    dielectric BSDF: an independent float64 quadrature of the formula of kernels/materials/
     (closed_forms_util.GlossyDielectric: Fresnel-weighted Phong lobes about the mirror and refracted
     directions, each counted on its own side of the surface, transmission x tint (1 - F) / eta^2)
     against the mean sample weight of the renderer's sample_bsdf (chi2 BSDFAdapter; lobe or

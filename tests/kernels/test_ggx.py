@@ -1,4 +1,4 @@
-"""The GGX materials (kernels/materials.py eval_ggx): `ggx`, a rough conductor, and `ggx_dielectric`,
+"""The GGX materials (kernels/materials/ggx.py eval_ggx): `ggx`, a rough conductor, and `ggx_dielectric`,
 rough glass (Walter et al. 2007), height-correlated Smith masking-shadowing. References are float64
 formulas sharing no code with the renderer (tests/support/ggx_util.py).
 

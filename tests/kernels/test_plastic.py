@@ -1,4 +1,4 @@
-"""The plastic material (kernels/materials.py eval_plastic): a diffuse base under a glossy dielectric
+"""The plastic material (kernels/materials/plastic.py eval_plastic): a diffuse base under a glossy dielectric
 coat. References are float64 formulas sharing no code with the renderer (tests/support/plastic_util.py).
 
 Statistics. Level ALPHA = 0.01 with the Sidak correction over the M_TESTS clean statistical tests

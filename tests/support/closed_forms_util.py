@@ -329,7 +329,7 @@ def segment_clears_sphere(p, q, center, radius, margin: float) -> bool:
 
 
 # ---------------------------------------------------------------------------------------------------
-# Glossy dielectric (kernels/materials.py eval_glossy_dielectric) in float64
+# Glossy dielectric (kernels/materials/dielectric.py eval_glossy_dielectric) in float64
 # ---------------------------------------------------------------------------------------------------
 
 def fresnel(cos_i: float, eta: float) -> float:

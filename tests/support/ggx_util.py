@@ -1,4 +1,4 @@
-"""The GGX materials (kernels/materials.py eval_ggx) as float64 formulas sharing no code with the
+"""The GGX materials (kernels/materials/ggx.py eval_ggx) as float64 formulas sharing no code with the
 renderer, and their directional albedo by quadrature, for tests/kernels/test_ggx.py and the hard-case
 furnaces (scene_util.sphere_furnace).
 

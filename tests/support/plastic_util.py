@@ -1,4 +1,4 @@
-"""The plastic BSDF (kernels/materials.py eval_plastic) as a float64 formula, sharing no code with the
+"""The plastic BSDF (kernels/materials/plastic.py eval_plastic) as a float64 formula, sharing no code with the
 renderer, and its directional albedo by quadrature, for tests/kernels/test_plastic.py.
 
     f(wo, wi) = min(F_o, F_i) (n + 2) / (2 pi) cos^n(alpha) + albedo (1 - F_o)(1 - F_i) / (pi (1 - Fbar))

@@ -237,7 +237,7 @@ def light_over_plane(kind="sphere", *, rho=0.7, le=5.0, bg=0.25, size=0.5, light
 
 
 def phong_albedo(cos_o: np.ndarray, exponent: float, n_quad: int = 400) -> np.ndarray:
-    """Directional albedo of the normalized modified Phong lobe of kernels/materials.py:
+    """Directional albedo of the normalized modified Phong lobe of kernels/materials/:
     int_{cos_i > 0, cos_alpha > 0} (n + 2) / (2 pi) cos^n(alpha) cos_i dw, alpha measured from the
     mirror direction. Substituting v = cos^(n + 1)(alpha) and integrating phi in closed form:
         A = (n + 2) / (2 pi (n + 1)) int_0^1 g(v) dv,   g = int_0^2pi max(0, a + b cos phi) dphi,
@@ -323,7 +323,7 @@ def sphere_furnace(kind: str, *, exponent=None, ior=None, albedo=1.0, res=(16, 1
 
 
 def fresnel(cos_i, eta):
-    """Unpolarised Fresnel reflectance as in kernels/materials.py (eta = n_t / n_i)."""
+    """Unpolarised Fresnel reflectance as in kernels/materials/dielectric.py (eta = n_t / n_i)."""
     cos_i = np.asarray(cos_i, float)
     sin2_t = (1.0 - cos_i ** 2) / eta ** 2
     tir = sin2_t >= 1.0

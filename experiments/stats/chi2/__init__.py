@@ -43,7 +43,7 @@ Additions for this project:
 * **Quadrature at support edges.** Cells where the pdf is zero at some sub-samples and not at others,
   and zero cells next to non-zero ones, are integrated again on a refine x finer sub-grid.
 * **Warp adapters.** `WarpsAdapter`, `BSDFAdapter` and `LightAdapter` wrap the project's Warp
-  functions (estimators/domain_maps.py, kernels/materials.py `make_bsdf`, kernels/lights.py `make_lights`)
+  functions (estimators/domain_maps.py, kernels/materials/bsdf.py `make_bsdf`, kernels/lights.py `make_lights`)
   in CPU kernels built by factories (`module="unique"`, no backward pass). Each kernel samples over N
   threads with the random numbers `uniform(seed, thread, dim)` = unit_float(hash_key(seed, thread,
   dim, 0)), so results are a pure function of the seed; one runtime-switched kernel per factory

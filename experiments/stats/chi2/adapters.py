@@ -1,5 +1,5 @@
 """Warp adapters of the chi-square harness: samplers and claimed densities of the project's Warp
-functions (estimators/domain_maps.py, kernels/materials.py `make_bsdf`, kernels/lights.py `make_lights`) in
+functions (estimators/domain_maps.py, kernels/materials/bsdf.py `make_bsdf`, kernels/lights.py `make_lights`) in
 CPU kernels built by factories, and `upload_scene` for the light tests (see the package docstring,
 drtlab.experiments.stats.chi2)."""
 from __future__ import annotations

@@ -1,0 +1,22 @@
+"""Materials per kernel variant: kind codes (`kinds.py`), the BSDF models (`dielectric.py`, `plastic.py`,
+`ggx.py`), the kind switches of a variant (`bsdf.py`), (checkered) albedo and emission (`surface.py`).
+
+`make_bsdf(features, strategy)` returns Bsdf, Warp functions of the features' material kinds that
+can be called on their own (the tracer, MIS and the chi-square tests use the same ones):
+    eval_bsdf(kind, albedo, exponent, ior, n, wo, wi) -> f(wo, wi) |cos theta_i|  (non-delta kinds)
+    pdf_bsdf(kind, exponent, ior, n, wo, wi)          -> solid-angle density of sample_bsdf
+    sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter (weight = f|cos|/pdf)
+`strategy.lobe` True samples cosine / Phong lobes / Fresnel, False samples uniform hemisphere
+(sphere for glossy transmission) and picks reflect/refract with probability 1/2.
+`plastic` is a diffuse base under a glossy dielectric coat; its model is `eval_plastic`'s docstring.
+`exponent` is the material's lobe shape (MaterialKind.shape_key): the Phong exponent, or GGX's alpha
+for `ggx` (a rough conductor whose facets reflect `albedo`) and `ggx_dielectric` (Walter et al. 2007
+rough reflection and transmission); their model is ggx.py's comment. `strategy.microfacet`
+picks how the lobe strategy draws their microfacet normals (visible normals or D cos).
+`surface_albedo(sd, m, uv)` is the (checkered) albedo, `emitted(sd, h, wo)` a hit's emission.
+"""
+from drtlab.kernels.materials.bsdf import Bsdf, Scatter, make_bsdf  # noqa: F401
+from drtlab.kernels.materials.kinds import (  # noqa: F401
+    DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY, GLOSSY_DIELECTRIC, LOBE_CHOICE_KINDS, MIRROR,
+    PLASTIC)
+from drtlab.kernels.materials.surface import checkered, emitted, surface_albedo  # noqa: F401

@@ -1,0 +1,265 @@
+"""The kind switches of one kernel variant: eval, pdf and sample of every material kind the scene has
+(the package docstring describes them)."""
+from typing import NamedTuple
+
+import warp as wp
+
+from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
+                                           square_to_cosine_hemisphere, square_to_phong_lobe,
+                                           square_to_uniform_hemisphere, square_to_uniform_sphere)
+from drtlab.estimators.strategies import Strategy
+from drtlab.kernels.features import Features
+from drtlab.kernels.material_kinds import kinds_where
+from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
+                                                 interface, refract_dir)
+from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
+from drtlab.kernels.materials.kinds import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
+                                            GLOSSY_DIELECTRIC, MIRROR, PLASTIC)
+from drtlab.kernels.materials.plastic import eval_plastic, plastic_coat_probability
+
+
+@wp.struct
+class Scatter:
+    wi: wp.vec3
+    weight: wp.vec3     # f * |cos| / pdf, or the delta lobe's weight
+    pdf: float          # solid-angle pdf; 0 for delta lobes
+    delta: int
+    valid: int
+
+
+
+# The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
+LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
+
+
+class Bsdf(NamedTuple):
+    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, n, wo, wi) -> f|cos|
+    pdf_bsdf: wp.Function       # (kind, exponent, ior, n, wo, wi) -> sample_bsdf's density
+    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter
+
+
+def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
+    normals = make_ggx_normals(strategy.microfacet == "vndf")
+    eval_bsdf, pdf_bsdf = _make_densities(f.kinds, strategy.lobe, normals[1])
+    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, normals[0])
+    return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+
+
+def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
+    """eval_bsdf (f|cos|) and pdf_bsdf (the density sample_bsdf proposes with) of `kinds`."""
+    K_DIFFUSE = "diffuse" in kinds
+    K_GLOSSY = "glossy" in kinds
+    K_GDIEL = "glossy_dielectric" in kinds
+    K_PLASTIC = "plastic" in kinds
+    K_GGX = "ggx" in kinds
+    K_GGXD = "ggx_dielectric" in kinds
+    LOBE = lobe
+
+    @wp.func
+    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                  wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+        """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
+        r = wp.vec3(0.0)
+        cos_o = wp.dot(n, wo)
+        cos_i = wp.dot(n, wi)
+        if wp.static(K_DIFFUSE):
+            if kind == DIFFUSE:
+                if cos_o * cos_i > 0.0:
+                    r = albedo * (wp.abs(cos_i) * INV_PI)
+        if wp.static(K_GLOSSY):
+            if kind == GLOSSY:
+                if cos_o * cos_i > 0.0:
+                    refl = 2.0 * cos_o * n - wo
+                    ca = wp.dot(refl, wi)
+                    if ca > 0.0:
+                        r = albedo * ((exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
+                                      * wp.abs(cos_i))
+        if wp.static(K_GDIEL):
+            if kind == GLOSSY_DIELECTRIC:
+                r = eval_glossy_dielectric(albedo, exponent, ior, n, wo, wi)
+        if wp.static(K_PLASTIC):
+            if kind == PLASTIC:
+                r = eval_plastic(albedo, exponent, ior, n, wo, wi)
+        if wp.static(K_GGX):
+            if kind == GGX:
+                r = eval_ggx(albedo, exponent, ior, n, wo, wi, 0)
+        if wp.static(K_GGXD):
+            if kind == GGX_DIELECTRIC:
+                r = eval_ggx(albedo, exponent, ior, n, wo, wi, 1)
+        return r
+
+    @wp.func
+    def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
+                 wi: wp.vec3) -> float:
+        """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
+        cos_o = wp.dot(n, wo)
+        cos_i = wp.dot(n, wi)
+        p = float(0.0)
+        if wp.static(not LOBE):
+            if kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
+                p = INV_4PI
+            elif cos_o * cos_i > 0.0:
+                p = 0.5 * INV_PI
+        if wp.static(LOBE):
+            if wp.static(K_DIFFUSE):
+                if kind == DIFFUSE:
+                    if cos_o * cos_i > 0.0:
+                        p = wp.abs(cos_i) * INV_PI
+            if wp.static(K_GLOSSY):
+                if kind == GLOSSY:
+                    if cos_o * cos_i > 0.0:
+                        nf = n
+                        if cos_o < 0.0:
+                            nf = -n
+                        refl = 2.0 * wp.abs(cos_o) * nf - wo
+                        p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
+            if wp.static(K_GDIEL):
+                if kind == GLOSSY_DIELECTRIC:
+                    it = interface(n, wo, ior)
+                    lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
+                    # The proposal is the Fresnel-weighted mixture of both lobes wherever wi lies.
+                    p = it.F * lobes[0] + (1.0 - it.F) * lobes[1]
+            if wp.static(K_PLASTIC):
+                if kind == PLASTIC:
+                    if cos_o * cos_i > 0.0:
+                        # The mixture of the coat's Phong lobe and the base's cosine lobe.
+                        pc = plastic_coat_probability(wp.abs(cos_o), ior)
+                        refl = 2.0 * cos_o * n - wo
+                        p = (pc * phong_lobe_pdf(wp.dot(refl, wi), exponent)
+                             + (1.0 - pc) * wp.abs(cos_i) * INV_PI)
+            if wp.static(K_GGX):
+                if kind == GGX:
+                    nf = n
+                    if cos_o < 0.0:
+                        nf = -n
+                    mf = ggx_half(nf, 1.0, wo, wi, 0)
+                    if mf.valid == 1:
+                        p = ggx_normal_pdf(exponent, nf, wp.abs(cos_o), mf.wm, mf.om) * mf.dwm
+            if wp.static(K_GGXD):
+                if kind == GGX_DIELECTRIC:
+                    it = interface(n, wo, ior)
+                    mf = ggx_half(it.nf, it.eta, wo, wi, 1)
+                    if mf.valid == 1:
+                        # The lobe chosen with probability F(wo.wm), then its Jacobian.
+                        pl = mf.F
+                        if mf.reflect == 0:
+                            pl = 1.0 - mf.F
+                        p = ggx_normal_pdf(exponent, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
+        return p
+
+    return eval_bsdf, pdf_bsdf
+
+
+def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_normal):
+    """sample_bsdf of `kinds`: delta lobes directly, the others by proposal and eval_bsdf / pdf_bsdf."""
+    K_DIFFUSE = "diffuse" in kinds
+    K_GLOSSY = "glossy" in kinds
+    K_MIRROR = "mirror" in kinds
+    K_DIEL = "dielectric" in kinds
+    K_GDIEL = "glossy_dielectric" in kinds
+    K_PLASTIC = "plastic" in kinds
+    K_GGX = "ggx" in kinds
+    K_GGXD = "ggx_dielectric" in kinds
+    LOBE = lobe
+
+    @wp.func
+    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
+                    wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+        s = Scatter()
+        s.valid = 0
+        s.delta = 0
+        cos_o = wp.dot(n, wo)
+        nf = n
+        if cos_o < 0.0:
+            nf = -n
+        co = wp.abs(cos_o)
+        if wp.static(K_MIRROR):
+            if kind == MIRROR:
+                s.wi = 2.0 * co * nf - wo
+                s.weight = albedo
+                s.delta = 1
+                s.valid = 1
+                return s
+        if wp.static(K_DIEL):
+            if kind == DIELECTRIC:
+                it = interface(n, wo, ior)
+                eta = it.eta
+                F = it.F
+                p_reflect = F
+                if wp.static(not LOBE):
+                    p_reflect = 0.5
+                if F >= 1.0:
+                    p_reflect = 1.0
+                s.delta = 1
+                s.valid = 1
+                if u_lobe < p_reflect:
+                    s.wi = 2.0 * co * nf - wo
+                    s.weight = wp.vec3(F / p_reflect)
+                else:
+                    s.wi = refract_dir(wo, nf, co, eta)
+                    s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
+                return s
+        if kind == EMITTER:
+            return s
+        # Non-delta kinds: propose a direction, then weight = f|cos| / pdf evaluated separately.
+        wi = wp.vec3(0.0)
+        if wp.static(not LOBE):
+            if kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
+                wi = square_to_uniform_sphere(u)
+            else:
+                wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
+        if wp.static(LOBE):
+            if wp.static(K_DIFFUSE):
+                if kind == DIFFUSE:
+                    wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
+            if wp.static(K_GLOSSY):
+                if kind == GLOSSY:
+                    wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
+            if wp.static(K_GDIEL):
+                if kind == GLOSSY_DIELECTRIC:
+                    it = interface(n, wo, ior)
+                    axis = 2.0 * co * nf - wo
+                    if u_lobe >= it.F:
+                        axis = refract_dir(wo, nf, co, it.eta)
+                    wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
+            if wp.static(K_PLASTIC):
+                if kind == PLASTIC:
+                    if u_lobe < plastic_coat_probability(co, ior):
+                        wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
+                    else:
+                        wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
+            if wp.static(K_GGX):
+                if kind == GGX:
+                    if co <= 0.0:
+                        return s
+                    wm = sample_ggx_normal(nf, wo, co, exponent, u)
+                    wi = 2.0 * wp.dot(wo, wm) * wm - wo
+            if wp.static(K_GGXD):
+                if kind == GGX_DIELECTRIC:
+                    it = interface(n, wo, ior)
+                    if it.co <= 0.0:
+                        return s
+                    wm = sample_ggx_normal(it.nf, wo, it.co, exponent, u)
+                    om = wp.dot(wo, wm)
+                    if om <= 0.0:
+                        return s
+                    if u_lobe < fresnel(om, it.eta):
+                        wi = 2.0 * om * wm - wo
+                        if wp.dot(it.nf, wi) <= 0.0:
+                            return s        # reflected below: pdf_bsdf would read it as refracted
+                    else:
+                        wi = refract_dir(wo, wm, om, it.eta)
+                        if wp.dot(it.nf, wi) >= 0.0:
+                            return s        # refracted above: pdf_bsdf would read it as reflected
+        pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
+        if pdf > 0.0:
+            fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+            if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
+                s.wi = wi
+                s.pdf = pdf
+                s.weight = fc / pdf
+                s.valid = 1
+        return s
+
+    return sample_bsdf
+
