@@ -268,7 +268,7 @@ def _ground_truth_jobs(args) -> list[tuple]:
     from drtlab.estimators.registry import parse_integrator
     from drtlab.experiments.study.backend import default_backend
     from drtlab.experiments.study.config import load_experiment, scene_ref
-    from drtlab.experiments.study.runner import gt_requirements, plan_runs
+    from drtlab.experiments.study.plan import gt_requirements, plan_runs
     if (args.scene is None) == (args.experiment is None):
         raise InputError("ground-truth", "give either a SCENE or --experiment NAME (one of the two)")
     if args.integrator is not None:

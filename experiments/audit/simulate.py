@@ -1,6 +1,6 @@
 """Synthetic studies with a known truth, shaped like the default study: one scene, a baseline sampler
 against one other, ladder N = 1, 4, 16, 64 with 320 / 80 / 20 / 5 runs, 96 x 72 pixels, batches cut
-(`runner.batch_ranges`) and interleaved in time (cells take turns, `zip_longest`) as the runner does.
+(`plan.batch_ranges`) and interleaved in time (cells take turns, `zip_longest`) as the runner does.
 
 Truth of a sampler: mean MSE at N is A N^(2b) (RMSE slope b); a run's MSE is that mean times X with
 E[X] = 1 drawn from the setting's law. A batch of `reps` repetitions takes
@@ -24,7 +24,7 @@ from itertools import zip_longest
 import numpy as np
 
 from drtlab.experiments.stats.cost_model import PROCESS_SD, call_share
-from drtlab.experiments.study.runner import batch_ranges
+from drtlab.experiments.study.plan import batch_ranges
 
 PIXELS = 96 * 72
 RUNS = {1: 320, 4: 80, 16: 20, 64: 5}       # runs per N, as the default study

@@ -13,11 +13,9 @@ at most the last seconds of batches and can never leave a torn file or a duplica
 from __future__ import annotations
 
 import math
-import shutil
 import sys
 import time
-from dataclasses import dataclass, field, replace
-from functools import cached_property
+from dataclasses import dataclass, field
 from itertools import zip_longest
 from pathlib import Path
 from typing import Callable
@@ -26,7 +24,11 @@ import numpy as np
 
 from drtlab.experiments.study import analysis, manifest, report
 from drtlab.experiments.study import ground_truth as gtmod
-from drtlab.experiments.study.config import Experiment, SceneRef
+from drtlab.experiments.study.config import Experiment
+from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
+from drtlab.experiments.study.plan import (RunSpec, batch_ranges, gt_requirements, plan_runs,
+                                           run_fingerprint)
+from drtlab.experiments.study.progress import Progress
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.study.metrics import compile_metric_kernels, reference_lab, score_batch
@@ -36,157 +38,9 @@ from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
 from drtlab.experiments.stats.intervals import repetitions_for_precision
 
-OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "report.md", "plots",
-                "images", "manifest.json", store.CALIBRATION_FILE)
-# Samples (pixels x spp x repetitions) a batch aims at: on this 2-core machine 0.2-1 s of CPU, long
-# enough for the process clock to time it to a few percent, short enough for a kill to lose little.
-BATCH_SAMPLES = 1 << 20
-MIN_BATCHES = 4                  # batches a cell is cut into at least (where it has the runs)
-MAX_BATCH_PIXELS = 1 << 24       # pixels x repetitions of one batch: bounds its buffers (~1 GiB)
 # Seconds between commits of the table and the changed cell files (and at each group's end and an
 # interrupted sweep's): rewriting a 10,000-row table after every batch was a tenth of the sweep.
 FLUSH_SECONDS = 10.0
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    scene: SceneRef
-    sampler: str
-    integrator: str
-    resolution: tuple[int, int]          # actual (W, H)
-    spp: int
-    rep: int
-    seed: int
-    studies: tuple[str, ...]
-
-    @cached_property                     # read for every run at every commit
-    def run_id(self) -> str:
-        w, h = self.resolution
-        return (f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}"
-                f"__spp{self.spp:05d}__rep{self.rep:02d}__{self.seed:08x}")
-
-    @property
-    def cell(self) -> str:
-        """The cell it is a repetition of (what `run_store` names its cell file by)."""
-        w, h = self.resolution
-        return f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}__spp{self.spp:05d}"
-
-    @property
-    def group(self) -> tuple:
-        return (self.scene, self.integrator, self.resolution)
-
-
-def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
-    """Every run of the experiment in sweep order (scene-major), each listed once."""
-    res_cache: dict = {}
-    plan: dict[str, RunSpec] = {}
-    for study in exp.studies:
-        settings = study.settings
-        for scene_ref in study.scenes:
-            if (scene_ref, settings.resolution) not in res_cache:
-                if settings.resolution:
-                    res_cache[(scene_ref, settings.resolution)] = tuple(settings.resolution)
-                else:
-                    scene = backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
-                    res_cache[(scene_ref, settings.resolution)] = (int(scene.width), int(scene.height))
-            res = res_cache[(scene_ref, settings.resolution)]
-            for sampler in study.samplers:
-                for spp in settings.spp:
-                    for rep in range(settings.runs_at(spp)):
-                        seed = run_seed(study.seed, scene_ref.key, sampler, study.integrator, res, spp, rep)
-                        r = RunSpec(scene_ref, sampler, study.integrator, res, spp, rep, seed, (study.name,))
-                        old = plan.get(r.run_id)
-                        if old is None:
-                            plan[r.run_id] = r
-                        elif study.name not in old.studies:
-                            plan[r.run_id] = replace(old, studies=old.studies + (study.name,))
-    # Group by scene so that one ground truth is in memory at a time.
-    runs = list(plan.values())
-    order = {}
-    for r in runs:
-        order.setdefault(r.group, len(order))
-    return sorted(runs, key=lambda r: order[r.group])     # stable: keeps study/sampler/spp order
-
-
-def gt_requirements(exp: Experiment, plan: list[RunSpec]) -> dict:
-    """(scene, integrator, resolution) -> (gt_spp, gt_batch_spp): the most any study asks for."""
-    by_name = {study.name: study for study in exp.studies}
-    req: dict = {}
-    for r in plan:
-        for name in r.studies:
-            settings = by_name[name].settings
-            prev = req.get(r.group)
-            if prev is None or settings.gt_spp > prev[0]:
-                req[r.group] = (settings.gt_spp, settings.gt_batch_spp)
-    return req
-
-
-def _fingerprint(r: RunSpec, gt, code_version: str) -> str:
-    return short_hash({"run": r.run_id, "gt_key": gt.manifest.get("key"), "code": code_version}, 16)
-
-
-def lock_output(out_dir: Path):
-    """An exclusive lock on `<out>/.lock`, released when the returned file is closed (or the process
-    dies): a second sweep into the same folder stops with one line instead of racing the first."""
-    f = open(out_dir / ".lock", "a+")
-    try:
-        import fcntl
-        fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except ImportError:                       # no fcntl (Windows): no lock
-        pass
-    except OSError:
-        f.close()
-        from drtlab.errors import InputError
-        raise InputError("--out", f"another `drtlab experiment` is writing to {out_dir}; wait for it "
-                         f"or choose another --out") from None
-    return f
-
-
-def _remove_orphaned_temps(out_dir: Path) -> None:
-    """Temp files of writes a kill interrupted (never read: the os.replace never happened)."""
-    for d in (out_dir, out_dir / store.CELLS_DIR):
-        for p in d.glob(".*"):
-            if p.is_file() and p.suffix in (".tmp", ".exr", ".npz", ".json", ".csv"):
-                p.unlink(missing_ok=True)
-
-
-def _clean_outputs(out_dir: Path) -> None:
-    for name in OUTPUT_NAMES:
-        p = out_dir / name
-        if p.is_dir():
-            shutil.rmtree(p)
-        elif p.exists():
-            p.unlink()
-
-
-class _Progress:
-    """One bar for the whole sweep, in samples (spp x pixels, ground truth included), with an ETA."""
-
-    def __init__(self, total: int, runs: int, enabled: bool):
-        self.bar = None
-        self.runs_total, self.runs_done = runs, 0
-        if enabled and total > 0:
-            from tqdm import tqdm
-            self.bar = tqdm(total=total, unit="sample", unit_scale=True, file=sys.stderr,
-                            desc="sweep", dynamic_ncols=True, smoothing=0.05)
-
-    def add_work(self, samples: int, runs: int) -> None:
-        """Repetitions a precision target added to the sweep."""
-        self.runs_total += runs
-        if self.bar is not None:
-            self.bar.total += samples
-            self.bar.refresh()
-
-    def update(self, n: int, what: str | None = None, runs_done: int = 0) -> None:
-        self.runs_done += runs_done
-        if self.bar is not None:
-            if what:
-                self.bar.set_postfix_str(f"{what} | runs {self.runs_done}/{self.runs_total}", refresh=not n)
-            self.bar.update(n)
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
 
 
 def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path | None = None,
@@ -214,8 +68,8 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     lock = lock_output(out_dir)               # one sweep at a time per output folder
     try:
         if fresh:
-            _clean_outputs(out_dir)
-        _remove_orphaned_temps(out_dir)
+            clean_outputs(out_dir)
+        remove_orphaned_temps(out_dir)
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
                        records=store.load_records(out_dir), executor=executor,
                        studies={s.name: s for s in exp.studies}, keep_images=keep_images)
@@ -237,17 +91,6 @@ def _reference_info(gt) -> dict:
             "reused": gt.reused, "key": gt.manifest.get("key"),
             "wall_seconds": gt.manifest.get("wall_seconds"),
             "compile_seconds": gt.manifest.get("compile_seconds"), "seeds": gt.manifest.get("seeds")}
-
-
-def batch_ranges(reps: int, pixels: int, spp: int, start: int = 0) -> list[tuple[int, int]]:
-    """[a, b) repetition ranges of a cell's batches from `start` to `reps`: about BATCH_SAMPLES each,
-    at least MIN_BATCHES where the repetitions allow (every batch is a point of its sampler's cost
-    model: ten batches a sampler left a 1.6x efficiency interval at N = 1 from cost alone, fifteen
-    narrow it), and within MAX_BATCH_PIXELS. A function of the work alone, so every machine cuts
-    the same batches."""
-    per = max(1, min(-(-BATCH_SAMPLES // (pixels * spp)), MAX_BATCH_PIXELS // pixels))
-    per = min(per, max(1, -(-(reps - start) // MIN_BATCHES)))
-    return [(a, min(a + per, reps)) for a in range(start, reps, per)]
 
 
 @dataclass
@@ -300,7 +143,7 @@ class _Sweep:
     records: dict                             # run id -> record, of the committed runs
     gts: dict = field(default_factory=dict)   # group -> _reference_info
     stats: dict = field(default_factory=dict)
-    bar: _Progress | None = None
+    bar: Progress | None = None
     executor: object = None                   # cluster.DaskExecutor, or None: render here
     studies: dict = field(default_factory=dict)   # study name -> Study (settings, seed)
     keep_images: bool | None = None
@@ -315,7 +158,7 @@ class _Sweep:
                       for g, req in gt_req.items()}
         candidates = [r for r in self.plan if r.run_id not in self.records]
         total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
-        self.bar = _Progress(total, len(candidates), progress)
+        self.bar = Progress(total, len(candidates), progress)
         self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0,
                       "runs_added_for_precision": 0, "runs_added_for_resolution": 0, "batches": 0}
         self._seconds = {"render_total": 0.0, "ground_truth_total": 0.0}
@@ -442,7 +285,7 @@ class _Sweep:
         is reused: its images are in the cell file already)."""
         out = []
         for a, b in ranges:
-            fps = [_fingerprint(r, gt, self._code(r.sampler)) for r in cruns[a:b]]
+            fps = [run_fingerprint(r, gt, self._code(r.sampler)) for r in cruns[a:b]]
             todo = [(r, fp) for r, fp in zip(cruns[a:b], fps)
                     if self.records.get(r.run_id, {}).get("fingerprint") != fp]
             self.stats["runs_reused"] += (b - a) - len(todo)

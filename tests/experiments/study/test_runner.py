@@ -296,7 +296,7 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
 
 
 def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
-    from drtlab.experiments.study.runner import lock_output
+    from drtlab.experiments.study.output_dir import lock_output
     from drtlab.errors import InputError
     exp = tiny_experiment(tmp_path)
     out = tmp_path / "out"

@@ -1,0 +1,102 @@
+"""The plan of an experiment: every run (scene, sampler, integrator, resolution, spp, repetition, seed)
+in sweep order, the references its groups need, and how a cell's repetitions are cut into batches."""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import cached_property
+
+from drtlab.experiments.seeds import run_seed, short_hash
+from drtlab.experiments.study.config import Experiment, SceneRef
+
+# Samples (pixels x spp x repetitions) a batch aims at: on this 2-core machine 0.2-1 s of CPU, long
+# enough for the process clock to time it to a few percent, short enough for a kill to lose little.
+BATCH_SAMPLES = 1 << 20
+MIN_BATCHES = 4                  # batches a cell is cut into at least (where it has the runs)
+MAX_BATCH_PIXELS = 1 << 24       # pixels x repetitions of one batch: bounds its buffers (~1 GiB)
+
+@dataclass(frozen=True)
+class RunSpec:
+    scene: SceneRef
+    sampler: str
+    integrator: str
+    resolution: tuple[int, int]          # actual (W, H)
+    spp: int
+    rep: int
+    seed: int
+    studies: tuple[str, ...]
+
+    @cached_property                     # read for every run at every commit
+    def run_id(self) -> str:
+        w, h = self.resolution
+        return (f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}"
+                f"__spp{self.spp:05d}__rep{self.rep:02d}__{self.seed:08x}")
+
+    @property
+    def cell(self) -> str:
+        """The cell it is a repetition of (what `run_store` names its cell file by)."""
+        w, h = self.resolution
+        return f"{self.scene.key}__{self.sampler}__{self.integrator}__{w}x{h}__spp{self.spp:05d}"
+
+    @property
+    def group(self) -> tuple:
+        return (self.scene, self.integrator, self.resolution)
+
+
+def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
+    """Every run of the experiment in sweep order (scene-major), each listed once."""
+    res_cache: dict = {}
+    plan: dict[str, RunSpec] = {}
+    for study in exp.studies:
+        settings = study.settings
+        for scene_ref in study.scenes:
+            if (scene_ref, settings.resolution) not in res_cache:
+                if settings.resolution:
+                    res_cache[(scene_ref, settings.resolution)] = tuple(settings.resolution)
+                else:
+                    scene = backend.load_scene(scene_ref.name, scene_ref.overrides_dict or None)
+                    res_cache[(scene_ref, settings.resolution)] = (int(scene.width), int(scene.height))
+            res = res_cache[(scene_ref, settings.resolution)]
+            for sampler in study.samplers:
+                for spp in settings.spp:
+                    for rep in range(settings.runs_at(spp)):
+                        seed = run_seed(study.seed, scene_ref.key, sampler, study.integrator, res, spp, rep)
+                        r = RunSpec(scene_ref, sampler, study.integrator, res, spp, rep, seed, (study.name,))
+                        old = plan.get(r.run_id)
+                        if old is None:
+                            plan[r.run_id] = r
+                        elif study.name not in old.studies:
+                            plan[r.run_id] = replace(old, studies=old.studies + (study.name,))
+    # Group by scene so that one ground truth is in memory at a time.
+    runs = list(plan.values())
+    order = {}
+    for r in runs:
+        order.setdefault(r.group, len(order))
+    return sorted(runs, key=lambda r: order[r.group])     # stable: keeps study/sampler/spp order
+
+
+def gt_requirements(exp: Experiment, plan: list[RunSpec]) -> dict:
+    """(scene, integrator, resolution) -> (gt_spp, gt_batch_spp): the most any study asks for."""
+    by_name = {study.name: study for study in exp.studies}
+    req: dict = {}
+    for r in plan:
+        for name in r.studies:
+            settings = by_name[name].settings
+            prev = req.get(r.group)
+            if prev is None or settings.gt_spp > prev[0]:
+                req[r.group] = (settings.gt_spp, settings.gt_batch_spp)
+    return req
+
+
+def run_fingerprint(r: RunSpec, gt, code_version: str) -> str:
+    return short_hash({"run": r.run_id, "gt_key": gt.manifest.get("key"), "code": code_version}, 16)
+
+
+def batch_ranges(reps: int, pixels: int, spp: int, start: int = 0) -> list[tuple[int, int]]:
+    """[a, b) repetition ranges of a cell's batches from `start` to `reps`: about BATCH_SAMPLES each,
+    at least MIN_BATCHES where the repetitions allow (every batch is a point of its sampler's cost
+    model: ten batches a sampler left a 1.6x efficiency interval at N = 1 from cost alone, fifteen
+    narrow it), and within MAX_BATCH_PIXELS. A function of the work alone, so every machine cuts
+    the same batches."""
+    per = max(1, min(-(-BATCH_SAMPLES // (pixels * spp)), MAX_BATCH_PIXELS // pixels))
+    per = min(per, max(1, -(-(reps - start) // MIN_BATCHES)))
+    return [(a, min(a + per, reps)) for a in range(start, reps, per)]
