@@ -80,8 +80,17 @@ def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
         raise OSError(f"cannot read {path}: {oiio.geterror()}")
     spec = inp.spec()
     pixels = inp.read_image(oiio.FLOAT)
+    # A truncated file opens (its header is whole) and reads as nothing: OpenImageIO returns None or
+    # a 0-d array and sets its error instead of raising.
+    error = inp.geterror() if hasattr(inp, "geterror") else oiio.geterror()
     meta = {a.name[len("drtlab:"):]: a.value for a in spec.extra_attribs
             if a.name.startswith("drtlab:")}
     stored = (str(spec.format), str(spec.getattribute("oiio:ColorSpace") or ""))
     inp.close()
-    return np.asarray(pixels), meta, stored
+    pixels = None if pixels is None else np.asarray(pixels)
+    want = (spec.height, spec.width, spec.nchannels)
+    if pixels is None or pixels.shape != want:
+        first = (error or "no pixels read").strip().splitlines()[0]
+        raise OSError(f"cannot read {path}: truncated or corrupt ({spec.width}x{spec.height} x "
+                      f"{spec.nchannels} channels in its header; {first})")
+    return pixels, meta, stored

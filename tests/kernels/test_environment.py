@@ -183,3 +183,23 @@ def test_image_file_is_found_beside_the_scene_file(tmp_path):
         '[materials.m]\n[[shapes]]\nkind = "sphere"\nmaterial = "m"\ncenter = [0, 0, 0]\n'
         'radius = 1\n[environment]\nkind = "image"\nfile = "sky.exr"\n')
     assert load_scene(tmp_path / "s.toml").environment.image.shape == (2, 4, 3)
+
+
+def test_a_truncated_image_is_one_line_wherever_it_is_read(tmp_path):
+    """An EXR cut in half keeps a whole header, so it opens and used to read as a 0-d array (an
+    IndexError later). Every reader goes through imageio._read, which refuses it."""
+    from drtlab.experiments.tools.images import read_image
+    from drtlab.kernels.imageio import read_exr
+    rng = np.random.default_rng(4)
+    write_exr(tmp_path / "sky.exr", rng.uniform(0.0, 2.0, (40, 80, 3)).astype(np.float32))
+    data = (tmp_path / "sky.exr").read_bytes()
+    (tmp_path / "cut.exr").write_bytes(data[: len(data) // 2])
+    with pytest.raises(OSError, match="truncated or corrupt"):
+        read_exr(tmp_path / "cut.exr")
+    with pytest.raises(InputError) as e:
+        scene_from_dict(_scene(dict(kind="image", file=str(tmp_path / "cut.exr"))))
+    assert e.value.field == "environment.file" and "truncated" in e.value.message
+    with pytest.raises(InputError) as e:
+        read_image(tmp_path / "cut.exr", "A")
+    assert e.value.field == "A" and "truncated" in e.value.message
+    assert read_exr(tmp_path / "sky.exr")[0].shape == (40, 80, 3)
