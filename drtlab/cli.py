@@ -333,13 +333,19 @@ def cmd_compare(args) -> int:
             raise InputError("--per-pixel-z", f"needs the standard error of {reference}: "
                              "--stderr FILE, or X.stderr.exr beside X.exr (stderr.exr beside a "
                              "ground truth's mean.exr)")
-        pixels, meta = tools.read_image(se_path, "--stderr")
-        se[reference] = (pixels, tools.samples_behind(meta))
+        def read_se(se_file, of, field):
+            pixels, meta = tools.read_image(se_file, field)
+            want = images[of].shape[:2]
+            if pixels.shape[:2] != want:
+                raise InputError(field, f"the standard error {se_file} is {pixels.shape[1]}x{pixels.shape[0]} "
+                                        f"but {of} is {want[1]}x{want[0]}: they must have the same resolution")
+            se[of] = (pixels, tools.samples_behind(meta))
+
+        read_se(se_path, reference, "--stderr")
         for path, field in ((args.a, "A"), (args.b, "B") if args.ref else (None, None)):
             beside = tools.stderr_beside(path) if path else None
             if beside is not None:
-                pixels, meta = tools.read_image(beside, field)
-                se[path] = (pixels, tools.samples_behind(meta))
+                read_se(beside, path, field)
     out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
     pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
     results = []

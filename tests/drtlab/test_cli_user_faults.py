@@ -334,3 +334,22 @@ def test_python_time_budget_result():
     import drtlab
     r = drtlab.render("aa-edges", res=8, seconds=0.3, stats=True)
     assert r.spp % 64 == 0 and r.metadata["seconds_budget"] == 0.3 and r.metadata["spp"] == r.spp
+
+
+@pytest.mark.parametrize("which", ["--stderr", "beside A"])
+def test_a_standard_error_of_another_size_is_one_line_before_any_file(tmp_path, capsys, which):
+    from drtlab.kernels.imageio import write_exr
+    rng = np.random.default_rng(5)
+    for name in ("a", "b"):
+        write_exr(tmp_path / f"{name}.exr", rng.random((12, 16, 3)))
+    write_exr(tmp_path / "b.stderr.exr" if which == "beside A" else tmp_path / "se.exr", rng.random((6, 8, 3)))
+    if which == "beside A":
+        (tmp_path / "b.stderr.exr").rename(tmp_path / "a.stderr.exr")
+        write_exr(tmp_path / "b.stderr.exr", rng.random((12, 16, 3)))
+    argv = ["compare", str(tmp_path / "a.exr"), str(tmp_path / "b.exr"), "--per-pixel-z",
+            "--out-dir", str(tmp_path / "cmp")] + (["--stderr", str(tmp_path / "se.exr")] if which == "--stderr" else [])
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    field = "--stderr" if which == "--stderr" else "A"
+    assert err.startswith(f"drtlab: {field}: the standard error") and "8x6" in err and "\n" not in err
+    assert not (tmp_path / "cmp").exists()
