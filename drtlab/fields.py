@@ -49,11 +49,30 @@ def finite_float(v: Any) -> float | None:
     return f if math.isfinite(f) else None
 
 
-def number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | None = None) -> float:
+def number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | None = None,
+           limit: float = math.inf) -> float:
     f = finite_float(v)
-    if f is None or (ok is not None and not ok(f)):
-        raise InputError(field, f"must be a finite number{' ' + rule if rule else ''}, got {show(v)}")
+    if f is None or abs(f) > limit or (ok is not None and not ok(f)):
+        bound = f" of magnitude at most {limit:g}" if limit < math.inf else ""
+        raise InputError(field, f"must be a finite number{bound}{' ' + rule if rule else ''}, got {show(v)}")
     return f
+
+
+# Scene values are traced in float32 (about 3.4e38 at most): a position, size or radiance beyond
+# this keeps its square, and its products with sampling weights, finite there. Beyond it a sphere
+# silently vanished or emission rendered Inf pixels.
+SCENE_LIMIT = 1e15
+
+
+def scene_number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | None = None) -> float:
+    """`number` within the scene's range (SCENE_LIMIT)."""
+    return number(v, field, rule, ok, SCENE_LIMIT)
+
+
+def scene_numbers(v: Any, field: str, n: int, rule: str = "",
+                  ok: Callable[[float], bool] | None = None) -> np.ndarray:
+    """`numbers` within the scene's range (SCENE_LIMIT)."""
+    return numbers(v, field, n, rule, ok, SCENE_LIMIT)
 
 
 def integer(v: Any, field: str, rule: str = "", ok: Callable[[int], bool] | None = None) -> int:
@@ -63,13 +82,15 @@ def integer(v: Any, field: str, rule: str = "", ok: Callable[[int], bool] | None
 
 
 def numbers(v: Any, field: str, n: int, rule: str = "",
-             ok: Callable[[float], bool] | None = None) -> np.ndarray:
-    """A list of exactly n finite numbers, each satisfying `ok` (the per-channel rule)."""
-    what = f"a list of {n} finite numbers{' each ' + rule if rule else ''}"
+            ok: Callable[[float], bool] | None = None, limit: float = math.inf) -> np.ndarray:
+    """A list of exactly n finite numbers (magnitude at most `limit`), each satisfying `ok` (the
+    per-channel rule)."""
+    bound = f" of magnitude at most {limit:g}" if limit < math.inf else ""
+    what = f"a list of {n} finite numbers{bound}{' each ' + rule if rule else ''}"
     if not isinstance(v, (list, tuple)) or len(v) != n:
         raise InputError(field, f"must be {what}, got {show(v)}")
     values = [finite_float(x) for x in v]
-    if any(x is None for x in values) or (ok is not None and not all(ok(x) for x in values)):
+    if any(x is None or abs(x) > limit for x in values) or (ok is not None and not all(ok(x) for x in values)):
         raise InputError(field, f"must be {what}, got {show(v)}")
     return np.array(values, dtype=np.float64)
 

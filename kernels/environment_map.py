@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import REQUIRED, Table, numbers, number, show, string
+from drtlab.fields import REQUIRED, Table, scene_numbers as numbers, scene_number as number, show, string
 
 KINDS = ("constant", "two_level", "gradient", "image")
 PROCEDURAL_KEYS = ("resolution", "sun_direction", "sun_radiance")

@@ -14,7 +14,8 @@ import numpy as np
 
 from drtlab import fields
 from drtlab.errors import InputError
-from drtlab.fields import REQUIRED, Table, boolean, integer, number, numbers, show, string
+from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as number,
+                           scene_numbers as numbers, show, string)
 from drtlab.kernels.environment_map import parse_environment
 from drtlab.kernels.filters import BOX, FILTER_NAMES
 from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import REQUIRED, Table, number, numbers, show
+from drtlab.fields import REQUIRED, Table, scene_number as number, scene_numbers as numbers, show
 
 TRANSFORM_KEYS = ("scale", "rotate", "translate", "matrix")
 ROTATE_KEYS = ("axis", "degrees")

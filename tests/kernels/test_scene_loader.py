@@ -532,3 +532,22 @@ def test_scene_settings_are_the_loaded_scenes_settings():
         assert settings.keys() >= {"description", "width", "height", "spp", "integrator"}
         for key, value in settings.items():
             assert np.array_equal(getattr(scene, key), value), (name, key)
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda d: d["materials"]["lamp"].update(emission=[1e39, 5, 5]), "materials.lamp.emission"),
+    (lambda d: d["shapes"][0].update(radius=1e39), "shapes[0].radius"),
+    (lambda d: d["shapes"][0].update(center=[1e300, 0, 0]), "shapes[0].center"),
+    (lambda d: d["lights"][0].update(intensity=[2e15, 1, 1]), "lights[0].intensity"),
+])
+def test_numbers_beyond_float32_tracing_are_refused(edit, field):
+    """Finite in float64 but not traceable in float32: a radius of 1e39 made the sphere vanish and
+    an emission of 1e39 rendered Inf pixels; every scene number is bounded by fields.SCENE_LIMIT."""
+    d = base_scene()
+    edit(d)
+    with pytest.raises(InputError) as e:
+        scene_from_dict(d)
+    assert e.value.field == field and "magnitude at most 1e+15" in e.value.message
+    ok = base_scene()
+    ok["shapes"][0]["center"] = [1e14, 0, 0]                  # large but within range: accepted
+    scene_from_dict(ok)
