@@ -63,6 +63,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     gt_root = Path(gt_root) if gt_root is not None else default_gt_root()
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
+    _check_image_sizes(exp, gt_req)           # before the folder, its lock or a compile
 
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_output(out_dir)               # one sweep at a time per output folder
@@ -83,6 +84,16 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         return _analyse_and_report(exp, sweep, analyze, argv, t_start)
     finally:
         lock.close()
+
+
+def _check_image_sizes(exp: Experiment, gt_req: dict) -> None:
+    """Every group's image (its reference's, with per-pixel moments, the largest) fits this
+    machine, else the one line of `check_image_size` naming the resolution's field."""
+    from drtlab.kernels.render import check_image_size
+    for scene_ref, _, (w, h) in gt_req:
+        study = next(st for st in exp.studies if scene_ref in st.scenes)
+        field = f"resolution (study {study.name}, scene {scene_ref.label})"
+        check_image_size(w, h, moments=True, field=field)
 
 
 def _reference_info(gt) -> dict:

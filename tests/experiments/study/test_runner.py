@@ -325,3 +325,12 @@ def test_colour_difference_of_the_first_runs_of_each_cell_only(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert all(c["run_ciede2000"]["n"] == 2 and c["run_mse"]["n"] == 3
                for sc in summary["studies"][0]["scenes"] for c in sc["cells"])
+
+
+def test_an_image_too_large_for_the_machine_is_refused_before_anything_is_written(tmp_path):
+    from drtlab.errors import InputError
+    exp = tiny_experiment(tmp_path, TINY.replace("resolution = [16, 12]", "resolution = [100000, 100000]"))
+    with pytest.raises(InputError) as e:
+        run(exp, tmp_path / "out", tmp_path / "gt")
+    assert e.value.field == "resolution (study strat, scene aa-edges)" and "100000x100000" in e.value.message
+    assert not (tmp_path / "out").exists() and not (tmp_path / "gt").exists()
