@@ -45,6 +45,9 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
     "materials.gloss1.exponent": 10, "shapes[0].radius": 0.5}; they are applied to the parsed TOML
     before validation, so an override is validated exactly like the file's own value.
     """
+    if not isinstance(name_or_path, (str, Path)):
+        raise InputError("scene", f"must be a built-in scene name, a .toml path or a dict shaped like a "
+                                  f"scene file, got {type(name_or_path).__name__}")
     path, name, source = _resolve(name_or_path)
     text = _read_text(path)
     data = _parse_toml(text, path)

@@ -59,8 +59,11 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         backend = default_backend()
     log = log or (lambda s: print(s, file=sys.stderr))
     t_start = time.time()
-    out_dir = Path(out_dir) if out_dir is not None else default_out_dir(exp.name)
-    gt_root = Path(gt_root) if gt_root is not None else default_gt_root()
+    from drtlab.fields import writable_location
+    out_dir = writable_location(out_dir if out_dir is not None else default_out_dir(exp.name), "out_dir",
+                                folder=True)
+    gt_root = writable_location(gt_root if gt_root is not None else default_gt_root(), "gt_root",
+                                folder=True)
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
     _check_image_sizes(exp, gt_req)           # before the folder, its lock or a compile

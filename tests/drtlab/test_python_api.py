@@ -66,3 +66,17 @@ def test_example_study_runs_and_its_tables_are_tidy(tmp_path, capsys):
         assert np.isclose(row["mean_run_rmse"].item(), group["rmse"].mean(), rtol=1e-12)
     figure = result.plot_convergence()
     assert len(figure.axes) >= len(scenes)
+
+
+@pytest.mark.parametrize("call, field", [
+    (lambda tmp: drtlab.render(None), "scene"),
+    (lambda tmp: drtlab.load_scene(42), "scene"),
+    (lambda tmp: drtlab.run_experiment(example_python_study.STUDY, name="api-bad-out",
+                                       out_dir=tmp / "a-file"), "out_dir"),
+])
+def test_bad_api_arguments_name_their_field(tmp_path, call, field):
+    (tmp_path / "a-file").write_text("not a folder")
+    with pytest.raises(InputError) as e:
+        call(tmp_path)
+    assert e.value.field == field
+    assert (tmp_path / "a-file").read_text() == "not a folder"
