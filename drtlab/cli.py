@@ -187,6 +187,9 @@ def cmd_render(args) -> int:
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
     fields.writable_location(out, "--out")
+    if args.variance and (args.integrator or scene.integrator) == "whitted":
+        raise InputError("--variance", "the whitted integrator is deterministic (a fixed sub-pixel grid, "
+                                       "no random samples): it has no standard error; use drt or path")
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")

@@ -9,10 +9,29 @@ from pathlib import Path
 
 from drtlab import fields
 from drtlab.cli_args import Help, flag, int_flag
+from drtlab.errors import InputError
 from drtlab.experiments.tools import lobes as L
 
 
+# Each lobe parameter, the kinds it applies to and its default: a flag a kind does not read is
+# refused rather than ignored (and written into the output's name).
+_PARAMETERS = (("--exponent", "exponent", L.USES_EXPONENT, 20.0), ("--roughness", "roughness", L.USES_ROUGHNESS, 0.2),
+               ("--ior", "ior", L.USES_IOR, 1.5))
+
+
+def _check_flags_apply(args) -> None:
+    for flag_name, attr, kinds, default in _PARAMETERS:
+        if getattr(args, attr) is None:
+            setattr(args, attr, default)
+        elif args.kind not in kinds:
+            raise InputError(flag_name, f"{args.kind} does not read it; it applies to {', '.join(kinds)}")
+    if args.strategy == "importance-ggxd" and args.kind not in L.USES_ROUGHNESS:
+        raise InputError("--strategy", f"importance-ggxd draws GGX normals; {args.kind} has none (it "
+                                       f"applies to {', '.join(L.USES_ROUGHNESS)})")
+
+
 def cmd_lobe(args) -> int:
+    _check_flags_apply(args)
     out = args.out if args.out is not None else L.default_out_dir(args.kind, args.exponent,
                                                                   args.ior, args.strategy,
                                                                   args.roughness)
@@ -47,13 +66,13 @@ def add_lobe_command(sub) -> None:
                     "Exit 0 when every chi-square test passes, 1 when any is rejected.")
     p.add_argument("kind", metavar="KIND", type=flag(L.check_kind),
                    help=f"material kind with a lobe: {', '.join(L.LOBE_KINDS)}")
-    p.add_argument("--exponent", type=flag(L.check_exponent), default=20.0, metavar="E",
+    p.add_argument("--exponent", type=flag(L.check_exponent), default=None, metavar="E",
                    help=f"Phong exponent of {', '.join(L.USES_EXPONENT)}, in [0, "
-                        f"{L.MAX_EXPONENT:g}]")
-    p.add_argument("--roughness", type=flag(L.check_roughness), default=0.2, metavar="A",
-                   help=f"GGX alpha of {', '.join(L.USES_ROUGHNESS)}, in [0.001, 1]")
-    p.add_argument("--ior", type=flag(L.check_ior), default=1.5, metavar="I",
-                   help=f"index of refraction of {', '.join(L.USES_IOR)}, in [0.1, 10], not 1")
+                        f"{L.MAX_EXPONENT:g}] (default: 20)")
+    p.add_argument("--roughness", type=flag(L.check_roughness), default=None, metavar="A",
+                   help=f"GGX alpha of {', '.join(L.USES_ROUGHNESS)}, in [0.001, 1] (default: 0.2)")
+    p.add_argument("--ior", type=flag(L.check_ior), default=None, metavar="I",
+                   help=f"index of refraction of {', '.join(L.USES_IOR)}, in [0.1, 10], not 1 (default: 1.5)")
     p.add_argument("--albedo", type=flag(L.check_albedo), default="0.8,0.8,0.8",
                    metavar="R,G,B", help="albedo, three numbers in [0, 1]")
     p.add_argument("--incident", type=flag(L.check_incident),

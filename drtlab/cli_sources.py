@@ -26,6 +26,10 @@ def cmd_sources(args) -> int:
     from drtlab.kernels.render import check_image_size
     from drtlab.kernels.scene_file import load_scene
     scene = load_scene(args.scene)
+    from drtlab.estimators.strategies import environment_only
+    if scene.environment is None and environment_only(args.strategy):
+        raise InputError("--strategy", f"{args.strategy} changes only how an environment light is sampled, "
+                                       f"and {scene.name} has none: it would decompose the same estimator")
     if args.seed + args.spp + 1 >= BASE_LIMIT:
         raise InputError("--seed", f"must be below {BASE_LIMIT - args.spp - 1} with --spp {args.spp} "
                                    f"(pick-freeze seeds carry the group in their top byte)")

@@ -107,3 +107,18 @@ STRATEGIES = {s.name: s for s in (
              "lobe", None, microfacet="d"),
 )}
 MICROFACET_SAMPLING = ("vndf", "d")
+
+
+def environment_only(name: str) -> bool:
+    """Whether strategy `name` is another registered strategy with only its environment sampler
+    changed from the default ("image"): env-uniform and env-cosine against importance. In a scene
+    without an environment it renders exactly as that strategy does."""
+    from dataclasses import replace
+    st = STRATEGIES.get(name)
+    default = LightSampling.__dataclass_fields__["environment"].default
+    if st is None or st.light is None or st.light.environment == default:
+        return False
+    return any(other.name != name and other.light is not None and other.light.environment == default
+               and replace(other, name=name, description=st.description, fingerprint=st.fingerprint,
+                           light=replace(other.light, environment=st.light.environment)) == st
+               for other in STRATEGIES.values())

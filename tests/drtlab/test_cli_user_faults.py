@@ -353,3 +353,25 @@ def test_a_standard_error_of_another_size_is_one_line_before_any_file(tmp_path, 
     field = "--stderr" if which == "--stderr" else "A"
     assert err.startswith(f"drtlab: {field}: the standard error") and "8x6" in err and "\n" not in err
     assert not (tmp_path / "cmp").exists()
+
+
+@pytest.mark.parametrize("argv, field, words", [
+    (["lobe", "glossy", "--strategy", "importance-ggxd"], "--strategy", "glossy has none"),
+    (["lobe", "diffuse", "--exponent", "20"], "--exponent", "diffuse does not read it"),
+    (["lobe", "ggx", "--ior", "2"], "--ior", "ggx does not read it"),
+    (["render", "aa-edges", "--integrator", "whitted", "--variance", "--spp", "1"], "--variance",
+     "deterministic"),
+    (["sources", "soft-shadows", "--strategy", "env-uniform"], "--strategy", "soft-shadows has none"),
+])
+def test_a_flag_that_would_change_nothing_is_refused(tmp_path, capsys, argv, field, words):
+    out = ["--out", str(tmp_path / ("x.exr" if argv[0] == "render" else "x"))]
+    assert main(argv + out) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"drtlab: {field}: ") and words in err and "\n" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_lobe_flags_a_kind_reads_still_work(tmp_path, capsys):
+    assert main(["lobe", "glossy", "--exponent", "30", "--samples", "20000", "--incident", "30",
+                 "--out", str(tmp_path / "l")]) == 0
+    assert "glossy" in capsys.readouterr().out
