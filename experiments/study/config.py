@@ -289,6 +289,10 @@ def _settings(exp_table, profile_table, profile) -> Settings:
         for i, s in enumerate(strip):
             if s not in spp:
                 raise InputError(f"{where['strip_spp']}[{i}]", f"{s} is not on the spp ladder {list(spp)}")
+    if vals["repetitions"] > MAX_RUNS_PER_CELL:
+        raise InputError(where["repetitions"], f"at most {MAX_RUNS_PER_CELL} runs per cell (a cell's interval "
+                         f"narrows as 1/sqrt(runs): use target_rel_ci to grow the cells that need it), "
+                         f"got {vals['repetitions']}")
     per_cell = vals["samples_per_cell"]
     if per_cell is not None and -(-per_cell // spp[0]) > MAX_RUNS_PER_CELL:
         raise InputError(where["samples_per_cell"], f"would need {-(-per_cell // spp[0])} runs at "

@@ -67,6 +67,10 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
     _check_image_sizes(exp, gt_req)           # before the folder, its lock or a compile
+    cells = len({r.cell for r in plan})
+    samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
+    log(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
+        + (f"{samples / 1e6:.1f} M samples" if samples >= 1e5 else f"{samples:,} samples"))
 
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_output(out_dir)               # one sweep at a time per output folder
@@ -239,6 +243,10 @@ class _Sweep:
 
     def _group(self, g, runs: list[RunSpec], gt_spp: int, gt_batch: int) -> None:
         scene_ref, integrator, res = g
+        if self.bar.bar is None:                  # no bar (output to a file or pipe): a line per scene
+            pending = sum(r.run_id not in self.records for r in runs)
+            self.log(f"{scene_ref.label} ({integrator}, {res[0]}x{res[1]}): its reference, then {pending} "
+                     f"of its {len(runs)} runs")
         gt_backend = self.backend if self.executor is None else \
             self.executor.ground_truth_backend(self.backend, scene_ref, gt_spp)
         t0 = time.perf_counter()
@@ -499,6 +507,8 @@ class _GroupContext:
 
 def _analyse_and_report(exp, sweep: _Sweep, analyze: bool, argv, t_start: float) -> ExperimentResult:
     out_dir, plan = sweep.out_dir, sweep.plan
+    if analyze:
+        sweep.log("analysis: cost models, slope fits, comparisons, report and figures")
     # Only the plan's runs count; stale records (other code version, other plan) are left out.
     plan_ids = {r.run_id for r in plan}
     records = {k: v for k, v in sweep.records.items() if k in plan_ids}

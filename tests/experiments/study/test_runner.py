@@ -334,3 +334,24 @@ def test_an_image_too_large_for_the_machine_is_refused_before_anything_is_writte
         run(exp, tmp_path / "out", tmp_path / "gt")
     assert e.value.field == "resolution (study strat, scene aa-edges)" and "100000x100000" in e.value.message
     assert not (tmp_path / "out").exists() and not (tmp_path / "gt").exists()
+
+
+def test_a_sweep_says_what_it_will_do_before_it_starts_and_at_each_scene(tmp_path):
+    """Without a progress bar (output to a file), the log is the only sign of life: the plan first,
+    then a line per scene, then the analysis."""
+    exp = tiny_experiment(tmp_path)
+    lines = []
+    backend, _ = fake_backend()
+    run_experiment(exp, out_dir=tmp_path / "out", gt_root=tmp_path / "gt", backend=backend, progress=False,
+                   clock=Clock(), log=lines.append, analyze=True)
+    assert lines[0].startswith(f"{exp.name} (quick): 48 runs in 16 cells of 2 scene(s)")
+    scenes = [i for i, x in enumerate(lines) if "its reference, then" in x]
+    assert [lines[i].split(" ")[0] for i in scenes] == ["aa-edges", "glossy"]
+    assert any(x.startswith("analysis:") for x in lines[scenes[-1]:])
+
+
+def test_repetitions_beyond_a_cells_limit_are_refused_at_load(tmp_path):
+    from drtlab.errors import InputError
+    with pytest.raises(InputError) as e:
+        tiny_experiment(tmp_path, TINY.replace("repetitions = 3", "repetitions = 100000000"))
+    assert e.value.field == "experiment.repetitions" and "at most 4096" in e.value.message
