@@ -394,8 +394,9 @@ def _add_render(sub) -> None:
                        help="samples per pixel (default: the scene's)")
     count.add_argument("--seconds", type=flag(fields.budget_seconds), default=None, metavar="T",
                        help="a time budget instead of --spp: as many whole passes of 64 spp as fit "
-                            "in T seconds (at least one), measured first; the EXR's drtlab:spp says "
-                            "how many, and the image is that spp's, bit for bit")
+                            "in T seconds of rendering (at least one; the compile and a speed probe "
+                            "at the full resolution come first, not counted); the EXR's drtlab:spp "
+                            "says how many, and the image is that spp's, bit for bit")
     r.add_argument("--sampler", default=DEFAULT_SAMPLER,
                    help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
                         f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them")
