@@ -349,6 +349,13 @@ def cmd_compare(args) -> int:
             beside = tools.stderr_beside(path) if path else None
             if beside is not None:
                 read_se(beside, path, field)
+            elif path and tools.read_image(path, field)[1].get("sampler") != "none":
+                # Taking a noisy image's standard error as 0 counts its noise as a difference (the
+                # example above gave |z| > 3 in 26% of pixels instead of 1.6%).
+                raise InputError("--per-pixel-z", f"{path} has no standard error beside it "
+                                 f"({Path(path).stem}.stderr.exr, which `drtlab render --variance` "
+                                 "writes): its noise would count as a difference; render it with "
+                                 "--variance (only a deterministic whitted image needs none)")
     out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
     pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
     results = []

@@ -173,6 +173,11 @@ def test_compare_exact_numbers(tmp_path, capsys):
     write_exr(b, np.full((4, 6, 3), 0.25, dtype=np.float32))
     write_exr(se, np.full((4, 6, 3), 0.125, dtype=np.float32))
     out_dir = tmp_path / "cmp"
+    # A noisy image without its standard error: its noise would count as a difference.
+    assert main(["compare", str(a), str(b), "--per-pixel-z", "--out-dir", str(out_dir)]) == 2
+    assert_one_line_error(capsys.readouterr().err, "--per-pixel-z")
+    assert not out_dir.exists()
+    write_exr(a, np.full((4, 6, 3), 0.5, dtype=np.float32), {"sampler": "none"})   # deterministic
     assert main(["compare", str(a), str(b), "--per-pixel-z", "--out-dir", str(out_dir)]) == 0
     out = capsys.readouterr().out
     assert "RMSE 0.25," in out and "MAE 0.25," in out and "mean error +0.25" in out
