@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from drtlab.experiments.checks.pointset import furnace, furnace_unbiased
+from drtlab.experiments.checks.pointset import furnace_cost, furnace_unbiased
 from drtlab.experiments.checks.scorecard import Line, Scorecard, per_test
 
 N = 200_000
@@ -153,9 +153,6 @@ def check(name: str, seed: int = 0, level: float = 0.01) -> Scorecard:
                                  light_selection=name)
     sampler = f"independent+{strategy}"
     card.lines.append(furnace_unbiased(sampler, seed, per_line))
-    ref = min(furnace("independent+importance", [1, 2, 3, 4])[2] for _ in range(3))
-    mine = min(furnace(sampler, [1, 2, 3, 4])[2] for _ in range(3))
-    card.lines.append(Line("render cost", None, f"furnace render {mine / ref:.2f}x the power pick's "
-                                                f"(best of 3, 4 seeds)"))
+    card.lines.append(furnace_cost(sampler, "independent+importance", "the power pick's"))
     card.seconds = time.perf_counter() - t0
     return card

@@ -71,6 +71,15 @@ def _threads_tiles(name: str) -> Line:
                                           f"16-pixel tiles: {'bit-identical' if same else 'DIFFERENT images'}")
 
 
+def furnace_cost(sampler: str, reference: str, words: str) -> Line:
+    """The reported render-cost line: the furnace's render time against `reference`'s, each the
+    best of 3 (the machine is shared: a ratio from the same run, not seconds)."""
+    ref = min(furnace(reference, [1, 2, 3, 4])[2] for _ in range(3))
+    mine = min(furnace(sampler, [1, 2, 3, 4])[2] for _ in range(3))
+    return Line("render cost", None, f"furnace render {mine / ref:.2f}x {words} (best of 3, "
+                                     f"{FURNACE_RES[0]}x{FURNACE_RES[1]}, 4 seeds)")
+
+
 def furnace_unbiased(sampler: str, seed: int, per_line: float) -> Line:
     """The renderer-unbiasedness line: `sampler`'s white furnace at FURNACE_RUNS seeds, t test of
     the runs' mean error against 0 at `per_line`."""
@@ -151,9 +160,6 @@ def check(name: str, seed: int = 0, level: float = 0.01, pixels: int | None = No
                                    ", ".join(f"{k} {v:.3g}" for k, v in strat.items())))
     card.lines.append(furnace_unbiased(name, seed, _per_line(level)))
     card.lines += _convergence(name, seed)
-    ref = min(furnace("independent", [1, 2, 3, 4])[2] for _ in range(3))
-    mine = min(furnace(name, [1, 2, 3, 4])[2] for _ in range(3))
-    card.lines.append(Line("render cost", None, f"furnace render {mine / ref:.2f}x independent's "
-                                                f"(best of 3, {FURNACE_RES[0]}x{FURNACE_RES[1]}, 4 seeds)"))
+    card.lines.append(furnace_cost(name, "independent", "independent's"))
     card.seconds = time.perf_counter() - t0
     return card

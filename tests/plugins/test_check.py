@@ -12,6 +12,7 @@ from scipy.stats import qmc
 from drtlab.estimators import plugins
 from drtlab.experiments.checks.pointset import check
 
+from plugin_sources import OFF_BY_10
 from repo_paths import PLUGIN_EXAMPLES, REPO as ROOT
 
 
@@ -48,26 +49,6 @@ def test_pytest_runs_its_point_set_tests_on_a_plugin(tmp_path):
     assert r.returncode == 0, r.stdout[-2000:]
     passed = int(next(w for w in r.stdout.split() if w.isdigit()) if "passed" in r.stdout else 0)
     assert passed >= 3, r.stdout[-500:]
-
-
-OFF_BY_10 = '''
-import warp as wp
-import drtlab
-from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.light_selection import power_pick
-
-
-@wp.func
-def wrong_pmf(sd: SceneData, x: wp.vec3, li: int) -> float:
-    p = sd.lights.pmf[li]
-    if li == 0:
-        p = p * 1.1
-    return p
-
-
-drtlab.register_light_selection(drtlab.LightSelection("off-by-10", "power, pmf 10% high on light 0",
-                                                      power_pick, wrong_pmf))
-'''
 
 
 def test_a_light_selection_plugin_gets_its_scorecard_from_the_command_line(tmp_path):

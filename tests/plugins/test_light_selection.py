@@ -14,6 +14,7 @@ from drtlab.errors import InputError
 from drtlab.estimators import plugins
 from drtlab.experiments.stats import chi2 as C
 
+from plugin_sources import OFF_BY_10
 from repo_paths import PLUGIN_EXAMPLES
 
 
@@ -31,26 +32,6 @@ SCENE = {
                   "cool": {"kind": "emitter", "emission": EMISSION["cool"]}},
     "shapes": [{"kind": "sphere", "material": "warm", "center": SPHERE_C.tolist(), "radius": SPHERE_R},
                {"kind": "quad", "material": "cool", **QUAD}]}
-
-OFF_BY_10 = '''
-import warp as wp
-import drtlab
-from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.light_selection import power_pick
-
-
-@wp.func
-def wrong_pmf(sd: SceneData, x: wp.vec3, li: int) -> float:
-    p = sd.lights.pmf[li]
-    if li == 0:
-        p = p * 1.1
-    return p
-
-
-drtlab.register_light_selection(drtlab.LightSelection("off-by-10", "power, pmf 10% high on light 0",
-                                                      power_pick, wrong_pmf))
-'''
-
 
 def _expected_pmf() -> np.ndarray:
     lum = lambda c: 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
