@@ -135,9 +135,10 @@ BAD = [
     ("missing degrees", {"rotate": [{"axis": [0, 1, 0]}]}, "shapes[0].transform.rotate[0].degrees",
      ["required"]),
     ("rotate not a table", {"rotate": 30}, "shapes[0].transform.rotate", ["axis", "degrees"]),
+    # Beyond float32 tracing (fields.SCENE_LIMIT): refused at the value, before it overflows the shape.
     ("overflowing scale", {"scale": 1e300, "translate": [1e300, 0, 0],
-                           "rotate": {"axis": [1, 1, 0], "degrees": 45}}, "shapes[0].transform",
-     ["area"]),
+                           "rotate": {"axis": [1, 1, 0], "degrees": 45}}, "shapes[0].transform.scale",
+     ["magnitude at most 1e+15"]),
 ]
 
 
