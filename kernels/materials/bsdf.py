@@ -9,7 +9,7 @@ from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phon
                                            square_to_uniform_hemisphere, square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
-from drtlab.kernels.material_kinds import kinds_where
+from drtlab.kernels.material_kinds import MATERIAL_CODE, kinds_where
 from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
                                                  interface, refract_dir)
 from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
@@ -40,20 +40,36 @@ class Bsdf(NamedTuple):
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
     normals = make_ggx_normals(strategy.microfacet == "vndf")
-    eval_bsdf, pdf_bsdf = _make_densities(f.kinds, strategy.lobe, normals[1])
-    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, normals[0])
+    plug = _plugged(f.kinds, strategy)
+    eval_bsdf = _make_eval(f.kinds)
+    pdf_bsdf = _make_pdf(f.kinds, strategy.lobe, normals[1], plug)
+    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, normals[0], plug)
     return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
 
 
-def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
-    """eval_bsdf (f|cos|) and pdf_bsdf (the density sample_bsdf proposes with) of `kinds`."""
+def _plugged(kinds: frozenset, strategy: Strategy) -> tuple:
+    """((kind code, sample, pdf, reads u_lobe), ...) of the strategy's lobe samplers
+    (kernels/lobe_samplers.py) for the kinds present; only a strategy that samples lobes uses them."""
+    if not (strategy.lobe and strategy.lobes):
+        return ()
+    from drtlab.kernels.lobe_samplers import samplers_of
+    return tuple((MATERIAL_CODE[s.kind], s.sample, s.pdf, s.kind in LOBE_CHOICE_KINDS)
+                 for s in samplers_of(strategy) if s.kind in kinds)
+
+
+def _built_in(kinds: frozenset, plug: tuple) -> frozenset:
+    """The kinds whose lobes the built-in code samples (those no plugged sampler replaces)."""
+    return frozenset(kinds) - {k for k, code in MATERIAL_CODE.items() if any(p[0] == code for p in plug)}
+
+
+def _make_eval(kinds: frozenset):
+    """eval_bsdf (f|cos|) of `kinds`."""
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
     K_GDIEL = "glossy_dielectric" in kinds
     K_PLASTIC = "plastic" in kinds
     K_GGX = "ggx" in kinds
     K_GGXD = "ggx_dielectric" in kinds
-    LOBE = lobe
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -87,6 +103,21 @@ def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
             if kind == GGX_DIELECTRIC:
                 r = eval_ggx(albedo, exponent, ior, n, wo, wi, 1)
         return r
+
+    return eval_bsdf
+
+
+def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple):
+    """pdf_bsdf (the density sample_bsdf proposes with) of `all_kinds`."""
+    kinds = _built_in(all_kinds, plug)
+    K_DIFFUSE = "diffuse" in kinds
+    K_GLOSSY = "glossy" in kinds
+    K_GDIEL = "glossy_dielectric" in kinds
+    K_PLASTIC = "plastic" in kinds
+    K_GGX = "ggx" in kinds
+    K_GGXD = "ggx_dielectric" in kinds
+    LOBE = lobe
+    PLUG = plug
 
     @wp.func
     def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
@@ -145,13 +176,22 @@ def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
                         if mf.reflect == 0:
                             pl = 1.0 - mf.F
                         p = ggx_normal_pdf(exponent, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
+            for i in range(wp.static(len(PLUG))):
+                if kind == wp.static(PLUG[i][0]):
+                    nf = n
+                    if cos_o < 0.0:
+                        nf = -n
+                    p = wp.static(PLUG[i][2])(exponent, ior, nf, wo, wi)
         return p
 
-    return eval_bsdf, pdf_bsdf
+    return pdf_bsdf
 
 
-def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_normal):
-    """sample_bsdf of `kinds`: delta lobes directly, the others by proposal and eval_bsdf / pdf_bsdf."""
+def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_normal, plug: tuple):
+    """sample_bsdf of `all_kinds`: delta lobes directly, the others by proposal and eval_bsdf /
+    pdf_bsdf (a plugged kind by its lobe sampler)."""
+    kinds = _built_in(all_kinds, plug)
+    PLUG = plug
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
     K_MIRROR = "mirror" in kinds
@@ -251,6 +291,12 @@ def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_
                         wi = refract_dir(wo, wm, om, it.eta)
                         if wp.dot(it.nf, wi) >= 0.0:
                             return s        # refracted above: pdf_bsdf would read it as reflected
+            for i in range(wp.static(len(PLUG))):
+                if kind == wp.static(PLUG[i][0]):
+                    ul = float(0.0)
+                    if wp.static(PLUG[i][3]):
+                        ul = u_lobe
+                    wi = wp.static(PLUG[i][1])(albedo, exponent, ior, nf, wo, ul, u)
         pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
         if pdf > 0.0:
             fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)

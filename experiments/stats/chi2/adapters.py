@@ -172,9 +172,10 @@ ALL_KINDS = frozenset(MATERIAL_KINDS)
 
 def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick=False,
                     meshes: bool = False, faults: frozenset = frozenset(),
-                    microfacet: str = "vndf") -> tuple:
+                    microfacet: str = "vndf", lobes: tuple = ()) -> tuple:
     """(features, strategy) to build one sampling routine from, as the kernel factories take them:
-    every material kind, spheres and quads (and meshes), the given strategy and faults."""
+    every material kind, spheres and quads (and meshes), the given strategy (with registered lobe
+    samplers `lobes`) and faults."""
     features = Features(integrator="path", lens=False, motion=False, spheres=True, quads=True,
                         kinds=ALL_KINDS, checker=False, area_lights=True, point_lights=False,
                         dir_lights=False, roulette=False, background=False,
@@ -182,7 +183,7 @@ def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick=Fa
     pick = power_pick if isinstance(power_pick, str) else ("power" if power_pick else "uniform")
     light = LightSampling("solid_angle" if solid_angle else "area", pick)
     return features, Strategy("chi2", "a chi-square adapter's routine",
-                              "lobe" if lobe else "uniform", light, microfacet=microfacet)
+                              "lobe" if lobe else "uniform", light, microfacet=microfacet, lobes=tuple(lobes))
 
 
 @dataclass
@@ -201,15 +202,18 @@ class BSDFAdapter:
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
     n, wo), `exponent` the lobe's shape (GGX: alpha); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
-    (Strategy.microfacet)."""
+    (Strategy.microfacet); `lobes`: registered lobe samplers replacing the built-in lobe sampling of
+    their kinds (Strategy.lobes)."""
 
     _kernels: dict = {}
 
-    def __init__(self, lobe: bool, microfacet: str = "vndf"):
+    def __init__(self, lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
+        from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
         self.lobe = bool(lobe)
-        key = (self.lobe, microfacet)
+        # An edited plugin re-registers under its name: its fingerprint keys a new kernel.
+        key = (self.lobe, microfacet, tuple(lobes), tuple(LOBE_SAMPLERS[n].fingerprint for n in lobes))
         if key not in BSDFAdapter._kernels:
-            BSDFAdapter._kernels[key] = _make_bsdf_kernel(self.lobe, microfacet)
+            BSDFAdapter._kernels[key] = _make_bsdf_kernel(self.lobe, microfacet, tuple(lobes))
         self.kernel = BSDFAdapter._kernels[key]
 
     def _launch(self, mode, case, n, seed, pts=None):
@@ -251,11 +255,11 @@ class BSDFAdapter:
         return pdf
 
 
-def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf"):
+def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
     wp = _wp()
     from drtlab.kernels.materials import make_bsdf
 
-    b = make_bsdf(*_routine_variant(lobe=lobe, microfacet=microfacet))
+    b = make_bsdf(*_routine_variant(lobe=lobe, microfacet=microfacet, lobes=lobes))
     sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")
