@@ -151,3 +151,17 @@ def test_integrators_render_it_finite(integrator):
             m.kind = "beckmann"
     img = drtlab.render(scene, spp=4, sampler="independent+importance", seed=1)
     assert np.all(np.isfinite(img)) and np.all(img >= 0) and img.mean() > 0
+
+
+def test_whitted_ends_the_ray_at_it_with_direct_light():
+    """Whitted treats the kind as ggx: direct light, no mirror continuation. A black beckmann
+    surface then renders exactly as a black diffuse one (a continued ray would show reflections)."""
+    import drtlab
+    images = []
+    for kind in ("beckmann", "diffuse"):
+        scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": "whitted"})
+        for m in scene.materials:
+            if m.kind == "ggx":
+                m.kind, m.albedo = kind, np.zeros(3)
+        images.append(drtlab.render(scene, spp=1, seed=1))
+    assert np.array_equal(images[0], images[1])
