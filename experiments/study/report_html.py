@@ -92,7 +92,7 @@ def markdown_to_html(lines: list[str]) -> str:
         flush()
         m = re.fullmatch(r"<details><summary>(.*)</summary>", line)
         if m:
-            out.append(f"<details><summary>{_inline(m.group(1))}</summary>")
+            out.append(f"<details open><summary>{_inline(m.group(1))}</summary>")
         elif line == "</details>":
             out.append("</details>")
         elif line:
@@ -183,8 +183,11 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
                 entries.append({"key": cell, "label": f"{s} N={n}", "sampler": s, "spp": n,
                                 "seconds": sec if sec is not None and np.isfinite(sec) else None})
         v.update(images=entries, crop=[int(x), int(y), int(size), int(size)])
-    notes = [f"Each image is embedded as float16 ({encoded_size(96, 72) / 1e3:.0f} kB at 96×72; "
-             f"{sum(len(s) for s in images.values()) / 1e6:.1f} MB of images in this page)."]
+    total = sum(len(s) for s in images.values())
+    sizes = sorted({(v["width"], v["height"]) for v in flat})
+    notes = [f"{len(images)} images embedded as float16 (" +
+             ", ".join(f"{encoded_size(w, h) / 1e3:.1f} kB each at {w}×{h}" for w, h in sizes) +
+             f"; {total / 1e6:.2f} MB in all)."]
     if dropped:
         notes.append(f"Left out to keep this page under {limit / 1e6:.0f} MB: the cells at N = "
                      f"{', '.join(map(str, dropped))} (report.md and images/ show them).")

@@ -29,6 +29,7 @@ th{background:#f6f6f6}
 .picker button{font:12px monospace;padding:.1em .4em;cursor:pointer;background:#fff;border:1px solid #bbb}
 .picker button.on{background:#4a7ebb;color:#fff;border-color:#4a7ebb}
 .metrics tr.on td{background:#e4eefa}
+.metrics td:first-child{white-space:nowrap}
 .metrics td:nth-child(n+2){text-align:right;font-family:monospace}
 .cbar{margin:.4em 0}.cbar canvas{width:256px;height:14px;display:block;border:1px solid #999}
 .cbar .ticks{display:flex;justify-content:space-between;width:258px;font:11px monospace}
