@@ -59,7 +59,7 @@ def test_the_page_is_self_contained_and_complete(tiny_report):
             assert c.replace("**", "") in re.sub(r"<[^>]+>", "", page.replace("&#x27;", "'")), c
 
 
-def test_an_image_budget_drops_the_largest_n_and_says_so(tiny_report, tmp_path):
+def test_an_image_budget_drops_the_largest_n_first():
     from drtlab.experiments.study.report_html import _budget, encoded_size
     one = encoded_size(16, 12)
     views = [{"width": 16, "height": 12, "cells": {(s, n): "c" for s in "ab" for n in (1, 4, 16)}}
@@ -83,8 +83,9 @@ def _chromium():
 CANVAS = "Array.from(window.drtViewers[0].ctx.getImageData(0, 0, {w}, {h}).data)"
 
 
-def test_the_page_in_headless_chromium(tiny_report):
+def test_the_page_in_headless_chromium(request):
     exe, sync_playwright = _chromium()
+    tiny_report = request.getfixturevalue("tiny_report")        # built only where a browser runs
     from drtlab.experiments.study.figures import choose_crop
     from drtlab.experiments.study.ground_truth import load_ground_truth
     html = tiny_report / "report.html"
