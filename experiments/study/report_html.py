@@ -209,7 +209,7 @@ PLOT_CAPTIONS = (("rmse_vs_spp", "{E} vs samples per pixel"), ("rmse_vs_seconds"
                  ("efficiency", "Speed-up and efficiency against the baseline"))
 
 
-def _study_section(k: int, study, views: list, plots: dict, tables: list[str], out_dir: Path) -> str:
+def _study_section(k: int, study, views: list, plots: dict, tables: list[str]) -> str:
     E = study.metric_label
     parts = [f"<section><h2>Study: {html.escape(study.name)}</h2>"]
     if study.description:
@@ -249,7 +249,7 @@ def write_report_html(exp, summary, plan, records: dict, out_dir: Path, gts: dic
             "table and its explanation is <code>report.md</code> beside this page.</p>"]
     for k, study in enumerate(summary.studies):
         body.append(_study_section(k, study, views.get(study.name, []), plots.get(study.name, {}),
-                                   tables.get(study.name, []), out_dir))
+                                   tables.get(study.name, [])))
     page = ("<!doctype html>\n<html lang=en><head><meta charset=utf-8>"
             "<meta name=viewport content='width=device-width, initial-scale=1'>"
             f"<title>{html.escape(title)}</title><style>{STYLE}</style></head><body>\n"

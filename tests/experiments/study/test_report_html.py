@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from repo_paths import REPO
-from test_runner import TINY, run, tiny_experiment
+from test_runner import run, tiny_experiment
 
 SCREENSHOT = REPO / "results" / "test-artefacts" / "report-html.png"
 
