@@ -165,7 +165,8 @@ def plot_efficiency(study: StudyResult, path: Path) -> Path:
     ax.set_xticks(xs)
     ax.set_xticklabels([scene.scene for scene in scenes], rotation=20, ha="right")
     ax.set_ylabel(f"× {study.baseline} (above 1: better)")
-    ax.set_title(f"{study.name}: speed-up and efficiency against {study.baseline}, 95% intervals")
+    # Wrapped: with few scenes the figure is narrower than the title.
+    ax.set_title(f"{study.name}: speed-up and efficiency against {study.baseline}, 95% intervals", wrap=True)
     if ax.get_legend_handles_labels()[0]:         # a study of its baseline alone has nothing to mark
         ax.legend(frameon=False, fontsize=6, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     ax.grid(True, axis="y", which="both", lw=0.3, color="0.8")
