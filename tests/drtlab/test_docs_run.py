@@ -331,7 +331,7 @@ def test_help_examples_name_real_scene_values():
 
 
 def test_a_stale_key_in_a_block_fails(scratch, capsys):
-    """Negative control: the same machinery rejects what the issue found in the README."""
+    """Negative control: the same machinery rejects a stale key, a stale target and a wrong default."""
     from drtlab.errors import InputError
     with pytest.raises(InputError):
         run_python_block('import drtlab\ndrtlab.load_scene("glossy", {"materials.gloss1.exponent": 50})',
