@@ -25,6 +25,8 @@ studies of other experiment files, each resolved with its own settings for the s
     keep_images = false                      # keep every repetition's image (error spectra)
     colour_difference_runs = 16              # optional: CIEDE2000 of a cell's first 16 runs only
                                              # (each costs as much as a 1-spp render); default: all
+    flip_runs   = 1                          # optional: HDR-FLIP of a cell's first runs (0: none);
+                                             # default 1 (each costs 30-80 ms at 96x72)
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
     variance_sources = 256                   # optional: decompose each scene's variance over the
                                              # sample dimension groups (`drtlab sources`) with this
@@ -59,7 +61,7 @@ DEFAULT_PROFILE = "quick"
 
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
                  "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "max_seconds",
-                 "keep_images", "colour_difference_runs", "variance_sources")
+                 "keep_images", "colour_difference_runs", "flip_runs", "variance_sources")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include", "plugins") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 SCENE_KEYS = ("name", "overrides", "label")
@@ -77,6 +79,10 @@ DEFAULTS: dict[str, Any] = {
     "max_seconds": None,
     "keep_images": False,
     "colour_difference_runs": None,
+    # One HDR-FLIP per cell: 28-82 ms of CPU at 96x72 (3-7 exposures, set by the reference's dynamic
+    # range; 256x256: ~0.2 s at 2 exposures), so the default study's 96 cells spend ~4.6 s on it, 6%
+    # of its ~80 s sweep; two per cell would be 12%.
+    "flip_runs": 1,
     "variance_sources": None,
 }
 MIN_GT_BATCHES = 4
@@ -117,6 +123,7 @@ class Settings:
     max_seconds: float | None = None     # render seconds per study for growing unresolved cells
     keep_images: bool = False
     colour_difference_runs: int | None = None   # CIEDE2000 of each cell's first runs only (None: all)
+    flip_runs: int = DEFAULTS["flip_runs"]      # HDR-FLIP of each cell's first runs (0: none)
     variance_sources: int | None = None         # samples per pixel of each scene's decomposition
 
     def max_runs_at(self, spp: int) -> int:
@@ -251,6 +258,8 @@ def _setting(key, v, fld):
         return float(v)
     if key == "colour_difference_runs":
         return _int(v, fld, 2)
+    if key == "flip_runs":
+        return _int(v, fld, 0)
     if key == "variance_sources":
         from drtlab.experiments.sources.decompose import MAX_SAMPLES
         return fields.integer_in(v, fld, 2, MAX_SAMPLES)
@@ -304,7 +313,7 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     samples_per_cell=per_cell, target_rel_ci=vals["target_rel_ci"],
                     max_samples_per_cell=vals["max_samples_per_cell"], max_seconds=vals["max_seconds"],
                     keep_images=vals["keep_images"],
-                    colour_difference_runs=vals["colour_difference_runs"],
+                    colour_difference_runs=vals["colour_difference_runs"], flip_runs=vals["flip_runs"],
                     variance_sources=vals["variance_sources"])
 
 
