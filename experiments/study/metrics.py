@@ -173,7 +173,7 @@ def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     return score_batch(images, gt, gt_stderr, gt_lab, colour_diff, colour_rows, flip_rows)[0]
 
 
-def first_rows(limit: int | None, count: int) -> int:
+def _first_rows(limit: int | None, count: int) -> int:
     """How many of a batch's first rows a per-run limit (None: all) scores."""
     return count if limit is None else max(0, min(int(limit), count))
 
@@ -191,9 +191,9 @@ def score_batch(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
     gvar = float(np.mean(se2))
     relmse_gt = float(np.mean(se2 / (np.square(gt) + REL_EPS)))
-    k = first_rows(colour_rows, x.shape[0]) if colour_diff else 0
+    k = _first_rows(colour_rows, x.shape[0]) if colour_diff else 0
     flips = [flip(x[r], gt) if flip_problem(x[r], gt) is None else float("nan")
-             for r in range(first_rows(flip_rows, x.shape[0]))]
+             for r in range(_first_rows(flip_rows, x.shape[0]))]
     lab_ref = (reference_lab(gt) if gt_lab is None else gt_lab) if k else None
     bs = batch_sums(x, gt, lab_ref, REL_EPS, colour_rows=k)
     sums = dict(zip(SUMS, bs.sums.T))
