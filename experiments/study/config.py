@@ -26,7 +26,7 @@ studies of other experiment files, each resolved with its own settings for the s
     colour_difference_runs = 16              # optional: CIEDE2000 of a cell's first 16 runs only
                                              # (each costs as much as a 1-spp render); default: all
     flip_runs   = 1                          # optional: HDR-FLIP of a cell's first runs (0: none);
-                                             # default 1 (each costs 30-80 ms at 96x72)
+                                             # default 1 (each costs 25-90 ms at 96x72)
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
     variance_sources = 256                   # optional: decompose each scene's variance over the
                                              # sample dimension groups (`drtlab sources`) with this
@@ -79,9 +79,12 @@ DEFAULTS: dict[str, Any] = {
     "max_seconds": None,
     "keep_images": False,
     "colour_difference_runs": None,
-    # One HDR-FLIP per cell: 28-82 ms of CPU at 96x72 (3-7 exposures, set by the reference's dynamic
-    # range; 256x256: ~0.2 s at 2 exposures), so the default study's 96 cells spend ~4.6 s on it, 6%
-    # of its ~80 s sweep; two per cell would be 12%.
+    # One HDR-FLIP per cell: at 96x72 one costs 25-92 ms of CPU (2-7 exposures, which the reference's
+    # dynamic range sets; 256x256: 0.26-0.9 s), so the default study's 96 cells spend ~4.5 s on it:
+    # 7% of its renders' CPU seconds on a busy machine (9.5 s of its 168 s sweep's wall, 5.7%), ~11%
+    # of a quiet machine's render seconds. Two per cell would double that, and buy little: a run's
+    # FLIP varies by 0.7-1.8% (coefficient of variation, 10 runs of 8 cells at 1 and 16 spp), so one
+    # run puts the cell's mean within about +-4% (95%).
     "flip_runs": 1,
     "variance_sources": None,
 }
