@@ -10,7 +10,7 @@ from importlib import metadata
 from pathlib import Path
 
 PACKAGES = ("drtlab", "warp-lang", "numpy", "scipy", "emcee", "matplotlib", "colour-science",
-            "OpenImageIO", "tqdm")
+            "OpenImageIO", "tqdm", "flip-evaluator")
 
 
 def git_info(cwd: Path | None = None) -> dict:

@@ -27,7 +27,7 @@ from drtlab.experiments.study.metrics import cell_bias, mean_ci
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.error_metrics import METRICS, plugin_metrics, record_key
 from drtlab.experiments.study.results import (
-    BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, MetricCell, NoiseFloor, RatioCI,
+    PER_RUN, BaselineComparison, Bias, Cell, ChainDiagnostics, Interval, MetricCell, NoiseFloor, RatioCI,
     SceneResult, SlopeFit, Speed, StudyResult, Summary, TimeToTarget, TopEfficiency,
 )
 from drtlab.experiments.study.compare import (compare_scene, finish_claims, fit_costs, level_load,
@@ -41,8 +41,6 @@ from drtlab.experiments.stats.intervals import positive_mean_ci, repetitions_for
 from drtlab.experiments.stats.slopes import STUDY_CHAIN, fit_rmse_slope, fit_typical_slope
 
 NOISE_FLOOR_FRACTION = 0.01
-CELL_METRICS = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
-                "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
 SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
 PRECISION = 0.1                       # cells say how many repetitions a ±10% mean MSE would need
 NAN = float("nan")
@@ -116,7 +114,8 @@ def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: G
           cost, pixels: int, calibrated: bool, target: dict | None, metrics=()) -> Cell:
     recs = [records[r.run_id] for r in cell_runs]
     moments = load_cell(out_dir, cell_runs[0].cell).moments
-    stats = {m: _interval(m, [rec[m] for rec in recs]) for m in CELL_METRICS}
+    # .get: runs stored before a metric was scored (FLIP) lack it; they count as not scored.
+    stats = {m: _interval(m, [rec.get(m) for rec in recs]) for m in PER_RUN}
     b = cell_bias(moments.n, moments.mean, moments.pixel_variance(), gt.mean, gt.stderr,
                   [rec["mean_error"] for rec in recs])
     bias = Bias(**b, significant=bool(math.isfinite(b["lo"]) and (b["lo"] > 0 or b["hi"] < 0)))

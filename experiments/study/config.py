@@ -25,6 +25,8 @@ studies of other experiment files, each resolved with its own settings for the s
     keep_images = false                      # keep every repetition's image (error spectra)
     colour_difference_runs = 16              # optional: CIEDE2000 of a cell's first 16 runs only
                                              # (each costs as much as a 1-spp render); default: all
+    flip_runs   = 1                          # optional: HDR-FLIP of a cell's first runs (0: none);
+                                             # default 1 (each costs 25-90 ms at 96x72)
     strip_spp   = [1, 16, 256]               # optional: spp shown in the image strips
     variance_sources = 256                   # optional: decompose each scene's variance over the
                                              # sample dimension groups (`drtlab sources`) with this
@@ -59,7 +61,7 @@ DEFAULT_PROFILE = "quick"
 
 SETTINGS_KEYS = ("spp", "repetitions", "samples_per_cell", "resolution", "gt_spp", "gt_batch_spp",
                  "target_rmse", "strip_spp", "target_rel_ci", "max_samples_per_cell", "max_seconds",
-                 "keep_images", "colour_difference_runs", "variance_sources")
+                 "keep_images", "colour_difference_runs", "flip_runs", "variance_sources")
 EXPERIMENT_KEYS = ("description", "seed", "integrator", "include", "plugins") + SETTINGS_KEYS
 STUDY_KEYS = ("name", "description", "scenes", "samplers", "baseline", "integrator", "metric")
 SCENE_KEYS = ("name", "overrides", "label")
@@ -77,6 +79,13 @@ DEFAULTS: dict[str, Any] = {
     "max_seconds": None,
     "keep_images": False,
     "colour_difference_runs": None,
+    # One HDR-FLIP per cell: at 96x72 one costs 25-92 ms of CPU (2-7 exposures, which the reference's
+    # dynamic range sets; 256x256: 0.26-0.9 s), so the default study's 96 cells spend ~4.5 s on it:
+    # 7% of its renders' CPU seconds on a busy machine (9.5 s of its 168 s sweep's wall, 5.7%), ~11%
+    # of a quiet machine's render seconds. Two per cell would double that, and buy little: a run's
+    # FLIP varies by 0.7-1.8% (coefficient of variation, 10 runs of 8 cells at 1 and 16 spp), so one
+    # run puts the cell's mean within about +-4% (95%).
+    "flip_runs": 1,
     "variance_sources": None,
 }
 MIN_GT_BATCHES = 4
@@ -117,6 +126,7 @@ class Settings:
     max_seconds: float | None = None     # render seconds per study for growing unresolved cells
     keep_images: bool = False
     colour_difference_runs: int | None = None   # CIEDE2000 of each cell's first runs only (None: all)
+    flip_runs: int = DEFAULTS["flip_runs"]      # HDR-FLIP of each cell's first runs (0: none)
     variance_sources: int | None = None         # samples per pixel of each scene's decomposition
 
     def max_runs_at(self, spp: int) -> int:
@@ -251,6 +261,8 @@ def _setting(key, v, fld):
         return float(v)
     if key == "colour_difference_runs":
         return _int(v, fld, 2)
+    if key == "flip_runs":
+        return _int(v, fld, 0)
     if key == "variance_sources":
         from drtlab.experiments.sources.decompose import MAX_SAMPLES
         return fields.integer_in(v, fld, 2, MAX_SAMPLES)
@@ -304,7 +316,7 @@ def _settings(exp_table, profile_table, profile) -> Settings:
                     samples_per_cell=per_cell, target_rel_ci=vals["target_rel_ci"],
                     max_samples_per_cell=vals["max_samples_per_cell"], max_seconds=vals["max_seconds"],
                     keep_images=vals["keep_images"],
-                    colour_difference_runs=vals["colour_difference_runs"],
+                    colour_difference_runs=vals["colour_difference_runs"], flip_runs=vals["flip_runs"],
                     variance_sources=vals["variance_sources"])
 
 

@@ -7,6 +7,8 @@ the ground truth, `gt_var = mean(stderr^2)`, which we report and subtract (`mse_
 from __future__ import annotations
 
 import math
+import os
+import sys
 import time
 
 import numpy as np
@@ -30,14 +32,76 @@ def ciede2000(img: np.ndarray, ref: np.ndarray, ref_lab: np.ndarray | None = Non
     return float(np.mean(delta_e_2000(np.asarray(img)[None], lab_ref).reshape(-1)))
 
 
+# FLIP's own luminance weights: HDR-FLIP sets its exposures from the reference's brightest pixel,
+# and a reference whose brightest luminance is below float32's epsilon leaves them undefined (the
+# library then ends the process). Twice epsilon: a margin for its float32 arithmetic.
+_FLIP_LUMINANCE = np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+FLIP_MIN_LUMINANCE = 2 * float(np.finfo(np.float32).eps)
+
+
+def _flip_evaluator():
+    """flip_evaluator, its OpenMP workers told to sleep rather than spin between calls (libgomp reads
+    OMP_WAIT_POLICY once, when it loads; a user's setting stands): spinning workers burned 8-11 ms of
+    CPU after each 96x72 call, charged to the next render, whose process CPU seconds the cost model
+    reads. The value does not depend on the thread count (one, two and three threads: equal bits)."""
+    if "flip_evaluator" not in sys.modules:
+        user = "OMP_WAIT_POLICY" in os.environ
+        os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+        try:
+            import flip_evaluator  # noqa: F401
+        finally:
+            if not user:
+                del os.environ["OMP_WAIT_POLICY"]
+    return sys.modules["flip_evaluator"]
+
+
+def flip_problem(test: np.ndarray, reference: np.ndarray) -> str | None:
+    """Why HDR-FLIP is undefined for this pair (non-finite pixels, a black reference), or None."""
+    if not np.isfinite(test).all():
+        return "the test image has non-finite pixels"
+    if not np.isfinite(reference).all():
+        return "the reference has non-finite pixels"
+    lum = float(np.max(np.maximum(np.asarray(reference, dtype=np.float32), 0) @ _FLIP_LUMINANCE))
+    if lum < FLIP_MIN_LUMINANCE:
+        return (f"the reference's brightest pixel has luminance {lum:.3g}, below {FLIP_MIN_LUMINANCE:.3g}: "
+                f"HDR-FLIP sets its exposures from it")
+    return None
+
+
+def _flip(test: np.ndarray, reference: np.ndarray) -> tuple[np.ndarray, float]:
+    """(HDR-FLIP error map, its mean) of linear-RGB (H, W, 3) images; negative values (a pixel
+    filter's negative lobes) count as black, as a display shows them."""
+    test, reference = np.asarray(test), np.asarray(reference)
+    if test.shape != reference.shape or test.ndim != 3 or test.shape[2] != 3:
+        raise ValueError(f"FLIP needs two (H, W, 3) images of one shape, got {test.shape} and {reference.shape}")
+    why = flip_problem(test, reference)
+    if why is not None:
+        raise ValueError(f"FLIP is undefined here: {why}")
+    ref32, test32 = (np.ascontiguousarray(np.maximum(a, 0), dtype=np.float32) for a in (reference, test))
+    error, mean, _ = _flip_evaluator().evaluate(ref32, test32, "HDR", applyMagma=False)
+    return error[..., 0], float(mean)
+
+
+def flip_map(test: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Per-pixel HDR-FLIP error ((H, W) float32 in [0, 1]) of `test` against `reference`, both
+    linear RGB (H, W, 3), at FLIP's default viewing (67 pixels per degree) and ACES tone mapping;
+    ValueError where `flip_problem` says it is undefined."""
+    return _flip(test, reference)[0]
+
+
+def flip(test: np.ndarray, reference: np.ndarray) -> float:
+    """Mean HDR-FLIP error of `test` against `reference` (see `flip_map`)."""
+    return _flip(test, reference)[1]
+
+
 def image_metrics(img: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
-                  gt_lab: np.ndarray | None = None, colour_diff: bool = True) -> dict:
+                  gt_lab: np.ndarray | None = None, colour_diff: bool = True, with_flip: bool = False) -> dict:
     """The per-run metrics of one image against a noisy ground truth (see `batch_metrics`); without
-    `colour_diff` CIEDE2000 is NaN."""
+    `colour_diff` CIEDE2000 is NaN, without `with_flip` FLIP."""
     img = np.asarray(img, dtype=np.float64)
     if img.shape != np.shape(gt):
         raise ValueError(f"image shape {img.shape} != ground truth shape {np.shape(gt)}")
-    return batch_metrics(img[None], gt, gt_stderr, gt_lab, colour_diff)[0]
+    return batch_metrics(img[None], gt, gt_stderr, gt_lab, colour_diff, flip_rows=int(with_flip))[0]
 
 
 def t_quantile(n: int, level: float = CI_LEVEL) -> float:
@@ -98,19 +162,25 @@ def compile_metric_kernels() -> float:
 
 def batch_metrics(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                   gt_lab: np.ndarray | None = None, colour_diff: bool = True,
-                  colour_rows: int | None = None) -> list[dict]:
+                  colour_rows: int | None = None, flip_rows: int = 0) -> list[dict]:
     """The metrics of each image of an (R, H, W, 3) batch against the reference `gt` with per-pixel
     standard error `gt_stderr`, from one pass over the pixels (`kernels/error_sums.py`), whose sums
     depend on each image alone: an image scores the same in any batch, bit for bit. `gt_lab` is
     `reference_lab(gt)` when the caller scores many batches against one reference. CIEDE2000 (NaN
     where not computed) for the first `colour_rows` images (default: all; none without
-    `colour_diff`)."""
-    return score_batch(images, gt, gt_stderr, gt_lab, colour_diff, colour_rows)[0]
+    `colour_diff`); HDR-FLIP against `gt` (NaN where not computed or undefined: `flip_problem`) for
+    the first `flip_rows` (each costs tens of milliseconds: none by default)."""
+    return score_batch(images, gt, gt_stderr, gt_lab, colour_diff, colour_rows, flip_rows)[0]
+
+
+def _first_rows(limit: int | None, count: int) -> int:
+    """How many of a batch's first rows a per-run limit (None: all) scores."""
+    return count if limit is None else max(0, min(int(limit), count))
 
 
 def score_batch(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                 gt_lab: np.ndarray | None = None, colour_diff: bool = True,
-                colour_rows: int | None = None):
+                colour_rows: int | None = None, flip_rows: int = 0):
     """(`batch_metrics`' rows, the batch's `error_sums.BatchSums`: its moments come from the same
     pass over the pixels)."""
     from drtlab.kernels.error_sums import REL_EPS, SUMS, batch_sums
@@ -121,7 +191,9 @@ def score_batch(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
     se2 = np.square(np.asarray(gt_stderr, dtype=np.float64))
     gvar = float(np.mean(se2))
     relmse_gt = float(np.mean(se2 / (np.square(gt) + REL_EPS)))
-    k = (x.shape[0] if colour_rows is None else max(0, min(colour_rows, x.shape[0]))) if colour_diff else 0
+    k = _first_rows(colour_rows, x.shape[0]) if colour_diff else 0
+    flips = [flip(x[r], gt) if flip_problem(x[r], gt) is None else float("nan")
+             for r in range(_first_rows(flip_rows, x.shape[0]))]
     lab_ref = (reference_lab(gt) if gt_lab is None else gt_lab) if k else None
     bs = batch_sums(x, gt, lab_ref, REL_EPS, colour_rows=k)
     sums = dict(zip(SUMS, bs.sums.T))
@@ -135,5 +207,6 @@ def score_batch(images: np.ndarray, gt: np.ndarray, gt_stderr: np.ndarray,
                     "relmse": relmse, "relmse_corrected": relmse - relmse_gt,
                     "mae": float(sums["absolute"][r]) / n, "mean_error": float(sums["error"][r]) / n,
                     "finite": bool(sums["non_finite"][r] == 0),
-                    "ciede2000": float(sums["ciede2000"][r]) / (n // 3) if r < k else float("nan")})
+                    "ciede2000": float(sums["ciede2000"][r]) / (n // 3) if r < k else float("nan"),
+                    "flip": flips[r] if r < len(flips) else float("nan")})
     return out, bs

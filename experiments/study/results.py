@@ -119,7 +119,7 @@ class MetricCell:
 
 # Cell fields that summarise one number per run over the repetitions (named run_X in summary.json).
 PER_RUN = ("rmse", "rmse_corrected", "mse", "mse_corrected", "relmse", "relmse_corrected", "mae",
-           "ciede2000", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
+           "ciede2000", "flip", "mean_error", "render_seconds", "compile_seconds", "wall_seconds")
 
 
 @dataclass(frozen=True)
@@ -136,6 +136,8 @@ class Cell:
     relmse_corrected: Interval
     mae: Interval
     ciede2000: Interval
+    # Keyword-only with a default: a summary.json written before FLIP was scored still reads back.
+    flip: Interval = field(default=Interval(NAN, NAN, NAN, 0), kw_only=True)
     mean_error: Interval
     render_seconds: Interval
     compile_seconds: Interval

@@ -28,7 +28,7 @@ CELLS_DIR = "cells"
 CSV_COLUMNS = (
     "run_id", "studies", "scene", "sampler", "integrator", "width", "height", "spp", "rep", "seed",
     "rmse", "rmse_corrected", "mse", "mse_corrected", "gt_var", "relmse", "relmse_corrected", "mae",
-    "mean_error", "ciede2000", "render_seconds", "cpu_seconds", "compile_seconds", "wall_seconds",
+    "mean_error", "ciede2000", "flip", "render_seconds", "cpu_seconds", "compile_seconds", "wall_seconds",
     "samples_per_second", "gt_spp", "worker", "batch", "batch_reps",
 )
 # What a row holds beyond the CSV's columns (the resume keys).

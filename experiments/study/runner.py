@@ -410,9 +410,9 @@ class _Sweep:
     def _commit(self, b: _Batch, result, wall: float, ctx: "_GroupContext", worker: str) -> None:
         """A rendered batch: its metrics, its rows and its cell file (run_store's commit protocol)."""
         images = np.asarray(result.images, dtype=np.float64)
-        limit = getattr(self._settings(b.runs[0]), "colour_difference_runs", None)
         metrics, sums = score_batch(images, ctx.gt.mean, ctx.gt.stderr, ctx.gt_lab,
-                                    colour_rows=None if limit is None else sum(r.rep < limit for r in b.runs))
+                                    colour_rows=self._first_runs(b, "colour_difference_runs", None),
+                                    flip_rows=self._first_runs(b, "flip_runs", 0))
         for m in self._plugin_metrics(b.runs[0].studies):
             for row, value in zip(metrics, m.score(images, ctx.gt.mean, ctx.gt.stderr)):
                 row[m.record] = value
@@ -433,6 +433,12 @@ class _Sweep:
         r0 = b.runs[0]
         self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
                         f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
+
+    def _first_runs(self, b: _Batch, key: str, default: int | None) -> int | None:
+        """How many of a batch's runs a per-run limit of the cell's settings (`key`: a cell's first
+        N runs only; None: all) scores: a prefix, the batch being in repetition order."""
+        limit = getattr(self._settings(b.runs[0]), key, default)
+        return None if limit is None else sum(r.rep < limit for r in b.runs)
 
     def _flush(self, group_end: bool = False) -> None:
         """Commit the batches rendered since the last flush (run_store's protocol: table, then the

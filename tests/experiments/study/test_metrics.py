@@ -1,10 +1,12 @@
-"""Metrics: noise-floor subtraction is unbiased, CIs and colour differences behave, time-to-target."""
+"""Metrics: noise-floor subtraction is unbiased, CIs, colour differences and FLIP behave, time-to-target."""
 import math
 
 import numpy as np
+import pytest
 from scipy import stats
 
-from drtlab.experiments.study.metrics import cell_bias, ciede2000, image_metrics, mean_ci
+from drtlab.experiments.study.metrics import (batch_metrics, cell_bias, ciede2000, flip, flip_map,
+                                             image_metrics, mean_ci)
 from drtlab.experiments.study.run_store import CellMoments
 
 
@@ -33,6 +35,44 @@ def test_metric_values_on_a_known_error():
     assert math.isclose(m["relmse"], 0.01 / (0.25 + 0.01))
     assert m["ciede2000"] > 1.0
     assert ciede2000(gt, gt) == 0.0
+
+
+def test_flip_is_zero_on_the_reference_and_grows_with_the_noise():
+    # One noise pattern at growing amplitudes: the same error, more visible each time. The map is
+    # per pixel and its mean is the value.
+    rng = np.random.default_rng(7)
+    ref = rng.uniform(0.05, 2.0, (24, 32, 3))
+    z = rng.standard_normal(ref.shape)
+    assert flip(ref, ref) == 0.0 and not flip_map(ref, ref).any()
+    values = [flip(np.maximum(ref + s * z * ref, 0), ref) for s in (0.03, 0.1, 0.3, 1.0)]
+    assert all(a < b for a, b in zip(values, values[1:])) and 0 < values[0] and values[-1] < 1, values
+    m = flip_map(ref + 0.3 * z * ref, ref)
+    assert m.shape == (24, 32) and m.dtype == np.float32 and 0 <= m.min() and m.max() <= 1
+    assert math.isclose(float(np.mean(m, dtype=np.float64)), flip(ref + 0.3 * z * ref, ref), rel_tol=1e-5)
+
+
+def test_flip_is_the_hdr_metric_of_linear_radiance():
+    # HDR-FLIP takes its exposures from the reference: the pair scaled by 1000 (far past 1, where an
+    # LDR metric would see two white images) scores as before.
+    rng = np.random.default_rng(8)
+    ref = rng.uniform(0.05, 2.0, (24, 32, 3))
+    test = ref * rng.exponential(1.0, ref.shape)
+    assert math.isclose(flip(1000 * test, 1000 * ref), flip(test, ref), rel_tol=1e-4)
+
+
+def test_flip_where_it_is_undefined_is_an_error_or_nan_never_an_exit():
+    # The library ends the process on a black reference; here it is a ValueError naming why, and in
+    # a batch a NaN for that row (as for an image with non-finite pixels) beside the rows it scores.
+    rng = np.random.default_rng(9)
+    ref = rng.uniform(0.1, 1.0, (12, 16, 3))
+    for test, reference, why in ((ref, np.zeros_like(ref), "luminance 0"),
+                                 (np.where(ref > 0.9, np.nan, ref), ref, "non-finite"),
+                                 (ref[:6], ref, "one shape")):
+        with pytest.raises(ValueError, match=why):
+            flip(test, reference)
+    rows = batch_metrics(np.stack([ref * 1.1, ref * np.inf, ref * 0.9]), ref, np.zeros_like(ref), flip_rows=2)
+    assert np.isfinite(rows[0]["flip"]) and np.isnan(rows[1]["flip"]) and np.isnan(rows[2]["flip"])
+    assert all(np.isnan(r["flip"]) for r in batch_metrics(ref[None], 0 * ref, 0 * ref, flip_rows=1))
 
 
 def test_mean_ci_is_the_student_t_interval():

@@ -102,7 +102,8 @@ def test_negative_control_an_unreachable_target_reports_what_it_would_need(tmp_p
                                         ("max_seconds", "0"), ("max_seconds", "-3"), ("max_seconds", "1e9"),
                                         ("max_seconds", '"20"'),
                                         ("keep_images", "1"), ("colour_difference_runs", "1"),
-                                        ("colour_difference_runs", "2.5")])
+                                        ("colour_difference_runs", "2.5"), ("flip_runs", "-1"),
+                                        ("flip_runs", "1.5")])
 def test_bad_precision_settings_are_named(tmp_path, key, value):
     p = tmp_path / "bad.toml"
     p.write_text(_with(TEXT.replace("TARGET", "0.1").replace("BUDGET", "64"), key, value))

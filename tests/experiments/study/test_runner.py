@@ -280,6 +280,7 @@ def test_real_renderer_tiny_scene_end_to_end(tmp_path):
     rows = list(csv.DictReader(open(out / "runs.csv")))
     assert len(rows) == 2 * 2 * 2
     assert all(float(r["rmse"]) > 0 and np.isfinite(float(r["ciede2000"])) for r in rows)
+    assert all(np.isfinite(float(r["flip"])) == (r["rep"] == "0") for r in rows)     # flip_runs: 1
     assert all(float(r["render_seconds"]) > 0 for r in rows)
     for name in ("summary.json", "report.md", "manifest.json", "images/soft-shadows.png"):
         assert (out / name).is_file(), name
@@ -311,20 +312,25 @@ def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
     run(exp, out, tmp_path / "gt")
 
 
-def test_colour_difference_of_the_first_runs_of_each_cell_only(tmp_path):
-    # colour_difference_runs = 2: CIEDE2000 for repetitions 0 and 1 of every cell (NaN after them),
-    # every other metric for all; the cells' CIEDE2000 means come from those two runs.
-    exp = tiny_experiment(tmp_path, TINY.replace("repetitions = 3", "repetitions = 3\ncolour_difference_runs = 2"))
+def test_colour_difference_and_flip_of_the_first_runs_of_each_cell_only(tmp_path):
+    # colour_difference_runs = 2, flip_runs = 1: CIEDE2000 for repetitions 0 and 1 of every cell,
+    # FLIP for repetition 0 (NaN after them), every other metric for all; the cells' means come from
+    # those runs, and the report's cell table shows both.
+    exp = tiny_experiment(tmp_path, TINY.replace("repetitions = 3",
+                                                 "repetitions = 3\ncolour_difference_runs = 2\nflip_runs = 1"))
     out = tmp_path / "out"
     run(exp, out, tmp_path / "gt", analyze=True)
     rows = list(csv.DictReader(open(out / "runs.csv")))
     assert len(rows) == 2 * 2 * 4 * 3
     for r in rows:
         assert np.isfinite(float(r["ciede2000"])) == (int(r["rep"]) < 2), r["run_id"]
+        assert np.isfinite(float(r["flip"])) == (int(r["rep"]) < 1), r["run_id"]
         assert np.isfinite(float(r["mse"])) and np.isfinite(float(r["mae"]))
+    assert all(0 < float(r["flip"]) < 1 for r in rows if r["rep"] == "0")
     summary = json.loads((out / "summary.json").read_text())
-    assert all(c["run_ciede2000"]["n"] == 2 and c["run_mse"]["n"] == 3
+    assert all(c["run_ciede2000"]["n"] == 2 and c["run_flip"]["n"] == 1 and c["run_mse"]["n"] == 3
                for sc in summary["studies"][0]["scenes"] for c in sc["cells"])
+    assert "| MAE | ΔE00 | FLIP | Bias (mean error) |" in (out / "report.md").read_text()
 
 
 def test_an_image_too_large_for_the_machine_is_refused_before_anything_is_written(tmp_path):
