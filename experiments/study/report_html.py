@@ -157,6 +157,7 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
             flat.append(v)
     kept, dropped = _budget(flat, limit)
     images: dict[str, str] = {}
+    flips: dict[str, str] = {}
     clipped = False
     refs: dict = {}
     for v in flat:
@@ -179,6 +180,7 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
                         continue
                     images[cell], c = encode_image(img)
                     clipped |= c
+                    flips[cell] = _flip_bytes(img, refs[ref_key])
                 sec = v["seconds"].get((s, n))
                 entries.append({"key": cell, "label": f"{s} N={n}", "sampler": s, "spp": n,
                                 "seconds": sec if sec is not None and np.isfinite(sec) else None})
@@ -193,7 +195,18 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
                      f"{', '.join(map(str, dropped))} (report.md and images/ show them).")
     if clipped:
         notes.append(f"Some pixels are brighter than float16 holds: clipped to {F16_MAX:g}.")
-    return views, images, notes
+    return views, images, {k: v for k, v in flips.items() if v}, notes
+
+
+def _flip_bytes(img: np.ndarray, ref: np.ndarray) -> str:
+    """The HDR-FLIP map of `img` against the reference as base64 bytes (value x 255: FLIP lies in
+    [0, 1], and a quarter-percent step is below what the colour map shows); "" where FLIP is
+    undefined (metrics.flip_problem)."""
+    from drtlab.experiments.study.metrics import flip_map, flip_problem
+    if flip_problem(img, ref) is not None:
+        return ""
+    q = np.clip(np.rint(flip_map(img, ref) * 255.0), 0, 255).astype(np.uint8)
+    return base64.b64encode(q.tobytes()).decode("ascii")
 
 
 def _view_json(v: dict) -> dict:
@@ -240,9 +253,9 @@ def write_report_html(exp, summary, plan, records: dict, out_dir: Path, gts: dic
     `tables`: study name -> report.md's lines of its tables (shown as report.md prints them)."""
     from drtlab.kernels.error_sums import REL_EPS
     out_dir = Path(out_dir)
-    views, images, notes = _viewers(exp, summary, plan, records, out_dir, gts, limit)
+    views, images, flips, notes = _viewers(exp, summary, plan, records, out_dir, gts, limit)
     data = {"studies": [[_view_json(v) for v in views.get(st.name, [])] for st in summary.studies],
-            "images": images, "colourmap": _colourmap(), "relEps": REL_EPS}
+            "images": images, "flip": flips, "colourmap": _colourmap(), "relEps": REL_EPS}
     title = f"Experiment {exp.name} (profile {exp.profile})"
     body = [f"<h1>{html.escape(title)}</h1>", f"<p>{_inline(exp.description or '')}</p>",
             "<p class=note>" + " ".join(html.escape(n) for n in notes) + " The full report with every "

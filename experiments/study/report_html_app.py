@@ -40,9 +40,9 @@ SCRIPT = r"""
 "use strict";
 const DATA = JSON.parse(document.getElementById("drt-data").textContent);
 const HELP = "Keys: \u2190 \u2192 sample count N, \u2191 \u2193 sampler, 1\u20139 sampler k, 0 reference, " +
-  "space flip back to the previous image, E image / relative squared error / absolute error, " +
+  "space flip back to the previous image, E image / relative squared error / absolute error / FLIP, " +
   "+ \u2212 exposure, F fit. Mouse: wheel zooms, drag pans, shift-drag selects the crop the table measures.";
-const MODES = {image: "image", relse: "relative squared error", abs: "absolute error"};
+const MODES = {image: "image", relse: "relative squared error", abs: "absolute error", flip: "FLIP (perceptual error)"};
 
 function half(h) {                    // IEEE 754 binary16 -> number
   const s = h & 0x8000 ? -1 : 1, e = (h >> 10) & 31, f = h & 1023;
@@ -62,6 +62,17 @@ function pixels(key) {
     decoded[key] = out;
   }
   return decoded[key];
+}
+function flipMap(key) {              // the image's HDR-FLIP map, embedded as bytes (value x 255)
+  const k = "flip:" + key;
+  if (!decoded[k]) {
+    const b64 = DATA.flip[key];
+    if (!b64) return null;
+    const bin = atob(b64), out = new Float32Array(bin.length);
+    for (let i = 0; i < bin.length; i++) out[i] = bin.charCodeAt(i) / 255;
+    decoded[k] = out;
+  }
+  return decoded[k];
 }
 function srgb(v) {                    // IEC 61966-2-1 encoding of a value clipped to [0, 1]
   v = v > 0 ? (v < 1 ? v : 1) : 0;
@@ -167,6 +178,7 @@ class Viewer {
     return wrap;
   }
   errors(i) {                         // per pixel error of image i against the reference, this.mode
+    if (this.mode === "flip") return flipMap(this.v.images[i].key) || new Float32Array(this.W * this.H);
     const x = pixels(this.v.images[i].key), y = pixels(this.v.images[0].key), n = this.W * this.H;
     const out = new Float32Array(n), eps = DATA.relEps, rel = this.mode === "relse";
     for (let p = 0; p < n; p++) {
@@ -180,6 +192,7 @@ class Viewer {
     return out;
   }
   scale() {                           // the scene's log scale: up to the 99th percentile of every image's errors
+    if (this.mode === "flip") return {lo: 0, hi: 1, linear: true};   // FLIP's own range, as its maps are shown
     if (!this.scales[this.mode]) {
       let all = [];
       for (let i = 1; i < this.v.images.length; i++) all = all.concat(Array.from(this.errors(i)).filter(e => e > 0 && isFinite(e)));
@@ -200,15 +213,17 @@ class Viewer {
       }
       this.cbar.style.display = "none";
     } else {
-      const err = this.errors(this.cur), {lo, hi} = this.scale(), a = Math.log10(lo), w = Math.log10(hi) - a;
+      const err = this.errors(this.cur), {lo, hi, linear} = this.scale(), a = Math.log10(lo), w = Math.log10(hi) - a;
       for (let p = 0; p < n; p++) {
         if (isNaN(err[p])) { d.set([255, 0, 255, 255], 4 * p); continue; }
-        const c = cmap(err[p] > 0 ? (Math.log10(err[p]) - a) / w : 0);
+        const c = cmap(linear ? err[p] : err[p] > 0 ? (Math.log10(err[p]) - a) / w : 0);
         d.set([c[0], c[1], c[2], 255], 4 * p);
       }
       this.cbar.style.display = "";
-      this.cbarTitle.textContent = MODES[this.mode] + " (mean over channels), log scale; magenta: not finite";
-      this.ticks.replaceChildren(...[lo, Math.sqrt(lo * hi), hi].map((t, k) => el("span", {}, (k === 0 ? "\u2264" : k === 2 ? "\u2265" : "") + t.toExponential(1))));
+      this.cbarTitle.textContent = linear ? MODES[this.mode] + ", linear scale 0 to 1 (the flip-evaluator map of repetition 0)"
+        : MODES[this.mode] + " (mean over channels), log scale; magenta: not finite";
+      this.ticks.replaceChildren(...(linear ? [0, 0.5, 1].map(t => el("span", {}, t.toFixed(1))) :
+        [lo, Math.sqrt(lo * hi), hi].map((t, k) => el("span", {}, (k === 0 ? "\u2264" : k === 2 ? "\u2265" : "") + t.toExponential(1)))));
     }
     this.ctx.putImageData(this.data, 0, 0);
     this.label.textContent = e.label + (this.mode === "image" ? "" : " \u2014 " + MODES[this.mode] + (this.cur === 0 ? " (zero: it is the reference)" : ""));

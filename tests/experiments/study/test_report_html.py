@@ -48,6 +48,16 @@ def test_the_page_is_self_contained_and_complete(tiny_report):
         assert labels == ["reference"] + [f"{s} N={n}" for s in ("uniform", "stratified") for n in (1, 4, 16, 64)]
         for e in v["images"]:       # float16, 3 channels, the view's size
             assert len(base64.b64decode(data["images"][e["key"]])) == 2 * 3 * v["width"] * v["height"]
+    # Each rendered image's FLIP map: flip_map against the reference, one byte a pixel.
+    from drtlab.experiments.study.ground_truth import load_ground_truth
+    from drtlab.experiments.study.metrics import flip_map
+    from drtlab.experiments.study.run_store import first_image
+    v = views[0]
+    gt = load_ground_truth(next(d for d in (tiny_report.parent / "gt").iterdir() if "aa-edges" in d.name)).mean
+    for e in v["images"][1:]:
+        q = np.frombuffer(base64.b64decode(data["flip"][e["key"]]), np.uint8).reshape(v["height"], v["width"])
+        assert np.abs(q / 255.0 - flip_map(first_image(tiny_report, e["key"]), gt)).max() <= 0.5 / 255 + 1e-6
+    assert v["images"][0]["key"] not in data["flip"]
     # The tables are report.md's own: every comparison row's claim and numbers appear in the page.
     md = (tiny_report / "report.md").read_text()
     section = md.split("Every comparison with the baseline", 1)[1].split("</details>", 1)[0]
@@ -127,8 +137,15 @@ def test_the_page_in_headless_chromium(request):
             crop = (slice(y, y + size), slice(x, x + size))
             assert float(row[3]) == pytest.approx(np.mean((x16 - g16) ** 2), rel=6e-3)
             assert float(row[1]) == pytest.approx(np.mean((x16[crop] - g16[crop]) ** 2), rel=6e-3)
+            page.keyboard.press("ArrowRight")              # uniform N=1 again
+            for _ in range(3):                             # E thrice: the FLIP map, linear 0 to 1
+                page.keyboard.press("e")
+            assert page.evaluate("window.drtViewers[0].mode") == "flip"
+            flip_view = canvas()
+            assert len(np.unique(flip_view.reshape(-1, 4), axis=0)) > 1      # not one flat colour
+            page.keyboard.press("e")                       # ... and round to the image
             page.keyboard.press("e")                       # the relative-error map, with its scale
-            page.keyboard.press("ArrowRight")
+            assert np.any(canvas() != flip_view)
             assert page.is_visible(".viewer .cbar")
             SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
             page.screenshot(path=str(SCREENSHOT), full_page=True)
