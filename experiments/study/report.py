@@ -14,9 +14,10 @@ from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.error_metrics import METRICS
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.report_sections import (
-    _ci, _cost_section, _diagnostics_section, _noise_floor_section, _ratio, _reproduce_section,
-    _where_section, fmt, fmt_ci,
+    _ci, _cmp_ratio, _cost_section, _diagnostics_section, _noise_floor_section, _ratio,
+    _reproduce_section, _where_section, fmt, fmt_ci,
 )
+from drtlab.experiments.study.report_sources import _sources_section
 from drtlab.experiments.study.results import SceneResult, StudyResult, Summary
 from drtlab.experiments.stats.slopes import RESOLVED_WIDTH
 
@@ -123,16 +124,6 @@ def _study_intro(study: StudyResult) -> list[str]:
                      f"{m.description or 'no description'}). Slopes, speed-ups and efficiencies below use "
                      f"it; the cell table also lists the RMSE.\n")
     return lines
-
-
-def _cmp_ratio(r, kind: str) -> str:
-    """A comparison's ratio with its interval, or 'not resolved' (the estimate is no finding)."""
-    if r is None:
-        return "–"
-    ok = r.speedup_resolved if kind == "speedup" else r.resolved
-    if not ok:
-        return "not resolved"
-    return _ratio(*r.ratio(kind))
 
 
 CLAIM_MARK = {"better": "**better**", "worse": "**worse**", "no difference": "no difference",
@@ -252,66 +243,6 @@ def _findings(study: StudyResult) -> list[str]:
         b_txt = (f" Bias screen: the mean error differs from 0 in {', '.join(biased)} (Benjamini-Hochberg "
                  f"over every cell of the experiment at a 5% false-discovery rate)." if biased else "")
         lines.append(f"- **{scene.scene}**: " + ("; ".join(bits) if bits else "baseline only") + "." + b_txt)
-    lines.append("")
-    return lines
-
-
-# A decomposition whose widest 95% interval is wider than +-this says "not resolved" in the report.
-SOURCES_RESOLVED = 0.15
-
-
-def _share(v: float) -> str:
-    """An index to two decimals (a tiny negative estimate reads 0.00, not -0.00)."""
-    return f"{v:.2f}" if round(v, 2) != 0 else "0.00"
-
-
-def _sources_section(study: StudyResult, study_cfg, out_dir: Path) -> list[str]:
-    """The study's variance decompositions (`variance_sources` setting): a table of S / T per
-    group and, per scene, whether its variance is first-order (what stratifying each group's
-    dimensions reaches) beside the samplers' measured speed-ups."""
-    from drtlab.experiments.study.variance_sources import SOURCES_DIR, load_sources, stem
-    refs = {ref.label: ref for ref in study_cfg.scenes}
-    stems = {sc.scene: stem(study_cfg, refs[sc.scene]) for sc in study.scenes if sc.scene in refs}
-    found = {k: load_sources(out_dir, v) for k, v in stems.items()}
-    found = {k: v for k, v in found.items() if v}
-    if not study_cfg.settings.variance_sources or not found:
-        return []
-    groups = [g["group"] for g in next(iter(found.values()))["groups"]]
-    any_src = next(iter(found.values()))
-    lines = [f"**Where the variance comes from** (`drtlab sources`: {any_src['samples_per_pixel']} "
-             f"samples per pixel of `{any_src['sampler']}`, {any_src['metric']}; first-order S / total T "
-             f"share of one sample's variance per dimension group, 95% intervals in the JSON files):\n",
-             "| scene | " + " | ".join(groups) + " | 1 − ΣS | figure |",
-             "|---|" + "---|" * (len(groups) + 2)]
-    for scene, src in found.items():
-        cells = [f"{_share(g['first_order'])} / {_share(g['total'])}" if g["total"] > 0 else "0"
-                 for g in src["groups"]]
-        fig = f"{SOURCES_DIR}/{stems[scene]}.png"
-        lines.append(f"| {scene} | " + " | ".join(cells) + f" | {_share(src['interaction']['value'])} | "
-                     f"[map]({fig}) |")
-    lines.append("")
-    for sc in study.scenes:
-        src = found.get(sc.scene)
-        if not src:
-            continue
-        tops = [sc.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
-        gains = [f"`{r.sampler}` {_cmp_ratio(r, 'speedup')}" for r in tops if r is not None]
-        widest = max(max(g["first_order_hi"] - g["first_order_lo"], g["total_hi"] - g["total_lo"])
-                     for g in src["groups"])
-        if widest > 2 * SOURCES_RESOLVED:
-            where = (f"**not resolved** with {src['samples_per_pixel']} samples per pixel (an interval "
-                     f"{widest:.2f} wide: rare, very bright samples, as in its errors); "
-                     f"`drtlab sources {sc.scene_name} --spp 4096` decides it")
-        else:
-            top = max(src["groups"], key=lambda g: g["total"])
-            first = 1.0 - src["interaction"]["value"]
-            where = (f"the `{top['group']}` group holds the most (T = {top['total']:.2f}); " +
-                     (f"{first:.0%} of it is first-order (each group alone), which stratifying each "
-                      f"group's dimensions can remove" if first >= 0.7 else
-                      f"only {first:.0%} of it is first-order: the rest is interaction between groups, "
-                      f"which stratifying each group's dimensions separately does not reach"))
-        lines.append(f"- **{sc.scene}**: {where}" + (f". Measured speed-ups: {', '.join(gains)}."
-                                                      if gains else "."))
     lines.append("")
     return lines
 

@@ -35,6 +35,16 @@ def _ratio(x, lo, hi) -> str:
     return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if math.isfinite(hi) else f" [{fmt(lo)}, ∞)")
 
 
+def _cmp_ratio(r, kind: str) -> str:
+    """A comparison's ratio with its interval, or 'not resolved' (the estimate is no finding)."""
+    if r is None:
+        return "–"
+    ok = r.speedup_resolved if kind == "speedup" else r.resolved
+    if not ok:
+        return "not resolved"
+    return _ratio(*r.ratio(kind))
+
+
 def _ci(iv: Interval) -> str:
     return fmt_ci(iv.mean, iv.lo, iv.hi)
 
