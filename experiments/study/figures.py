@@ -195,17 +195,23 @@ def plot_error_vs_seconds(study: StudyResult, path: Path | None = None):
         _errbar(ax, xs, errors, style, s, x_intervals=[c.seconds_ci for c in cells])
 
     def target(ax, scene: SceneResult) -> None:
-        tgt = scene.speed.target_rmse
-        if tgt and math.isfinite(tgt):
-            ax.axhline(tgt, color="0.4", lw=0.8, linestyle=(0, (2, 2)))
-            ax.annotate("target", (1.0, tgt), xycoords=("axes fraction", "data"), ha="right",
-                        va="bottom", fontsize=6, color="0.3")
+        # Each comparison at the top of the ladder has its own target (the larger of its pair's fitted
+        # errors): one line per compared sampler, in its colour where there are several.
+        rows = [(i, scene.row(s, study.spp[-1])) for i, s in enumerate(study.samplers) if s != study.baseline]
+        rows = [(i, r) for i, r in rows if r is not None and r.target_rmse > 0 and math.isfinite(r.target_rmse)]
+        for i, r in rows:
+            colour = "0.4" if len(rows) == 1 else series_style(i)["color"]
+            ax.axhline(r.target_rmse, color=colour, lw=0.8, linestyle=(0, (2, 2)))
+        if len(rows) == 1:
+            ax.annotate("target", (1.0, rows[0][1].target_rmse), xycoords=("axes fraction", "data"),
+                        ha="right", va="bottom", fontsize=6, color="0.3")
 
     return scene_panels(study, path, draw, extra=target, xscale={},
                    xlabel="render seconds (calibrated cost, compile excluded)",
                    ylabel=study.metric_label,
                    title=f"{study.name}: {study.metric_label} vs time (points: mean ± 95% CI of the error; "
-                         f"horizontal bars: 95% interval of the cost model)")
+                         f"horizontal bars: 95% interval of the cost model; dotted: the speed-ups' target "
+                         f"error at N={study.spp[-1]})")
 
 
 def _plain_ratio_labels(major: bool):

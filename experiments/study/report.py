@@ -40,9 +40,12 @@ INTRO = (
     "sampler's to reach the same error: the *target*, at each N the larger of the two samplers' fitted "
     "RMSEs there, so the worse sampler sits at N itself and the better one is interpolated within its "
     "own ladder. It is the answer to *how much faster for the same quality*. The *efficiency ratio* at N "
-    "compares 1/(MSE × seconds) of the two samplers at the same N; it equals the speed-up only where "
-    "both samplers converge at the same rate (a faster-converging sampler gains more efficiency at "
-    "larger N than it saves time at equal error).\n\n"
+    "is the sampler's 1/(MSE × seconds) over the baseline's at that same N; it equals the speed-up only "
+    "where both samplers converge at the same rate (a faster-converging sampler gains more efficiency at "
+    "larger N than it saves time at equal error), so an efficiency ratio of 2 means *the same quality in "
+    "half the time* only at equal slopes. Above 1, both favour the sampler. Every speed-up, efficiency "
+    "ratio and claim below is a row of the study's comparisons (`result.comparisons`, listed in full "
+    "under each study) with its 95% interval, or *not resolved*.\n\n"
     "**Costs are a fitted model.** A render's CPU seconds are fitted per scene and sampler as "
     "overhead per call + overhead per repetition + seconds per sample × samples, over every timed batch "
     "of that sampler at every N (weighted least squares on relative residuals); a cell's cost is one "
@@ -156,7 +159,7 @@ def _study_table(study: StudyResult) -> list[str]:
     E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
     lines = [f"| Scene | Sampler | Slope b [95% interval] | Typical-error slope | {E} at N={top_n} [95% CI] | "
              f"{M} ÷ {base}'s at N={top_n} | Speed-up vs {base} at equal error [95%] | "
-             f"Efficiency vs {base} at N={top_n} [95%] | Claim |",
+             f"Efficiency ratio vs {base} at N={top_n} [95%] | Claim |",
              "|---|---|---|---|---|---|---|---|---|"]
     lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
     lines.append("")
@@ -173,9 +176,20 @@ def _study_table(study: StudyResult) -> list[str]:
     if any(c.resolved is False for scene in study.scenes for c in scene.cells):
         lines.append("◊ cell not resolved (reasons in the cell table): its interval is printed, but no "
                      "comparison built on it makes a claim.\n")
-    lines.append(f"Target {E} of the speed-ups (the larger of the two fitted {E}s at N={top_n}): " + "; ".join(
-        f"{scene.scene} {fmt(scene.speed.target_rmse)}" for scene in study.scenes) + ".\n")
+    lines.append(f"Target {E} of the speed-ups at N={top_n} (each comparison's: the larger of the two fitted "
+                 f"{E}s there): " + "; ".join(_targets(study, scene) for scene in study.scenes) + ".\n")
     return lines
+
+
+def _targets(study: StudyResult, scene: SceneResult) -> str:
+    """A scene's target errors at the top of the ladder, one per compared sampler (each pair has its
+    own: the larger of its two fitted errors)."""
+    rows = [scene.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
+    rows = [r for r in rows if r is not None]
+    if len(rows) == 1:
+        return f"{scene.scene} {fmt(rows[0].target_rmse)}"
+    return f"{scene.scene} " + ", ".join(f"{fmt(r.target_rmse)} (`{r.sampler}`)" for r in rows) if rows else \
+        f"{scene.scene} –"
 
 
 def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
@@ -196,7 +210,7 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
     if not r.resolved:
         return txt + f"; **not resolved** at N={top_n} ({r.why}): no claim is made"
     ratio, lo, hi = r.ratio(r.claim_on)
-    what = ("reaches the target error" if r.claim_on == "speedup" else f"has an efficiency at N={top_n}")
+    what = "reaches the target error"
     if r.claim == "no difference":
         txt += (f"; it makes **no resolved difference** at N={top_n} ({'speed-up' if r.claim_on == 'speedup' else 'efficiency ratio'} "
                 f"{fmt(ratio)}×, 95% CI {fmt(lo)}–{fmt(hi)}×)")
@@ -206,7 +220,7 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
                     f"; it needs {fmt(1 / ratio)}× more render time to reach the target error "
                     f"(95% CI {fmt(1 / hi)}–{fmt(1 / lo)}×)")
         else:
-            txt += f"; its efficiency at N={top_n} is {fmt(ratio)}× the baseline's (95% CI {fmt(lo)}–{fmt(hi)}×)"
+            txt += f"; its efficiency ratio at N={top_n} is {fmt(ratio)}× (95% CI {fmt(lo)}–{fmt(hi)}×)"
         txt += f": **{r.claim}** (adjusted p = {fmt(r.p_adjusted)})"
     m_lo, m_hi = 1 / r.mse_ratio_hi, 1 / r.mse_ratio_lo
     if r.mse_claim in ("better", "worse"):
@@ -252,7 +266,7 @@ def _figure_links(study: StudyResult, study_cfg, plots: dict, strips: dict, out_
     lines = [f"![{study.name}: {cap}]({_rel(plots[key], out_dir)})\n"
              for key, cap in (("rmse_vs_spp", f"{E} vs samples per pixel"),
                               ("rmse_vs_seconds", f"{E} vs render time"),
-                              ("efficiency", "Relative efficiency"))]
+                              ("efficiency", "Speed-up and efficiency ratio"))]
     lines.append("Image strips (repetition 0; the crop is marked on the reference):\n")
     for scene in study_cfg.scenes:
         p = strips.get((study_cfg.name, scene.label))
