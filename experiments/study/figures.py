@@ -41,8 +41,9 @@ def _errbar(ax, xs, intervals: list[Interval], style, label, x_intervals: list[I
 
 
 # Past this many samplers a legend inside a panel covers data whatever corner it takes: one legend for
-# the whole figure goes below the panels instead. Up to it, the panels keep theirs unless one covers a
-# point or an interval end (`_legend_covers_data`), and then the figure's legend replaces them too.
+# the whole figure goes below the panels instead. Up to it, each panel keeps its own (with the slopes
+# in its labels) in the first corner where it covers no point, line vertex or interval end
+# (`_place_panel_legends`); where a panel has no such corner, the figure's legend replaces them all.
 LEGEND_INSIDE_MAX = 3
 
 
@@ -58,19 +59,32 @@ def _data_points(ax) -> np.ndarray:
     return np.concatenate(pts) if pts else np.zeros((0, 2))
 
 
-def _legend_covers_data(fig) -> bool:
-    """Whether any axes' own legend holds a data vertex of that axes inside its box."""
+def _covers(leg, ax, renderer) -> bool:
+    """Whether the legend's box holds a data vertex of `ax`."""
+    box = leg.get_window_extent(renderer)
+    p = _data_points(ax)
+    p = p[np.all(np.isfinite(p), axis=1)]
+    return bool(np.any((p[:, 0] >= box.x0) & (p[:, 0] <= box.x1) & (p[:, 1] >= box.y0) & (p[:, 1] <= box.y1)))
+
+
+LEGEND_CORNERS = ("lower left", "upper right", "lower right", "upper left")
+
+
+def _place_panel_legends(fig) -> bool:
+    """Each axes' own legend moved to the first corner where it covers none of its data; False
+    when some panel has no such corner."""
     renderer = fig.canvas.get_renderer()
     for ax in fig.axes:
         leg = ax.get_legend()
         if leg is None:
             continue
-        box = leg.get_window_extent(renderer)
-        p = _data_points(ax)
-        p = p[np.all(np.isfinite(p), axis=1)]
-        if np.any((p[:, 0] >= box.x0) & (p[:, 0] <= box.x1) & (p[:, 1] >= box.y0) & (p[:, 1] <= box.y1)):
-            return True
-    return False
+        for loc in LEGEND_CORNERS:
+            leg.set_loc(loc)
+            if not _covers(leg, ax, renderer):
+                break
+        else:
+            return False
+    return True
 
 
 def series_handles(samplers: list[str], offset: int = 0) -> list:
@@ -151,7 +165,7 @@ def scene_panels(study: StudyResult, path: Path | None, draw: Draw, *, title: st
     # Wrapped to the figure's width: one panel is narrower than a study's title.
     fig.suptitle(title, wrap=True)
     fig.tight_layout()
-    if inside and study.samplers and _legend_covers_data(fig):
+    if inside and study.samplers and not _place_panel_legends(fig):
         inside = False
         for ax in fig.axes:
             if ax.get_legend() is not None:

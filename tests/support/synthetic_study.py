@@ -39,18 +39,23 @@ def _comparison(s: str, base: str, n: int, ratio: float, resolved: bool) -> Comp
 
 
 def synthetic_study(n_samplers: int = 2, n_scenes: int = 6, spp=(1, 4, 16, 64), *,
-                    rising: bool = False, name: str = "synthetic") -> StudyResult:
-    """`n_samplers` samplers (the first the baseline) on `n_scenes` scenes; with `rising` the errors
-    grow with N (points in every corner of a panel)."""
+                    rising=False, name: str = "synthetic") -> StudyResult:
+    """`n_samplers` samplers (the first the baseline) on `n_scenes` scenes; with `rising` (True, or
+    one bool per sampler) the errors grow with N: points in the lower left corner of a panel, and
+    with a falling sampler beside a rising one in all four."""
+    rising = tuple(rising) if isinstance(rising, (tuple, list)) else (rising,) * n_samplers
     samplers = [f"sampler-{i}" for i in range(n_samplers)]
     base = samplers[0]
     scenes = []
     for k in range(n_scenes):
         cells, rows = [], []
         for i, s in enumerate(samplers):
-            slope = (0.5 + 0.05 * i) if rising else -(0.5 + 0.05 * i)
+            slope = (0.5 + 0.05 * i) if rising[i] else -(0.5 + 0.05 * i)
             for n in spp:
-                cells.append(synthetic_cell(s, n, 0.1 * (1 + 0.1 * k) * n ** slope, 1e-3 * n * (1 + 0.05 * i)))
+                # A rising sampler ends where a falling one starts: together they reach every corner.
+                scale = spp[-1] ** -slope if rising[i] else 1.0
+                cells.append(synthetic_cell(s, n, 0.1 * (1 + 0.1 * k) * scale * n ** slope,
+                                            1e-3 * n * (1 + 0.05 * i)))
                 if s != base:
                     rows.append(_comparison(s, base, n, 1.0 + 0.4 * i, resolved=i < n_samplers - 1))
         noise = NoiseFloor(gt_dir=f"scene-{k}", gt_spp=4096, gt_variance=1e-8, smallest_mse=1e-6,
