@@ -87,12 +87,12 @@ def _place_panel_legends(fig) -> bool:
     return True
 
 
-def series_handles(samplers: list[str], offset: int = 0) -> list:
+def series_handles(samplers: list[str]) -> list:
     """One legend entry per sampler in its series style (a figure's shared legend)."""
     from matplotlib.lines import Line2D
     out = []
     for i, s in enumerate(samplers):
-        st = series_style(i + offset)
+        st = series_style(i)
         out.append(Line2D([], [], marker=st["marker"], linestyle=st["linestyle"], color=st["color"],
                           mfc="white", mec=st["color"], ms=5, lw=1.0, label=s))
     return out
@@ -133,9 +133,11 @@ def _two_and_five_labels():
 
 
 def scene_panels(study: StudyResult, path: Path | None, draw: Draw, *, title: str, xlabel: str, ylabel: str,
-            xscale: dict, extra: Callable[..., None] | None = None):
+            xscale: dict, extra: Callable[..., None] | None = None, outside_note: str | None = None):
     """One log-log panel per scene, one series per sampler (`draw`), then `extra(ax, scene)`;
-    saved to `path` (returned), or without a path the matplotlib Figure itself (for a notebook)."""
+    saved to `path` (returned), or without a path the matplotlib Figure itself (for a notebook).
+    `outside_note` joins the title when the panels' legends give way to the figure's (it says where
+    what their labels held went)."""
     plt = compact_pyplot()
     scenes = study.scenes
     rows, cols = panel_grid(len(scenes))
@@ -171,6 +173,8 @@ def scene_panels(study: StudyResult, path: Path | None, draw: Draw, *, title: st
             if ax.get_legend() is not None:
                 ax.get_legend().remove()
     if not inside:
+        if outside_note:
+            fig.suptitle(f"{title}; {outside_note}", wrap=True)
         legend_below(fig, series_handles(study.samplers), ncol=min(len(study.samplers), 4))
     if path is None:
         return fig
@@ -193,6 +197,7 @@ def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
         _errbar(ax, [c.spp for c in cells], [c.error(study.metric) for c in cells], style, label)
 
     return scene_panels(study, path, draw, xscale={"base": 2}, xlabel="samples per pixel N",
+                   outside_note="each slope b with its 95% interval: the report's table",
                    ylabel=f"{study.metric_label} (GT noise removed)",
                    title=f"{study.name}: {study.metric_label} vs samples (points: mean ± 95% CI; "
                          f"lines: likelihood fit ± 95% CrI, where resolved)")
@@ -264,7 +269,7 @@ def plot_efficiency(study: StudyResult, path: Path | None = None):
     cols = min(n, 3 if n <= 6 else EFF_MAX_COLS)
     rows = math.ceil(n / cols)
     width = min(EFF_MAX_WIDTH, cols * (1.6 + 0.8 * max(1, len(scenes))))
-    height = min(EFF_MAX_HEIGHT, max(1.5, 2.7 * rows))
+    height = min(EFF_MAX_HEIGHT, 3.2 * rows)
     fig, axes = plt.subplots(rows, cols, figsize=(width, height), squeeze=False, sharex=True, sharey=True)
     xs = np.arange(len(scenes))
     allv = [1.0]
