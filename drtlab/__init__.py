@@ -14,7 +14,9 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     result = drtlab.open_results("results/stratified")    # a finished folder: nothing re-run
     drtlab.register_pointset(drtlab.pointset_from_table("mysobol", table))   # your own point set
     drtlab.register_light_selection(drtlab.LightSelection("nearest", ..., pick, pmf))
-    drtlab.register_strategy("importance-nearest", "...", like="importance", light_selection="nearest")
+    drtlab.register_lobe_sampler(drtlab.LobeSampler("wide", ..., "glossy", sample, pdf))
+    drtlab.register_strategy("importance-nearest", "...", like="importance", light_selection="nearest",
+                             lobe_samplers=["wide"])
     drtlab.register_metric("edge-mse", per_run)   # a study's error: per_run(images, ref, ref_stderr)
     drtlab.load_plugin("my_sets.py")                      # a file that registers some
 
@@ -67,6 +69,9 @@ def __getattr__(name: str):
     if name == "LightSelection":
         from drtlab.kernels.light_selection import LightSelection
         return LightSelection
+    if name == "LobeSampler":
+        from drtlab.kernels.lobe_samplers import LobeSampler
+        return LobeSampler
     if name == "DEFAULT_SAMPLER":
         from drtlab.estimators.defaults import DEFAULT_SAMPLER
         return DEFAULT_SAMPLER
@@ -169,6 +174,17 @@ def register_light_selection(selection):
     return register(selection, who, fingerprint)
 
 
+def register_lobe_sampler(sampler):
+    """Register a `drtlab.LobeSampler` (two Warp functions for one material kind: sample(albedo,
+    shape, ior, nf, wo, u_lobe, u) -> wi and pdf(shape, ior, nf, wo, wi) -> its density;
+    kernels/lobe_samplers.py) for strategies to compose."""
+    from drtlab.estimators.plugins import attribute
+    from drtlab.kernels.lobe_samplers import register
+    who, fingerprint = attribute("lobe_sampler", getattr(sampler, "name", "?"),
+                                 getattr(sampler, "sample", None), getattr(sampler, "pdf", None))
+    return register(sampler, who, fingerprint)
+
+
 def register_metric(name: str, per_run, description: str = "", label: str | None = None,
                     mse_label: str | None = None):
     """Register an error metric a study may rank samplers by (`metric = NAME`): `per_run(images,
@@ -179,21 +195,26 @@ def register_metric(name: str, per_run, description: str = "", label: str | None
 
 
 def register_strategy(name: str, description: str, like: str = "importance", *,
-                      light_selection: str | None = None, heuristic: str | None = None):
+                      light_selection: str | None = None, heuristic: str | None = None,
+                      lobe_samplers=None):
     """A strategy composed of registered routines: the built-in strategy `like` with another light
-    selection (a built-in or `register_light_selection`'s) and/or another MIS heuristic ("power" or
-    "balance", kernels/mis.py); used as POINTS+NAME in any sampler."""
+    selection (a built-in or `register_light_selection`'s), another MIS heuristic ("power" or
+    "balance", kernels/mis.py) and/or lobe samplers (`register_lobe_sampler`'s, one per material
+    kind); used as POINTS+NAME in any sampler."""
     from dataclasses import replace
 
     from drtlab.errors import InputError
     from drtlab.estimators.plugins import register_strategy as _register
     from drtlab.estimators.strategies import MIS_HEURISTICS, STRATEGIES
     from drtlab.kernels.light_selection import LIGHT_SELECTIONS
-    if like not in STRATEGIES or STRATEGIES[like].light is None:
-        raise InputError("like", f"must be a strategy that samples lights "
-                                 f"({', '.join(k for k, v in STRATEGIES.items() if v.light)}), got {like!r}")
+    if like not in STRATEGIES:
+        raise InputError("like", f"must be a registered strategy ({', '.join(STRATEGIES)}), got {like!r}")
     base = STRATEGIES[like]
-    light, fingerprint = base.light, base.fingerprint
+    if (light_selection is not None or heuristic is not None) and base.light is None:
+        raise InputError("like", f"must be a strategy that samples lights to change its light selection or "
+                                 f"heuristic ({', '.join(k for k, v in STRATEGIES.items() if v.light)}), "
+                                 f"got {like!r}")
+    light, fingerprint, lobes = base.light, base.fingerprint, base.lobes
     if light_selection is not None:
         if light_selection not in LIGHT_SELECTIONS:
             raise InputError("light_selection", f"unknown light selection {light_selection!r}; "
@@ -205,5 +226,12 @@ def register_strategy(name: str, description: str, like: str = "importance", *,
             raise InputError("heuristic", f"must be one of {', '.join(MIS_HEURISTICS)} for a strategy that "
                                           f"combines by MIS, got {heuristic!r} (like={like!r})")
         light = replace(light, heuristic=heuristic)
-    return _register(replace(base, name=name, description=description, light=light,
+    if lobe_samplers is not None:
+        from drtlab.kernels.lobe_samplers import composed
+        if not base.lobe:
+            raise InputError("like", f"must sample BSDF lobes to compose lobe samplers "
+                                     f"({', '.join(k for k, v in STRATEGIES.items() if v.lobe)}), got {like!r}")
+        lobes, lobe_fp = composed(lobe_samplers)
+        fingerprint = f"{fingerprint}:{lobe_fp}"
+    return _register(replace(base, name=name, description=description, light=light, lobes=lobes,
                              fingerprint=fingerprint))

@@ -242,7 +242,7 @@ def cmd_experiment(args) -> int:
                                  keep_images=True if args.keep_images else None)
     out = args.out if args.out is not None else default_out_dir(exp.name)
     _print_summary(exp, summary)
-    print(f"report: {out / 'report.md'}")
+    print(f"report: {out / 'report.md'} (interactive: {out / 'report.html'})")
     return 0
 
 

@@ -19,13 +19,15 @@ def _pointset_name(text: str, field: str) -> str:
 
 
 def _checkable_name(text: str, field: str) -> str:
-    """A registered point set or light selection (what `drtlab check` scores)."""
+    """A registered point set, light selection or lobe sampler (what `drtlab check` scores)."""
     from drtlab.estimators.registry import POINTSETS
     from drtlab.kernels.light_selection import LIGHT_SELECTIONS
-    if text in POINTSETS or text in LIGHT_SELECTIONS:
+    from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
+    if text in POINTSETS or text in LIGHT_SELECTIONS or text in LOBE_SAMPLERS:
         return text
-    raise InputError(field, f"unknown point set or light selection {text!r}; point sets: "
-                            f"{', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}")
+    raise InputError(field, f"unknown point set, light selection or lobe sampler {text!r}; point sets: "
+                            f"{', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}; "
+                            f"lobe samplers: {', '.join(LOBE_SAMPLERS) or 'none (yours: --plugin)'}")
 
 
 def _level_text(text: str, field: str) -> float:
@@ -78,11 +80,15 @@ def _battery_arguments(p, name_help: str, level_help: str, name_type=_pointset_n
 
 def cmd_check(args) -> int:
     from drtlab.estimators.registry import POINTSETS
+    from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
         fields.writable_location(args.out, "--out")
     if args.name in POINTSETS:
         from drtlab.experiments.checks.pointset import check
         card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
+    elif args.name in LOBE_SAMPLERS:
+        from drtlab.experiments.checks import lobe_sampler
+        card = lobe_sampler.check(args.name, seed=args.seed, level=args.level)
     else:
         from drtlab.experiments.checks import light_selection
         card = light_selection.check(args.name, seed=args.seed, level=args.level)
@@ -141,8 +147,8 @@ def add_pointset_commands(sub) -> None:
 
     c = sub.add_parser(
         "check", formatter_class=Help,
-        help="the scorecard a built-in point set or light selection gets, for any registered one "
-             "(yours: --plugin)",
+        help="the scorecard a built-in point set, light selection or lobe sampling gets, for any "
+             "registered one (yours: --plugin)",
         description="Every check drtlab runs on its own point sets or light selections, as one "
                     "scorecard. A point set: purity (same key, same value), bit-identical renders "
                     "across threads and tiles, the range [0, 1), the statistical battery of `drtlab "
@@ -153,10 +159,14 @@ def add_pointset_commands(sub) -> None:
                     "points, light-sample directions against the density MIS evaluates "
                     "(chi-square), that density against the samples', finite values at a tiny, a "
                     "huge and a grazing light, the white furnace with importance sampling composed "
-                    "with it, and its render cost against the power pick (about 30 s). Exit 0 when "
+                    "with it, and its render cost against the power pick (about 30 s). A lobe sampler: "
+                    "its directions against its pdf (chi-square) at three angles, its directional "
+                    "albedo against the built-in sampler's, finite values at grazing angles and "
+                    "extreme lobe shapes, the furnace for a diffuse sampler, and its sampling cost "
+                    "(about 10 s). Exit 0 when "
                     "every judged line passes, 1 when any fails.")
-    _battery_arguments(c, "a registered point set or light selection (`drtlab samplers` lists the "
-                          "point sets; a plugin's with --plugin)",
+    _battery_arguments(c, "a registered point set, light selection or lobe sampler (`drtlab "
+                          "samplers` lists the point sets; a plugin's with --plugin)",
                        "false-alarm probability of the scorecard's tests together", _checkable_name)
     c.add_argument("--out", type=Path, default=None, metavar="FILE.json",
                    help="also write the scorecard as JSON")

@@ -12,6 +12,8 @@ in variance. Fields are compile-time switches read by the kernel factory.
                 visible from wo (Dupuy & Benyoub 2023's spherical caps, the same density as Heitz
                 2018), or "d", the full distribution D weighted by cos(theta_m) (Walter et al. 2007);
                 all else equal, so a study isolates the choice (no effect on other kinds)
+    lobes       registered lobe samplers (kernels/lobe_samplers.py) replacing "lobe"'s built-in
+                sampling for the kinds they sample, by name: a new lobe sampler is a composition
 A strategy's `combine` follows from `light`: "nee" (light samples without MIS): emitters count only
 through light samples after a non-delta bounce; "bsdf" (no light sampling): only through scattered
 rays; "mis" (light samples with MIS): both, weighted by `light.heuristic` ("power", Veach 1995's
@@ -53,7 +55,8 @@ class Strategy:
     direction: str
     light: LightSampling | None = None
     microfacet: str = "vndf"
-    fingerprint: str = ""          # a plugin strategy's (and its light selection's) source hash
+    lobes: tuple[str, ...] = ()
+    fingerprint: str = ""          # a plugin strategy's (and its routines') source hash
 
     @property
     def combine(self) -> str:

@@ -64,7 +64,7 @@ class EnvironmentMap:
 
     def luminance_integral(self) -> float:
         """Integral over the sphere of the luminance, in W / (m^2) per unit radiance: the
-        environment's share of the power pick (kernels/device_scene.py)."""
+        environment's share of the power pick (kernels/scene_upload.py)."""
         from drtlab.kernels.colour import luminance
         return float(np.sum(luminance(self.image) * texel_solid_angles(self.height, self.width)))
 

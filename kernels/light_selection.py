@@ -9,7 +9,7 @@ a user's plugins alike (pbrt-v4's `LightSampler`):
 every x, and positive wherever a light can contribute (else the estimator loses that light's light;
 MIS stays unbiased only with the exact pmf): `drtlab check` and the chi-square harness test both.
 A light's power share is `sd.lights.pmf[li]` and its position `sd.lights.center[li]`
-(`device_scene.light_center`). `environment_share` says how an environment light's share of the
+(`scene_upload.light_center`). `environment_share` says how an environment light's share of the
 choice is set against the area lights: by "power" or "uniform" (`kernels/environment.py`).
 
 A strategy names its selection (`LightSampling.pick`); the built-ins are `uniform` and `power`.

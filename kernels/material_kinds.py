@@ -3,7 +3,10 @@
 The scene loader reads which keys a kind takes (`MaterialKind.keys`), the kernels its integer code
 (`MATERIAL_CODE`) and which of their code paths it needs (features.SPLITTING_KINDS,
 materials.LOBE_CHOICE_KINDS), the lobe tool which kinds have a lobe to plot and how
-(experiments/tools/lobes.py). A new kind is one row here, then its BSDF in kernels/materials/.
+(experiments/tools/lobes.py). A new kind is one row here naming its `model`, a module of
+kernels/materials/ with eval_bsdf, sample and pdf (`beckmann.py`; the interface of a lobe sampler,
+kernels/lobe_samplers.py, plus the BSDF itself): two files. The kinds before `model` existed have
+their code in the switches of kernels/materials/bsdf.py.
 """
 from __future__ import annotations
 
@@ -20,12 +23,14 @@ class MaterialKind:
     name: str
     delta: bool = False         # light leaves in one or two directions only: no density to sample
     phong: bool = False         # a modified-Phong lobe of the material's `exponent`
-    microfacet: bool = False    # a GGX (Trowbridge-Reitz) microfacet surface of the material's
-                                # `roughness` (isotropic alpha) with Smith masking-shadowing
+    microfacet: bool = False    # a microfacet surface of the material's `roughness` (isotropic
+                                # alpha) with Smith masking-shadowing (GGX unless `model` says)
     transmits: bool = False     # light crosses the surface, refracted at the material's `ior`
     coat: bool = False          # a dielectric coat of index `ior` (> 1) over a diffuse base
     checker: bool = False       # may alternate two albedos (`albedo2`, `checker`)
     emitter: bool = False       # black: it only emits, and scatters nothing
+    model: str = ""             # its module in kernels/materials/ (eval_bsdf, sample, pdf); "" for
+                                # the kinds in bsdf.py's switches
 
     @property
     def ior(self) -> bool:
@@ -66,6 +71,7 @@ KINDS = (
     MaterialKind("plastic", phong=True, coat=True, checker=True),
     MaterialKind("ggx", microfacet=True, checker=True),
     MaterialKind("ggx_dielectric", microfacet=True, transmits=True),
+    MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

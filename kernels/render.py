@@ -17,7 +17,7 @@ import numpy as np
 from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integrator, parse_sampler
 from drtlab import fields
 from drtlab.errors import InputError
-from drtlab.kernels.device_scene import upload, uses_vector_quads
+from drtlab.kernels.scene_upload import upload, uses_vector_quads
 from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
                                      Features, features_of)
 from drtlab.kernels.filters import BOX, FILTERS

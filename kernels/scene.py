@@ -1,4 +1,4 @@
-"""In-memory scene model: what the loader (`scene_file.py`) produces and `device_scene.upload` copies.
+"""In-memory scene model: what the loader (`scene_file.py`) produces and `scene_upload.upload` copies.
 
 All geometry is in world space (the loader applies each shape's `transform`), float64 numpy arrays
 of shape (3,). Boxes are expanded by the loader into six quads with outward normals (and sphere grids

@@ -242,7 +242,7 @@ def _parse_material(name: str, value: Any) -> Material:
         m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
     if spec.microfacet:
         m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
-                             f"in [{ROUGHNESS_MIN:g}, 1] (GGX alpha)",
+                             f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
                              lambda x: ROUGHNESS_MIN <= x <= 1.0)
     if spec.transmits:
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)

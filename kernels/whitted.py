@@ -17,6 +17,7 @@ from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
                                       GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
+from drtlab.kernels.material_kinds import KIND_BY_NAME, KINDS, MATERIAL_CODE
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 
 
@@ -27,6 +28,10 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     SPLITS = f.whitted_splits
     MESHES = f.meshes
     ENV = f.environment
+    # The kind table's model kinds (MaterialKind.model) end the ray with their direct light, as ggx.
+    MODEL_ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and k.name in f.kinds)
+    if any(KIND_BY_NAME[k].model and KIND_BY_NAME[k].transmits for k in f.kinds):
+        raise NotImplementedError("whitted: a transmitting kind from the kind table has no splitting rule")
     intersect = rays.intersect
     visible = rays.visible
     visible_mesh = rays.visible_mesh
@@ -124,7 +129,11 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     nf = -ns
                 co = wp.abs(cos_o)
                 # Non-delta kinds end the ray with their direct light (plastic and ggx as glossy).
-                if kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC or kind == GGX:
+                ends = kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC or kind == GGX
+                for i in range(wp.static(len(MODEL_ENDS))):
+                    if kind == wp.static(MODEL_ENDS[i]):
+                        ends = True
+                if ends:
                     direct = wp.vec3(0.0)
                     if wp.static(AREA_CENTRES):
                         direct += light_centres(sd, kind, albedo, sd.materials.exponent[m],

@@ -38,19 +38,21 @@ def pytest_configure(config):
 
 @pytest.fixture
 def clean_registry():
-    """The point sets, light selections, strategies, metrics and loaded plugins as they were before the test:
+    """The point sets, light selections, lobe samplers, strategies, metrics and loaded plugins as they were before the test:
     a test that registers a plugin leaves no trace for the tests after it (in its worker)."""
     from drtlab.estimators import plugins
     from drtlab.estimators.registry import POINTSETS
     from drtlab.estimators.strategies import STRATEGIES
     from drtlab.experiments.error_metrics import METRICS
     from drtlab.kernels.light_selection import LIGHT_SELECTIONS
+    from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     names, loaded, was = list(POINTSETS._names), dict(POINTSETS._loaded), dict(plugins._loaded)
-    sels, strats, metrics = dict(LIGHT_SELECTIONS), dict(STRATEGIES), dict(METRICS)
+    sels, strats, metrics, lobes = dict(LIGHT_SELECTIONS), dict(STRATEGIES), dict(METRICS), dict(LOBE_SAMPLERS)
     yield
     POINTSETS._names[:], POINTSETS._loaded = names, loaded
     plugins._loaded.clear()
     plugins._loaded.update(was)
-    for registry, before in ((LIGHT_SELECTIONS, sels), (STRATEGIES, strats), (METRICS, metrics)):
+    for registry, before in ((LIGHT_SELECTIONS, sels), (STRATEGIES, strats), (METRICS, metrics),
+                             (LOBE_SAMPLERS, lobes)):
         registry.clear()
         registry.update(before)

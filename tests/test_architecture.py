@@ -97,3 +97,13 @@ def test_every_folder_the_map_names_exists():
     rows = [line.split("|")[1].strip().strip("`") for line in text.splitlines()
             if line.startswith("| `") and line.split("|")[1].strip().endswith("/`")]
     assert rows and all((ROOT / r.split(" ")[0]).is_dir() for r in rows), rows
+
+
+def test_every_package_is_listed_for_a_non_editable_install():
+    """pyproject.toml names its packages one by one (the top-level folders are mapped under drtlab):
+    a folder missing there imports from a checkout but not from a built wheel."""
+    import tomllib
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {_module(p) for folder in ("drtlab", *LAYERS) for p in (ROOT / folder).rglob("__init__.py")
+             if ".venv" not in p.parts}
+    assert found - listed == set(), f"packages missing from pyproject.toml: {sorted(found - listed)}"

@@ -42,7 +42,7 @@ def _build_seconds(build) -> float:
 
 def _sphere_row(n: int, sampler: str, repeats: int) -> dict:
     import drtlab.kernels.features as features
-    from drtlab.kernels.device_scene import scene_extent
+    from drtlab.kernels.scene_upload import scene_extent
     from drtlab.kernels.intersection.bvh_build import build_bvh, sphere_boxes
     from drtlab.kernels.scene_file import load_scene
     scene = load_scene("sphere-grid", {"shapes[1].count": n})
@@ -63,7 +63,7 @@ def _sphere_row(n: int, sampler: str, repeats: int) -> dict:
 
 def _triangle_row(s: int, sampler: str, repeats: int) -> dict:
     import tomllib
-    from drtlab.kernels.device_scene import scene_extent
+    from drtlab.kernels.scene_upload import scene_extent
     from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables
     from drtlab.kernels.scene_file import BUILTIN_DIR, scene_from_dict
     data = tomllib.loads((BUILTIN_DIR / "displaced-sphere.toml").read_text())

@@ -110,7 +110,7 @@ def _reference_kernel():
 
 def _populations(scene, n: int, rng):
     """Camera rays through random pixels (numpy, float32), as the tracer builds them."""
-    from drtlab.kernels.device_scene import camera_basis
+    from drtlab.kernels.scene_upload import camera_basis
     cam = scene.camera
     pos, fwd, right, up = camera_basis(cam)
     hh = np.tan(np.radians(cam.vfov_deg) / 2)
@@ -147,7 +147,7 @@ def _build_rays(name: str, n: int, seed: int = 1, quad_test: str = "simd"):
     CPU render tests quads (where the scene has few enough), "groups" by the scalar grouped tests."""
     wp = _setup()
     from dataclasses import replace
-    from drtlab.kernels.device_scene import upload, uses_vector_quads
+    from drtlab.kernels.scene_upload import upload, uses_vector_quads
     from drtlab.kernels.features import features_of
     from drtlab.kernels.scene_file import load_scene
     scene = load_scene(name)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 from drtlab.experiments.study import run_store as store
 
-OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "report.md", "plots",
-                "images", "manifest.json", store.CALIBRATION_FILE)
+OUTPUT_NAMES = (store.RUNS_FILE, store.CELLS_DIR, "runs.csv", "summary.json", "report.md", "report.html",
+                "plots", "images", "manifest.json", store.CALIBRATION_FILE)
 
 
 def lock_output(out_dir: Path):

@@ -361,19 +361,23 @@ def _cell_table(study: StudyResult) -> list[str]:
 # ---------------------------------------------------------------------------------------------------
 
 def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts: dict) -> None:
-    """Figures under `plots/` and `images/`, then `report.md`, all in `out_dir`."""
+    """Figures under `plots/` and `images/`, then `report.md` and `report.html`, all in `out_dir`."""
+    from drtlab.experiments.study.report_html import write_report_html
     out_dir = Path(out_dir)
     strips, plots = _render_figures(exp, summary, plan, records, out_dir, gts)
     lines = [f"# Experiment `{exp.name}` (profile `{exp.profile}`)\n", f"{exp.description}\n", INTRO]
+    tables: dict = {}           # the page shows report.md's own table lines
     for study_cfg, study in zip(exp.studies, summary.studies):
+        table, comparisons = _study_table(study), _comparison_table(study)
+        tables[study.name] = table + comparisons
         lines += _study_intro(study)
-        lines += _study_table(study)
+        lines += table
         lines += _findings(study)
         lines += _sources_section(study, study_cfg, out_dir)
         lines += _resolution_warning(study)
         lines += _precision_section(study)
         lines += _figure_links(study, study_cfg, plots[study.name], strips, out_dir)
-        lines += _comparison_table(study)
+        lines += comparisons
         lines += _cell_table(study)
     lines += _noise_floor_section(summary)
     lines += _cost_section(summary)
@@ -381,3 +385,4 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
     lines += _where_section(records)
     lines += _reproduce_section(exp)
     atomic_write_text(out_dir / "report.md", "\n".join(lines) + "\n")
+    write_report_html(exp, summary, plan, records, out_dir, gts, plots, tables)

@@ -9,7 +9,7 @@ from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phon
                                            square_to_uniform_hemisphere, square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
-from drtlab.kernels.material_kinds import kinds_where
+from drtlab.kernels.material_kinds import KINDS, MATERIAL_CODE, kinds_where
 from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
                                                  interface, refract_dir)
 from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
@@ -30,6 +30,7 @@ class Scatter:
 
 # The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
 LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
+LOBE_CHOICE_CODES = frozenset(MATERIAL_CODE[k] for k in LOBE_CHOICE_KINDS)
 
 
 class Bsdf(NamedTuple):
@@ -40,20 +41,53 @@ class Bsdf(NamedTuple):
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
     normals = make_ggx_normals(strategy.microfacet == "vndf")
-    eval_bsdf, pdf_bsdf = _make_densities(f.kinds, strategy.lobe, normals[1])
-    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, normals[0])
+    models = _models(f.kinds)
+    plug = _plugged(f.kinds, strategy, models)
+    eval_bsdf = _make_eval(f.kinds, models)
+    pdf_bsdf = _make_pdf(f.kinds, strategy.lobe, normals[1], plug, models)
+    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, normals[0], plug, models)
     return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
 
 
-def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
-    """eval_bsdf (f|cos|) and pdf_bsdf (the density sample_bsdf proposes with) of `kinds`."""
+def _models(kinds: frozenset) -> tuple:
+    """((kind code, module, transmits), ...) of the present kinds the kind table gives a model
+    module (MaterialKind.model): their eval_bsdf, and their lobe sampling unless a strategy's lobe
+    sampler replaces it."""
+    import importlib
+    return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"),
+                  k.transmits) for k in KINDS if k.model and k.name in kinds)
+
+
+def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
+    """((kind code, sample, pdf, reads u_lobe), ...): the strategy's lobe samplers
+    (kernels/lobe_samplers.py) for the kinds present, then the model kinds' own sampling for the
+    rest; only a strategy that samples lobes uses them."""
+    if not strategy.lobe:
+        return ()
+    out = []
+    if strategy.lobes:
+        from drtlab.kernels.lobe_samplers import samplers_of
+        out = [(MATERIAL_CODE[s.kind], s.sample, s.pdf, s.kind in LOBE_CHOICE_KINDS)
+               for s in samplers_of(strategy) if s.kind in kinds]
+    taken = {p[0] for p in out}
+    out += [(code, m.sample, m.pdf, code in LOBE_CHOICE_CODES) for code, m, _ in models if code not in taken]
+    return tuple(out)
+
+
+def _built_in(kinds: frozenset, plug: tuple) -> frozenset:
+    """The kinds whose lobes the built-in code samples (those no plugged sampler replaces)."""
+    return frozenset(kinds) - {k for k, code in MATERIAL_CODE.items() if any(p[0] == code for p in plug)}
+
+
+def _make_eval(kinds: frozenset, models: tuple):
+    """eval_bsdf (f|cos|) of `kinds`."""
+    MODELS = models
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
     K_GDIEL = "glossy_dielectric" in kinds
     K_PLASTIC = "plastic" in kinds
     K_GGX = "ggx" in kinds
     K_GGXD = "ggx_dielectric" in kinds
-    LOBE = lobe
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -86,7 +120,26 @@ def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
         if wp.static(K_GGXD):
             if kind == GGX_DIELECTRIC:
                 r = eval_ggx(albedo, exponent, ior, n, wo, wi, 1)
+        for i in range(wp.static(len(MODELS))):
+            if kind == wp.static(MODELS[i][0]):
+                r = wp.static(MODELS[i][1].eval_bsdf)(albedo, exponent, ior, n, wo, wi)
         return r
+
+    return eval_bsdf
+
+
+def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, models: tuple):
+    """pdf_bsdf (the density sample_bsdf proposes with) of `all_kinds`."""
+    kinds = _built_in(all_kinds, plug)
+    SPHERE_MODELS = tuple(code for code, _, transmits in models if transmits)
+    K_DIFFUSE = "diffuse" in kinds
+    K_GLOSSY = "glossy" in kinds
+    K_GDIEL = "glossy_dielectric" in kinds
+    K_PLASTIC = "plastic" in kinds
+    K_GGX = "ggx" in kinds
+    K_GGXD = "ggx_dielectric" in kinds
+    LOBE = lobe
+    PLUG = plug
 
     @wp.func
     def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
@@ -100,6 +153,9 @@ def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
                 p = INV_4PI
             elif cos_o * cos_i > 0.0:
                 p = 0.5 * INV_PI
+            for i in range(wp.static(len(SPHERE_MODELS))):
+                if kind == wp.static(SPHERE_MODELS[i]):
+                    p = INV_4PI
         if wp.static(LOBE):
             if wp.static(K_DIFFUSE):
                 if kind == DIFFUSE:
@@ -145,13 +201,24 @@ def _make_densities(kinds: frozenset, lobe: bool, ggx_normal_pdf) -> tuple:
                         if mf.reflect == 0:
                             pl = 1.0 - mf.F
                         p = ggx_normal_pdf(exponent, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
+            for i in range(wp.static(len(PLUG))):
+                if kind == wp.static(PLUG[i][0]):
+                    nf = n
+                    if cos_o < 0.0:
+                        nf = -n
+                    p = wp.static(PLUG[i][2])(exponent, ior, nf, wo, wi)
         return p
 
-    return eval_bsdf, pdf_bsdf
+    return pdf_bsdf
 
 
-def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_normal):
-    """sample_bsdf of `kinds`: delta lobes directly, the others by proposal and eval_bsdf / pdf_bsdf."""
+def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_normal, plug: tuple,
+                  models: tuple):
+    """sample_bsdf of `all_kinds`: delta lobes directly, the others by proposal and eval_bsdf /
+    pdf_bsdf (a plugged kind by its lobe sampler)."""
+    kinds = _built_in(all_kinds, plug)
+    PLUG = plug
+    SPHERE_MODELS = tuple(code for code, _, transmits in models if transmits)
     K_DIFFUSE = "diffuse" in kinds
     K_GLOSSY = "glossy" in kinds
     K_MIRROR = "mirror" in kinds
@@ -208,6 +275,9 @@ def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_
                 wi = square_to_uniform_sphere(u)
             else:
                 wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
+            for i in range(wp.static(len(SPHERE_MODELS))):
+                if kind == wp.static(SPHERE_MODELS[i]):
+                    wi = square_to_uniform_sphere(u)
         if wp.static(LOBE):
             if wp.static(K_DIFFUSE):
                 if kind == DIFFUSE:
@@ -251,6 +321,12 @@ def _make_sampler(kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_
                         wi = refract_dir(wo, wm, om, it.eta)
                         if wp.dot(it.nf, wi) >= 0.0:
                             return s        # refracted above: pdf_bsdf would read it as reflected
+            for i in range(wp.static(len(PLUG))):
+                if kind == wp.static(PLUG[i][0]):
+                    ul = float(0.0)
+                    if wp.static(PLUG[i][3]):
+                        ul = u_lobe
+                    wi = wp.static(PLUG[i][1])(albedo, exponent, ior, nf, wo, ul, u)
         pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
         if pdf > 0.0:
             fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)

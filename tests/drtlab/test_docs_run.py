@@ -1,16 +1,29 @@
-"""The documentation runs (issue 20): every fenced block of README.md, experiments/README.md and
-kernels/SCENE_FORMAT.md is executed or checked, at small settings, so that no example drifts from
-the code again.
+"""The documentation runs: every fenced block of README.md, every docs/*.md page (a new page is
+covered by being there), experiments/README.md and kernels/SCENE_FORMAT.md is executed or checked,
+at small settings, so that no example drifts from the code.
 
-* Shell blocks (```sh, and untagged blocks whose first line is a command): each command, in order,
-  in one scratch folder per block (so `info results/renders/dof.exr` reads what `render` wrote):
-  `drtlab ...` runs in this process with its sizes shrunk (SHRINK: --spp, --res, --n, ...); the
-  long-running ones (experiments, `python -m` tools) are parsed by their own parser and their
-  experiment loaded; `make T` needs a Makefile target T; `dask` needs .venv/bin/dask.
-* Python blocks run as they are written (the README keeps its example small).
+Each block runs in its own scratch folder, which holds links to the repository's source folders
+(so documented paths such as examples/plugins/r2.py resolve as from the repository root) and its
+own results/ (so nothing is written into the checkout). By the block's info string:
+
+* Shell blocks (```sh, and untagged blocks whose first line is a command): each command, in order
+  (so `info results/renders/dof.exr` reads what `render` wrote): `drtlab ...` runs in this process
+  with its sizes shrunk (SHRINK: --spp, --res, --n, ...); the commands that take long whatever their
+  flags (PARSE_ONLY: experiments, the scorecard, the interval audit) and `python -m` tools are
+  parsed by their own parser, after the plugins they name are loaded, and an experiment is loaded;
+  `make T` needs a Makefile target T; `dask` needs .venv/bin/dask; `python -m pytest` needs the
+  options it names to be the suite's and the paths to exist.
+* ```python blocks run as they are written (pages keep their examples small), from a file, so that
+  Warp can read the source of the functions they define; what they register is unregistered after.
+* ```python template blocks are checked differently: a block that shows a shape to fill in rather
+  than a program is compiled, and every module and name it imports and every `drtlab.NAME` it uses
+  must exist.
+* ```text blocks are output shown to the reader and are not run; an untagged block whose first line
+  is not a command is treated the same way.
 * TOML blocks: an experiment file is loaded by the experiment loader; a scene file is loaded by the
   scene loader and rendered at 8 pixels; SCENE_FORMAT's reference block (every key) is checked key
   by key against the loader's key lists, and its documented defaults against the loader's.
+Any other info string fails: a block this test cannot check is not allowed.
 """
 from __future__ import annotations
 
@@ -27,26 +40,39 @@ from drtlab.kernels.scene_file import scene_from_dict
 
 from repo_paths import REPO
 
-DOCS = ("README.md", "experiments/README.md", "kernels/SCENE_FORMAT.md")
+DOCS = ("README.md", *sorted(str(p.relative_to(REPO)) for p in (REPO / "docs").glob("*.md")),
+        "experiments/README.md", "kernels/SCENE_FORMAT.md")
+# The guide's own pages: the newcomer's README and the manual in docs/.
+GUIDE = ("README.md", *(d for d in DOCS if d.startswith("docs/")))
+README_MAX_LINES = 200
+# Repository folders a block may name by a relative path (linked into its scratch folder).
+SOURCE_FOLDERS = ("drtlab", "kernels", "estimators", "experiments", "examples", "tests", "docs")
 # Flag -> the value a command runs with here (the documented value is only parsed).
 SHRINK = {"--spp": "2", "--res": "16", "--n": "16", "--realisations": "2", "--pixels": "256",
           "--samples": "20000", "--batch-spp": "1", "--seconds": "0.5"}
 # Commands that take minutes whatever their flags: parsed (and their experiment loaded), not run.
-PARSE_ONLY = ("experiment",)
+PARSE_ONLY = ("experiment", "check", "audit-intervals")
 # Exit codes a command may document besides 0: validate and lobe exit 1 when a test rejects.
 VERDICT_COMMANDS = ("validate", "lobe")
 COMMAND_WORDS = ("make", "drtlab", "python", "dask")
+# Info strings of blocks that are not run (output shown to the reader).
+SHOWN_ONLY = ("text",)
 
 
 def blocks(doc: str) -> list[tuple[str, int, str]]:
-    """(info string, first line number, text) of every fenced block of `doc`."""
-    out, lines = [], (REPO / doc).read_text().splitlines()
+    """(info string, first line number, text) of every fenced block of `doc`; the info string's
+    words joined by one space ("python template")."""
+    return fenced_blocks((REPO / doc).read_text())
+
+
+def fenced_blocks(markdown: str) -> list[tuple[str, int, str]]:
+    out, lines = [], markdown.splitlines()
     i = 0
     while i < len(lines):
-        m = re.match(r"^```(\S*)\s*$", lines[i])
+        m = re.match(r"^```(.*)$", lines[i])
         if m:
             j = next(k for k in range(i + 1, len(lines)) if lines[k].startswith("```"))
-            out.append((m.group(1), i + 2, "\n".join(lines[i + 1:j])))
+            out.append((" ".join(m.group(1).split()), i + 2, "\n".join(lines[i + 1:j])))
             i = j
         i += 1
     return out
@@ -94,7 +120,9 @@ def shrunk(args: list[str]) -> list[str]:
 
 
 def _parse_only(args: list[str]) -> None:
+    from drtlab.estimators.plugins import load_plugins, plugin_args
     from drtlab.experiments.study.config import load_experiment
+    load_plugins(plugin_args(args))          # as `drtlab` does before parsing: NAME may be a plugin's
     ns = build_parser().parse_args(args)
     if ns.command == "experiment" and (not ns.experiment.endswith(".toml")
                                        or Path(ns.experiment).is_file()):
@@ -109,6 +137,16 @@ def _python_module(words: list[str]) -> None:
     module.build_parser().parse_args(words[3:])
 
 
+def _pytest_command(words: list[str]) -> None:
+    """`python -m pytest ARGS`: every --option is one the suite's conftest adds, every path exists."""
+    conftest = (REPO / "tests" / "conftest.py").read_text()
+    for w in words:
+        if w.startswith("--"):
+            assert f'"{w.split("=")[0]}"' in conftest, f"pytest has no option {w} here"
+        elif not w.startswith("-"):
+            assert (REPO / w).exists(), f"pytest: no such path {w}"
+
+
 def _make_target(target: str) -> None:
     """make knows the target (an explicit rule or the studies' static pattern rule): `make -n`
     prints its commands without running them, and fails on an unknown target."""
@@ -119,6 +157,8 @@ def _make_target(target: str) -> None:
 
 @pytest.fixture
 def scratch(tmp_path, monkeypatch):
+    for name in SOURCE_FOLDERS:
+        (tmp_path / name).symlink_to(REPO / name, target_is_directory=True)
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("DRTLAB_RESULTS", str(tmp_path / "results"))
     monkeypatch.setenv("DRTLAB_GT_DIR", str(tmp_path / "results" / "ground-truth"))
@@ -135,6 +175,8 @@ def run_shell_block(text: str, where: str, capsys) -> None:
             _make_target(cmd[1])
         elif name == "dask":
             assert (REPO / ".venv" / "bin" / "dask").is_file(), "dask is not installed"
+        elif name == "python" and cmd[1:3] == ["-m", "pytest"]:
+            _pytest_command(cmd[3:])
         elif name == "python":
             _python_module(cmd)
         elif cmd[1:2] in (["--version"], ["--help"]):
@@ -152,9 +194,33 @@ def run_shell_block(text: str, where: str, capsys) -> None:
             assert "Traceback" not in err
 
 
-def run_python_block(text: str, where: str) -> None:
-    code = compile(text, where, "exec")
-    exec(code, {"__name__": "__doc_example__"})
+def run_python_block(text: str, where: str, folder: Path | None = None) -> None:
+    """Run the block from a file in `folder` (Warp reads a kernel function's source from its file)."""
+    if folder is None:
+        exec(compile(text, where, "exec"), {"__name__": "__doc_example__"})
+        return
+    path = folder / "doc_block.py"
+    path.write_text(text)
+    exec(compile(text, str(path), "exec"), {"__name__": "__doc_example__", "__file__": str(path)})
+
+
+def check_template_block(text: str, where: str) -> None:
+    """A block that shows a shape rather than a program: it compiles, and what it names exists."""
+    import ast
+    import importlib
+    import drtlab
+    tree = ast.parse(compile(text, where, "exec", flags=ast.PyCF_ONLY_AST))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                importlib.import_module(alias.name)
+        elif isinstance(node, ast.ImportFrom):
+            module = importlib.import_module(node.module)
+            for alias in node.names:
+                assert hasattr(module, alias.name), f"{where}: {node.module} has no {alias.name}"
+        elif (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+              and node.value.id == "drtlab"):
+            assert hasattr(drtlab, node.attr), f"{where}: drtlab has no {node.attr}"
 
 
 def check_toml_block(text: str, where: str, tmp_path: Path) -> None:
@@ -226,10 +292,14 @@ def check_scene_reference(ref: dict) -> None:
 # ---------------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("doc,lang,line,text", _all_blocks())
-def test_documented_block_runs(doc, lang, line, text, scratch, capsys):
+def test_documented_block_runs(doc, lang, line, text, scratch, capsys, clean_registry):
     where = f"{doc}:{line}"
     if lang == "python":
-        run_python_block(text, where)
+        run_python_block(text, where, scratch)
+    elif lang == "python template":
+        check_template_block(text, where)
+    elif lang in SHOWN_ONLY:
+        pass
     elif lang == "toml":
         check_toml_block(text, where, scratch)
     elif lang == "sh" or (lang == "" and commands(text) and _is_command(commands(text)[0])):
@@ -244,9 +314,9 @@ def test_every_doc_has_blocks_this_test_runs():
         assert kinds & {"sh", "python", "toml", ""}, doc
 
 
-def test_readme_scene_table_lists_every_built_in_scene():
+def test_scene_table_lists_every_built_in_scene():
     from drtlab.kernels.scene_file import builtin_names
-    table = re.findall(r"^\| `([a-z0-9-]+)` \|", (REPO / "README.md").read_text(), re.M)
+    table = re.findall(r"^\| `([a-z0-9-]+)` \|", (REPO / "docs" / "scenes.md").read_text(), re.M)
     assert sorted(table) == sorted(builtin_names())
 
 
@@ -261,7 +331,7 @@ def test_help_examples_name_real_scene_values():
 
 
 def test_a_stale_key_in_a_block_fails(scratch, capsys):
-    """Negative control: the same machinery rejects what the issue found in the README."""
+    """Negative control: the same machinery rejects a stale key, a stale target and a wrong default."""
     from drtlab.errors import InputError
     with pytest.raises(InputError):
         run_python_block('import drtlab\ndrtlab.load_scene("glossy", {"materials.gloss1.exponent": 50})',
@@ -278,3 +348,57 @@ def test_a_stale_key_in_a_block_fails(scratch, capsys):
 def _reference_block() -> str:
     return next(t for lang, _, t in blocks("kernels/SCENE_FORMAT.md")
                 if lang == "toml" and t.lstrip().startswith("# reference"))
+
+
+# ---------------------------------------------------------------------------------------------------
+# The guide's shape: a short README, and pages that cite no tracker or date
+# ---------------------------------------------------------------------------------------------------
+
+# What a user's guide must not say: a tracker reference ("#21", "issue 21", "issues #10") or a
+# dated anecdote (a calendar date, "today", "this session"); measurements with dates live in
+# CHANGELOG.md. Code (fenced blocks, `spans`) and link targets are not prose and are left out.
+FORBIDDEN = {"issue number": re.compile(r"(?<![\w&])#\d+\b|\bissues? #?\d+", re.I),
+             "date": re.compile(r"\b20\d\d-\d\d-\d\d\b"),
+             "dated anecdote": re.compile(r"\btoday\b|\bthis session\b|\bwhen .{1,40} was filed\b", re.I)}
+
+
+def prose(markdown: str) -> str:
+    """The Markdown without its fenced blocks, inline code spans and link/URL targets."""
+    text = re.sub(r"^```.*?^```[^\n]*$", "", markdown, flags=re.M | re.S)
+    text = re.sub(r"`[^`\n]*`", "", text)
+    text = re.sub(r"\]\([^)\s]*\)", "]", text)
+    return re.sub(r"https?://\S+", "", text)
+
+
+def guide_problems(markdown: str) -> list[str]:
+    found = []
+    for line_no, line in enumerate(prose(markdown).splitlines(), 1):
+        for kind, pattern in FORBIDDEN.items():
+            found += [f"{kind} {m.group(0)!r}" for m in pattern.finditer(line)]
+    return found
+
+
+def test_readme_is_a_short_page():
+    lines = (REPO / "README.md").read_text().splitlines()
+    assert len(lines) <= README_MAX_LINES, f"README.md has {len(lines)} lines; the manual goes in docs/"
+
+
+@pytest.mark.parametrize("doc", GUIDE)
+def test_guide_pages_cite_no_issue_or_date(doc):
+    assert guide_problems((REPO / doc).read_text()) == [], doc
+
+
+def test_guide_checks_catch_what_they_forbid():
+    """Negative control: each forbidden form is found in prose and left alone in code and links."""
+    bad = "Fixed in #21.\nSee issue 21 and issues #10.\nMeasured on 2026-12-03.\nToday it is faster.\n"
+    found = guide_problems(bad)
+    assert [f.split(" '")[0] for f in found] == ["issue number", "issue number", "issue number",
+                                                 "date", "dated anecdote"], found
+    fine = ("A heading link [x](#section-2), `git show #21`, https://host/issues/21, C# 3.\n"
+            "```sh\ngit log --grep '#21'   # 2026-12-03\n```\n")
+    assert guide_problems(fine) == []
+    assert len(fenced_blocks("```python template\nx = ...\n```\n")) == 1
+    with pytest.raises(AssertionError):
+        check_template_block("import drtlab\ndrtlab.no_such_function(...)", "control")
+    with pytest.raises(SyntaxError):
+        check_template_block("def f(:\n    ...", "control")

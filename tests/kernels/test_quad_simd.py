@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 import warp as wp
 
-from drtlab.kernels.device_scene import QUAD, SceneData, upload, uses_vector_quads
+from drtlab.kernels.device_scene import QUAD, SceneData
+from drtlab.kernels.scene_upload import upload, uses_vector_quads
 from drtlab.kernels.features import features_of
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.quad_records import quad_groups, vector_lanes

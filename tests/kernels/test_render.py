@@ -406,7 +406,7 @@ def test_uploads_are_shared_by_content_and_follow_in_place_changes():
     """`upload` packs a scene once per content (a study renders one scene thousands of times): an
     equal scene loaded again shares the packed data; a scene changed in place is packed anew and
     renders differently (the cache key is the content, not the object)."""
-    from drtlab.kernels.device_scene import upload
+    from drtlab.kernels.scene_upload import upload
     a, b = load_scene("glossy"), load_scene("glossy")
     assert upload(a, "cpu") is upload(b, "cpu")
     before = render(a, spp=2, sampler="uniform", seed=1, res=(16, 12), threads=1)

@@ -12,7 +12,8 @@ import pytest
 import warp as wp
 
 import drtlab.kernels.features as features_module
-from drtlab.kernels.device_scene import SPHERE, SceneData, upload
+from drtlab.kernels.device_scene import SPHERE, SceneData
+from drtlab.kernels.scene_upload import upload
 from drtlab.kernels.features import features_of
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect

@@ -185,6 +185,7 @@ def test_the_example_study_loads_with_its_plugins(clean_registry):
     from drtlab.experiments.study.config import load_experiment
     exp = load_experiment(str(PLUGIN_EXAMPLES / "compare.toml"))
     samplers = {s for st in exp.studies for s in st.samplers}
-    assert {"r2+uniform", "qmc-sobol+uniform", "independent+importance-nearest"} <= samplers
-    assert sum(k.startswith("plugin:") for k in exp.sources) == 4
-    assert [st.metric for st in exp.studies] == ["mse", "mse", "edge-mse"]
+    assert {"r2+uniform", "qmc-sobol+uniform", "independent+importance-nearest",
+            "independent+importance-defensive"} <= samplers
+    assert sum(k.startswith("plugin:") for k in exp.sources) == 5
+    assert [st.metric for st in exp.studies] == ["mse", "mse", "edge-mse", "mse"]

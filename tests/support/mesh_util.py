@@ -11,7 +11,8 @@ import trimesh
 import warp as wp
 
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.device_scene import SceneData, upload
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.scene_upload import upload
 from drtlab.kernels.features import features_of
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect

@@ -19,3 +19,25 @@ def wrong_pmf(sd: SceneData, x: wp.vec3, li: int) -> float:
 drtlab.register_light_selection(drtlab.LightSelection("off-by-10", "power, pmf 10% high on light 0",
                                                       power_pick, wrong_pmf))
 '''
+
+# A cosine lobe sampler for the diffuse kind whose pdf claims 10% more than it samples.
+COSINE_OFF_BY_10 = '''
+import warp as wp
+import drtlab
+from drtlab.estimators.domain_maps import INV_PI, frame_to_world, square_to_cosine_hemisphere
+
+
+@wp.func
+def cosine_sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, u_lobe: float,
+                  u: wp.vec2) -> wp.vec3:
+    return frame_to_world(square_to_cosine_hemisphere(u), nf)
+
+
+@wp.func
+def cosine_pdf(shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    return wp.max(wp.dot(nf, wi), 0.0) * INV_PI * 1.1
+
+
+drtlab.register_lobe_sampler(drtlab.LobeSampler("cosine-off", "cosine, pdf 10% high", "diffuse",
+                                                cosine_sample, cosine_pdf))
+'''

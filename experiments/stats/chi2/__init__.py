@@ -67,8 +67,8 @@ from drtlab.experiments.stats.chi2.harness import (ALPHA, POOL_THRESHOLD, ChiSqu
 from drtlab.experiments.stats.hypothesis_tests import sidak
 from drtlab.experiments.stats.chi2.adapters import (ALL_KINDS, CONE, COSINE_HEMISPHERE, DISK, KIND_INDEX,
                                               PHONG, SQUARE, UNIFORM_HEMISPHERE, UNIFORM_SPHERE,
-                                              BSDFAdapter, BSDFSamples, LightAdapter, LightSamples,
-                                              WarpsAdapter, uniform, upload_scene)
+                                              BSDFAdapter, BSDFSamples, WarpsAdapter, uniform)
+from drtlab.experiments.stats.chi2.light_adapter import LightAdapter, LightSamples, upload_scene
 from drtlab.experiments.stats.chi2.mesh_adapter import MeshLightAdapter, MeshLightSamples
 from drtlab.experiments.stats.chi2.environment_adapter import EnvironmentAdapter, EnvSamples
 

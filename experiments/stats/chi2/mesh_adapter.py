@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drtlab.experiments.stats.chi2.adapters import LightAdapter, LightSamples, make_light_kernel
+from drtlab.experiments.stats.chi2.light_adapter import LightAdapter, LightSamples, make_light_kernel
 
 
 @dataclass

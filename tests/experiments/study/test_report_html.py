@@ -1,0 +1,139 @@
+"""report.html of a tiny study on the fake renderer: self-contained (nothing fetched, every image
+inline), complete (every scene, sampler and N), and working in a real headless Chromium (no console
+error, no request beyond the file, a key flips the canvas, exposure brightens it, the crop table's
+numbers are numpy's on the same float16 pixels). The page's screenshot is kept under
+results/test-artefacts/."""
+import base64
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from repo_paths import REPO
+from test_runner import run, tiny_experiment
+
+SCREENSHOT = REPO / "results" / "test-artefacts" / "report-html.png"
+
+
+@pytest.fixture(scope="module")
+def tiny_report(tmp_path_factory):
+    """One tiny study (two scenes, two samplers, four N) analysed with short chains: the slopes'
+    precision does not matter here, only the files."""
+    from drtlab.experiments.study import analysis
+    tmp = tmp_path_factory.mktemp("report-html")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(analysis, "STUDY_CHAIN", {"nsteps": 200, "burn": 50})
+        exp = tiny_experiment(tmp)
+        run(exp, tmp / "out", tmp / "gt", analyze=True)
+    return tmp / "out"
+
+
+def test_the_page_is_self_contained_and_complete(tiny_report):
+    page = (tiny_report / "report.html").read_text()
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", page, re.I)
+    assert "http://" not in page and "https://" not in page
+    srcs = re.findall(r"""<img[^>]*\ssrc=["']([^"']*)""", page)
+    assert len(srcs) == 3 and all(s.startswith("data:image/png;base64,") for s in srcs)
+    for s in srcs:                  # each plot is the PNG file report.md links, byte for byte
+        png = base64.b64decode(s.split(",", 1)[1])
+        assert png.startswith(b"\x89PNG") and png in {p.read_bytes() for p in (tiny_report / "plots").iterdir()}
+    import json
+    data = json.loads(re.search(r'<script type="application/json" id="drt-data">(.*?)</script>', page, re.S)
+                      .group(1).replace("<\\/", "</"))
+    views = data["studies"][0]
+    assert [v["scene"] for v in views] == ["aa-edges", "glossy"]
+    for v in views:
+        labels = [e["label"] for e in v["images"]]
+        assert labels == ["reference"] + [f"{s} N={n}" for s in ("uniform", "stratified") for n in (1, 4, 16, 64)]
+        for e in v["images"]:       # float16, 3 channels, the view's size
+            assert len(base64.b64decode(data["images"][e["key"]])) == 2 * 3 * v["width"] * v["height"]
+    # The tables are report.md's own: every comparison row's claim and numbers appear in the page.
+    md = (tiny_report / "report.md").read_text()
+    section = md.split("Every comparison with the baseline", 1)[1].split("</details>", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("| aa-edges | `stratified` | ")]
+    assert len(rows) == 4
+    for line in rows:
+        cells = [c.strip().replace("`", "") for c in line.strip("|").split("|")]
+        for c in cells:
+            assert c.replace("**", "") in re.sub(r"<[^>]+>", "", page.replace("&#x27;", "'")), c
+
+
+def test_an_image_budget_drops_the_largest_n_first():
+    from drtlab.experiments.study.report_html import _budget, encoded_size
+    one = encoded_size(16, 12)
+    views = [{"width": 16, "height": 12, "cells": {(s, n): "c" for s in "ab" for n in (1, 4, 16)}}
+             for _ in range(2)]
+    # References (2) + N=1 (4 images) + N=4 (4) fit; N=16 would be 4 more.
+    kept, dropped = _budget(views, 10 * one + one // 2)
+    assert dropped == [16] and {k[2] for k in kept} == {1, 4} and len(kept) == 8
+
+
+def _chromium():
+    exe = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    if exe is None:
+        pytest.skip("no Chromium on PATH (Debian: apt-get install chromium)")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed (pip install -e '.[dev]')")
+    return exe, sync_playwright
+
+
+CANVAS = "Array.from(window.drtViewers[0].ctx.getImageData(0, 0, {w}, {h}).data)"
+
+
+def test_the_page_in_headless_chromium(request):
+    exe, sync_playwright = _chromium()
+    tiny_report = request.getfixturevalue("tiny_report")        # built only where a browser runs
+    from drtlab.experiments.study.figures import choose_crop
+    from drtlab.experiments.study.ground_truth import load_ground_truth
+    html = tiny_report / "report.html"
+    errors, requests = [], []
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=exe, args=["--no-sandbox"])
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page.on("console", lambda m: m.type == "error" and errors.append(m.text))
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("request", lambda r: requests.append(r.url))
+            page.route(re.compile(r"^(?!file:|data:)"), lambda route: route.abort())
+            page.goto(html.as_uri())
+            page.wait_for_function("window.drtViewers && window.drtViewers.length === 2")
+            w, h = page.evaluate("[window.drtViewers[0].W, window.drtViewers[0].H]")
+            canvas = lambda: np.array(page.evaluate(CANVAS.format(w=w, h=h)), dtype=np.uint8).reshape(h, w, 4)  # noqa: E731
+            reference = canvas()
+            assert page.evaluate("window.drtViewers[0].v.images[window.drtViewers[0].cur].label") == "reference"
+            page.keyboard.press("ArrowRight")              # the reference -> uniform N=1
+            assert page.evaluate("window.drtViewers[0].v.images[window.drtViewers[0].cur].label") == "uniform N=1"
+            flipped = canvas()
+            assert np.any(flipped != reference)
+            page.keyboard.press("0")                       # back: the same pixels again
+            assert np.array_equal(canvas(), reference)
+            for _ in range(4):                             # +2 stops: brighter, nothing darker
+                page.keyboard.press("+")
+            brighter = canvas()
+            assert brighter[..., :3].astype(int).sum() > reference[..., :3].astype(int).sum()
+            assert np.all(brighter[..., :3] >= reference[..., :3])
+            # The crop table: whole-image and crop MSE of uniform N=1 against the reference, as numpy
+            # computes them on the same float16 pixels (three significant digits shown).
+            row = page.evaluate("Array.from(window.drtViewers[0].rows[1].children).map(c => c.textContent)")
+            key = page.evaluate("window.drtViewers[0].v.images[1].key")
+            gt_dir = next(d for d in (tiny_report.parent / "gt").iterdir() if "aa-edges" in d.name)
+            gt = load_ground_truth(gt_dir).mean
+            from drtlab.experiments.study.run_store import first_image
+            x16, g16 = (a.astype(np.float16).astype(np.float64) for a in (first_image(tiny_report, key), gt))
+            y, x, size = choose_crop(gt)
+            crop = (slice(y, y + size), slice(x, x + size))
+            assert float(row[3]) == pytest.approx(np.mean((x16 - g16) ** 2), rel=6e-3)
+            assert float(row[1]) == pytest.approx(np.mean((x16[crop] - g16[crop]) ** 2), rel=6e-3)
+            page.keyboard.press("e")                       # the relative-error map, with its scale
+            page.keyboard.press("ArrowRight")
+            assert page.is_visible(".viewer .cbar")
+            SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(SCREENSHOT), full_page=True)
+        finally:
+            browser.close()
+    assert not errors, errors
+    assert all(u.startswith(("file:", "data:")) for u in requests), requests
+    assert SCREENSHOT.stat().st_size > 0
