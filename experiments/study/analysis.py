@@ -24,6 +24,7 @@ import numpy as np
 
 from drtlab.experiments.study.ground_truth import GroundTruth, load_ground_truth
 from drtlab.experiments.study.metrics import cell_bias, mean_ci
+from drtlab.experiments.study.noise_floor import floor_remedy, noise_floor, noise_floor_warnings
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.error_metrics import METRICS, plugin_metrics, record_key
 from drtlab.experiments.study.results import (
@@ -40,7 +41,6 @@ from drtlab.experiments.stats.hypothesis_tests import Z_CI
 from drtlab.experiments.stats.intervals import positive_mean_ci, repetitions_for_precision, rmse_ci
 from drtlab.experiments.stats.slopes import STUDY_CHAIN, fit_rmse_slope, fit_typical_slope
 
-NOISE_FLOOR_FRACTION = 0.01
 SIGNED_METRICS = ("mean_error",)      # the others are >= 0 (in expectation): positive intervals
 PRECISION = 0.1                       # cells say how many repetitions a ±10% mean MSE would need
 NAN = float("nan")
@@ -146,14 +146,6 @@ def _cell(sampler: str, spp: int, cell_runs, records: dict, out_dir: Path, gt: G
                 timing_below_resolution=calibrated, **efficiency)
 
 
-def _noise_floor(cells: dict, gt: GroundTruth, gt_dir) -> NoiseFloor:
-    mses = [c.mse.mean for c in cells.values() if math.isfinite(c.mse.mean)]
-    min_mse = min(mses) if mses else NAN
-    return NoiseFloor(gt_dir=str(gt_dir), gt_spp=gt.spp, gt_variance=gt.variance, smallest_mse=min_mse,
-                      fraction_of_smallest_mse=gt.variance / min_mse if min_mse > 0 else NAN,
-                      warning=bool(min_mse > 0 and gt.variance > NOISE_FLOOR_FRACTION * min_mse))
-
-
 def fit_slopes(spp: list, mse: list, errors: list, seed: int, floor: float | None) -> tuple:
     """(RMSE-slope fit of the per-run MSEs, typical-error fit of the per-run errors)."""
     return (fit_rmse_slope(spp, mse, seed=seed, floor=floor, **STUDY_CHAIN),
@@ -197,7 +189,7 @@ def analyze_group(g, runs, records: dict, out_dir: Path, gt_dir, batches: dict, 
                           for metric in metrics]
     table = {m: {"sampler": [r.sampler for r in done], "spp": [r.spp for r in done],
                  "value": [records[r.run_id].get(record_key(m), NAN) for r in done]} for m in metrics}
-    return GroupResult(cells, {m: {} for m in metrics}, _noise_floor(cells, gt, gt_dir), table, batches,
+    return GroupResult(cells, {m: {} for m in metrics}, noise_floor(cells, gt, gt_dir), table, batches,
                        costs, pixels, {m: {} for m in metrics}), fit_calls
 
 
@@ -302,30 +294,11 @@ def _study_result(study, scenes: list) -> StudyResult:
 # The experiment
 # ---------------------------------------------------------------------------------------------------
 
-def _floor_remedy(exp) -> str:
-    """What lowers the reference's noise floor: a larger-reference profile when the file has one."""
-    if "full" in exp.profiles and exp.profile != "full":
-        return "a larger gt_spp (e.g. --profile full) lowers the floor"
-    return "a larger gt_spp in the experiment file lowers the floor"
-
-
 def span_text(values, spec: str = ".1f", sep: str = "-") -> str:
     """'lo-hi' of `values` as `spec` prints them, or the one value when both print alike (one scene
     is '7.2', not '7.2-7.2')."""
     lo, hi = format(min(values), spec), format(max(values), spec)
     return lo if lo == hi else f"{lo}{sep}{hi}"
-
-
-def _noise_floor_warnings(group_results: dict, log: Callable[[str], None], remedy: str) -> list[str]:
-    flagged = [(g, v.noise_floor) for g, v in group_results.items() if v.noise_floor.warning]
-    if flagged:
-        fr = [100 * nf.fraction_of_smallest_mse for _, nf in flagged]
-        log(f"warning: in {len(flagged)} of {len(group_results)} scenes "
-            f"({', '.join(g[0].label for g, _ in flagged)}) "
-            f"the reference's own variance is {span_text(fr)}% of the smallest MSE measured "
-            f"(limit {100 * NOISE_FLOOR_FRACTION:.0f}%); it is subtracted from every MSE, but {remedy}")
-    return [f"{group_name(g)}: ground-truth variance is {100 * nf.fraction_of_smallest_mse:.1f}% "
-            f"of the smallest MSE (> {100 * NOISE_FLOOR_FRACTION:.0f}%)" for g, nf in flagged]
 
 
 def _chains(group_results: dict) -> ChainDiagnostics:
@@ -383,7 +356,7 @@ def analyze(exp, plan, records: dict, out_dir: Path, gts: dict, log: Callable[[s
     return Summary(
         experiment=exp.name, description=exp.description, profile=exp.profile, studies=studies,
         noise_floor={group_name(g): v.noise_floor for g, v in group_results.items()},
-        warnings=_noise_floor_warnings(group_results, log, _floor_remedy(exp))
+        warnings=noise_floor_warnings(group_results, log, floor_remedy(exp), group_name)
         + ([load["text"]] if load["shifted"] else []),
         chains=_chains(group_results), load=load,
         ground_truth={group_name(g): {k: v for k, v in info.items() if k != "seeds"}

@@ -61,6 +61,19 @@ class GroundTruth:
         """Mean per-pixel variance of the reference: its additive contribution to every MSE."""
         return float(np.mean(np.square(self.stderr)))
 
+    @property
+    def correction_sd(self) -> float:
+        """Standard deviation of the error that subtracting `variance` leaves in a measured MSE.
+        Against this reference a run's MSE holds mean(e^2), e the reference's own error, where the
+        analysis subtracts mean(stderr^2); per pixel e^2 has variance 2 v^2 and the estimate
+        v-hat (from B batches) 2 v^2 / (B - 1), so the sd is sqrt(2B / (B - 1) * sum v^2) over the
+        pixels' count, with a pixel's three channels taken as one (fully correlated: an upper bound)."""
+        b = self.batches
+        if b < 2:
+            return float("nan")
+        v = np.square(self.stderr).sum(axis=2)
+        return float(math.sqrt(2.0 * b / (b - 1) * np.square(v).sum()) / self.stderr.size)
+
 
 def pending_samples(scene_ref: SceneRef, integrator: str, resolution, spp: int, batch_spp: int,
                     backend, root: Path | None = None) -> int:

@@ -14,9 +14,10 @@ from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.error_metrics import METRICS
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.report_sections import (
-    _ci, _cost_section, _diagnostics_section, _noise_floor_section, _ratio, _reproduce_section,
-    _where_section, fmt, fmt_ci,
+    _ci, _cmp_ratio, _cost_section, _diagnostics_section, _noise_floor_section, _ratio,
+    _reproduce_section, _where_section, fmt, fmt_ci,
 )
+from drtlab.experiments.study.report_sources import _sources_section
 from drtlab.experiments.study.results import SceneResult, StudyResult, Summary
 from drtlab.experiments.stats.slopes import RESOLVED_WIDTH
 
@@ -39,9 +40,12 @@ INTRO = (
     "sampler's to reach the same error: the *target*, at each N the larger of the two samplers' fitted "
     "RMSEs there, so the worse sampler sits at N itself and the better one is interpolated within its "
     "own ladder. It is the answer to *how much faster for the same quality*. The *efficiency ratio* at N "
-    "compares 1/(MSE × seconds) of the two samplers at the same N; it equals the speed-up only where "
-    "both samplers converge at the same rate (a faster-converging sampler gains more efficiency at "
-    "larger N than it saves time at equal error).\n\n"
+    "is the sampler's 1/(MSE × seconds) over the baseline's at that same N; it equals the speed-up only "
+    "where both samplers converge at the same rate (a faster-converging sampler gains more efficiency at "
+    "larger N than it saves time at equal error), so an efficiency ratio of 2 means *the same quality in "
+    "half the time* only at equal slopes. Above 1, both favour the sampler. Every speed-up, efficiency "
+    "ratio and claim below is a row of the study's comparisons (`result.comparisons`, listed in full "
+    "under each study) with its 95% interval, or *not resolved*.\n\n"
     "**Costs are a fitted model.** A render's CPU seconds are fitted per scene and sampler as "
     "overhead per call + overhead per repetition + seconds per sample × samples, over every timed batch "
     "of that sampler at every N (weighted least squares on relative residuals); a cell's cost is one "
@@ -125,16 +129,6 @@ def _study_intro(study: StudyResult) -> list[str]:
     return lines
 
 
-def _cmp_ratio(r, kind: str) -> str:
-    """A comparison's ratio with its interval, or 'not resolved' (the estimate is no finding)."""
-    if r is None:
-        return "–"
-    ok = r.speedup_resolved if kind == "speedup" else r.resolved
-    if not ok:
-        return "not resolved"
-    return _ratio(*r.ratio(kind))
-
-
 CLAIM_MARK = {"better": "**better**", "worse": "**worse**", "no difference": "no difference",
               "not resolved": "not resolved"}
 
@@ -165,7 +159,7 @@ def _study_table(study: StudyResult) -> list[str]:
     E, M, base, top_n = study.metric_label, study.mse_label, study.baseline, study.spp[-1]
     lines = [f"| Scene | Sampler | Slope b [95% interval] | Typical-error slope | {E} at N={top_n} [95% CI] | "
              f"{M} ÷ {base}'s at N={top_n} | Speed-up vs {base} at equal error [95%] | "
-             f"Efficiency vs {base} at N={top_n} [95%] | Claim |",
+             f"Efficiency ratio vs {base} at N={top_n} [95%] | Claim |",
              "|---|---|---|---|---|---|---|---|---|"]
     lines += [_table_row(study, scene, s) for scene in study.scenes for s in study.samplers]
     lines.append("")
@@ -182,9 +176,20 @@ def _study_table(study: StudyResult) -> list[str]:
     if any(c.resolved is False for scene in study.scenes for c in scene.cells):
         lines.append("◊ cell not resolved (reasons in the cell table): its interval is printed, but no "
                      "comparison built on it makes a claim.\n")
-    lines.append(f"Target {E} of the speed-ups (the larger of the two fitted {E}s at N={top_n}): " + "; ".join(
-        f"{scene.scene} {fmt(scene.speed.target_rmse)}" for scene in study.scenes) + ".\n")
+    lines.append(f"Target {E} of the speed-ups at N={top_n} (each comparison's: the larger of the two fitted "
+                 f"{E}s there): " + "; ".join(_targets(study, scene) for scene in study.scenes) + ".\n")
     return lines
+
+
+def _targets(study: StudyResult, scene: SceneResult) -> str:
+    """A scene's target errors at the top of the ladder, one per compared sampler (each pair has its
+    own: the larger of its two fitted errors)."""
+    rows = [scene.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
+    rows = [r for r in rows if r is not None]
+    if len(rows) == 1:
+        return f"{scene.scene} {fmt(rows[0].target_rmse)}"
+    return f"{scene.scene} " + ", ".join(f"{fmt(r.target_rmse)} (`{r.sampler}`)" for r in rows) if rows else \
+        f"{scene.scene} –"
 
 
 def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
@@ -205,7 +210,7 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
     if not r.resolved:
         return txt + f"; **not resolved** at N={top_n} ({r.why}): no claim is made"
     ratio, lo, hi = r.ratio(r.claim_on)
-    what = ("reaches the target error" if r.claim_on == "speedup" else f"has an efficiency at N={top_n}")
+    what = "reaches the target error"
     if r.claim == "no difference":
         txt += (f"; it makes **no resolved difference** at N={top_n} ({'speed-up' if r.claim_on == 'speedup' else 'efficiency ratio'} "
                 f"{fmt(ratio)}×, 95% CI {fmt(lo)}–{fmt(hi)}×)")
@@ -215,7 +220,7 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
                     f"; it needs {fmt(1 / ratio)}× more render time to reach the target error "
                     f"(95% CI {fmt(1 / hi)}–{fmt(1 / lo)}×)")
         else:
-            txt += f"; its efficiency at N={top_n} is {fmt(ratio)}× the baseline's (95% CI {fmt(lo)}–{fmt(hi)}×)"
+            txt += f"; its efficiency ratio at N={top_n} is {fmt(ratio)}× (95% CI {fmt(lo)}–{fmt(hi)}×)"
         txt += f": **{r.claim}** (adjusted p = {fmt(r.p_adjusted)})"
     m_lo, m_hi = 1 / r.mse_ratio_hi, 1 / r.mse_ratio_lo
     if r.mse_claim in ("better", "worse"):
@@ -256,72 +261,12 @@ def _findings(study: StudyResult) -> list[str]:
     return lines
 
 
-# A decomposition whose widest 95% interval is wider than +-this says "not resolved" in the report.
-SOURCES_RESOLVED = 0.15
-
-
-def _share(v: float) -> str:
-    """An index to two decimals (a tiny negative estimate reads 0.00, not -0.00)."""
-    return f"{v:.2f}" if round(v, 2) != 0 else "0.00"
-
-
-def _sources_section(study: StudyResult, study_cfg, out_dir: Path) -> list[str]:
-    """The study's variance decompositions (`variance_sources` setting): a table of S / T per
-    group and, per scene, whether its variance is first-order (what stratifying each group's
-    dimensions reaches) beside the samplers' measured speed-ups."""
-    from drtlab.experiments.study.variance_sources import SOURCES_DIR, load_sources, stem
-    refs = {ref.label: ref for ref in study_cfg.scenes}
-    stems = {sc.scene: stem(study_cfg, refs[sc.scene]) for sc in study.scenes if sc.scene in refs}
-    found = {k: load_sources(out_dir, v) for k, v in stems.items()}
-    found = {k: v for k, v in found.items() if v}
-    if not study_cfg.settings.variance_sources or not found:
-        return []
-    groups = [g["group"] for g in next(iter(found.values()))["groups"]]
-    any_src = next(iter(found.values()))
-    lines = [f"**Where the variance comes from** (`drtlab sources`: {any_src['samples_per_pixel']} "
-             f"samples per pixel of `{any_src['sampler']}`, {any_src['metric']}; first-order S / total T "
-             f"share of one sample's variance per dimension group, 95% intervals in the JSON files):\n",
-             "| scene | " + " | ".join(groups) + " | 1 − ΣS | figure |",
-             "|---|" + "---|" * (len(groups) + 2)]
-    for scene, src in found.items():
-        cells = [f"{_share(g['first_order'])} / {_share(g['total'])}" if g["total"] > 0 else "0"
-                 for g in src["groups"]]
-        fig = f"{SOURCES_DIR}/{stems[scene]}.png"
-        lines.append(f"| {scene} | " + " | ".join(cells) + f" | {_share(src['interaction']['value'])} | "
-                     f"[map]({fig}) |")
-    lines.append("")
-    for sc in study.scenes:
-        src = found.get(sc.scene)
-        if not src:
-            continue
-        tops = [sc.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
-        gains = [f"`{r.sampler}` {_cmp_ratio(r, 'speedup')}" for r in tops if r is not None]
-        widest = max(max(g["first_order_hi"] - g["first_order_lo"], g["total_hi"] - g["total_lo"])
-                     for g in src["groups"])
-        if widest > 2 * SOURCES_RESOLVED:
-            where = (f"**not resolved** with {src['samples_per_pixel']} samples per pixel (an interval "
-                     f"{widest:.2f} wide: rare, very bright samples, as in its errors); "
-                     f"`drtlab sources {sc.scene_name} --spp 4096` decides it")
-        else:
-            top = max(src["groups"], key=lambda g: g["total"])
-            first = 1.0 - src["interaction"]["value"]
-            where = (f"the `{top['group']}` group holds the most (T = {top['total']:.2f}); " +
-                     (f"{first:.0%} of it is first-order (each group alone), which stratifying each "
-                      f"group's dimensions can remove" if first >= 0.7 else
-                      f"only {first:.0%} of it is first-order: the rest is interaction between groups, "
-                      f"which stratifying each group's dimensions separately does not reach"))
-        lines.append(f"- **{sc.scene}**: {where}" + (f". Measured speed-ups: {', '.join(gains)}."
-                                                      if gains else "."))
-    lines.append("")
-    return lines
-
-
 def _figure_links(study: StudyResult, study_cfg, plots: dict, strips: dict, out_dir: Path) -> list[str]:
     E = study.metric_label
     lines = [f"![{study.name}: {cap}]({_rel(plots[key], out_dir)})\n"
              for key, cap in (("rmse_vs_spp", f"{E} vs samples per pixel"),
                               ("rmse_vs_seconds", f"{E} vs render time"),
-                              ("efficiency", "Relative efficiency"))]
+                              ("efficiency", "Speed-up and efficiency ratio"))]
     lines.append("Image strips (repetition 0; the crop is marked on the reference):\n")
     for scene in study_cfg.scenes:
         p = strips.get((study_cfg.name, scene.label))

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-from drtlab.experiments.study.analysis import NOISE_FLOOR_FRACTION
+from drtlab.experiments.stats.hypothesis_tests import Z_CI
+from drtlab.experiments.study.noise_floor import NOISE_FLOOR_SHARE
 from drtlab.experiments.study.results import Interval, Summary
 
 
@@ -35,22 +36,38 @@ def _ratio(x, lo, hi) -> str:
     return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if math.isfinite(hi) else f" [{fmt(lo)}, ∞)")
 
 
+def _cmp_ratio(r, kind: str) -> str:
+    """A comparison's ratio with its interval, or 'not resolved' (the estimate is no finding)."""
+    if r is None:
+        return "–"
+    ok = r.speedup_resolved if kind == "speedup" else r.resolved
+    if not ok:
+        return "not resolved"
+    return _ratio(*r.ratio(kind))
+
+
 def _ci(iv: Interval) -> str:
     return fmt_ci(iv.mean, iv.lo, iv.hi)
 
 
 def _noise_floor_section(summary: Summary) -> list[str]:
     lines = ["## Ground truth and noise floor\n",
-             "The reference is itself noisy: its mean per-pixel variance Var_GT adds to every measured MSE. "
-             "It is subtracted from every MSE above; it should stay below "
-             f"{100 * NOISE_FLOOR_FRACTION:.0f}% of the smallest MSE measured.\n",
+             "The reference is itself noisy: its mean per-pixel variance Var_GT adds to every measured MSE, "
+             "and is subtracted from every MSE above (MAE and ΔE00 are not corrected: they carry about half "
+             "of Var_GT ÷ MSE as a bias). What the subtraction leaves is its own error D, one offset for "
+             "every cell of a scene, with standard deviation sd(D) = sqrt(2B/(B−1) Σ v²) ÷ values, from "
+             "the reference's per-pixel variances v and its B batches. The limit is on D: "
+             f"{Z_CI:g}·sd(D) must stay below {100 * NOISE_FLOOR_SHARE:.0f}% of the narrowest cell's 95% "
+             "half-width of its mean MSE, so that the cell's interval still covers 94.9% of the time.\n",
              "| Scene / integrator / resolution | Reference spp | Var_GT | Smallest cell MSE | "
-             "Var_GT ÷ smallest MSE |",
-             "|---|---|---|---|---|"]
+             f"Var_GT ÷ smallest MSE | sd(D) | {Z_CI:g}·sd(D) ÷ narrowest half-width |",
+             "|---|---|---|---|---|---|---|"]
     for name, nf in summary.noise_floor.items():
         frac = nf.fraction_of_smallest_mse
+        share = nf.share_of_half_width
         lines.append(f"| {name} | {nf.gt_spp} | {fmt(nf.gt_variance)} | {fmt(nf.smallest_mse)} | "
-                     f"{fmt(100 * frac if frac is not None else float('nan'))}%{' ⚠' if nf.warning else ''} |")
+                     f"{fmt(100 * frac if frac is not None else float('nan'))}% | {fmt(nf.correction_sd)} | "
+                     f"{fmt(100 * share)}%{' ⚠' if nf.warning else ''} |")
     if summary.warnings:
         lines.append("\n**Warnings:**\n")
         lines += [f"- {m}" for m in summary.warnings]

@@ -329,13 +329,17 @@ class TopEfficiency:
 
 @dataclass(frozen=True)
 class NoiseFloor:
-    """The reference's own variance against the smallest MSE measured in its scene."""
+    """The reference's own variance against the smallest MSE measured in its scene, and what its
+    subtraction leaves: the error's sd against the narrowest cell interval (analysis.NOISE_FLOOR_SHARE)."""
     gt_dir: str
     gt_spp: int
     gt_variance: float
     smallest_mse: float
     fraction_of_smallest_mse: float
     warning: bool
+    correction_sd: float = NAN          # sd of the error the subtraction of gt_variance leaves
+    narrowest_half_width: float = NAN   # the smallest 95% half-width of a cell's mean MSE
+    share_of_half_width: float = NAN    # Z_CI x correction_sd / narrowest_half_width
 
 
 @dataclass(frozen=True)
