@@ -395,7 +395,7 @@ def _add_progress_flag(parser) -> None:
 def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
                        formatter_class=Help)
-    r.add_argument("scene", help="built-in scene name or path to a .toml scene")
+    r.add_argument("scene", help="built-in scene name or path to a .toml or Mitsuba 3 .xml scene")
     count = r.add_mutually_exclusive_group()
     count.add_argument("--spp", type=int_flag(1, fields.MAX_COUNT), default=None,
                        help="samples per pixel (default: the scene's)")
@@ -531,6 +531,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_sources_command(sub)
     from drtlab.cli_audit import add_audit_command
     add_audit_command(sub)
+    from drtlab.cli_export import add_export_command
+    add_export_command(sub)
     # Every command takes --plugin; `main` loads the plugins before parsing (a plugin's names must be
     # known to the checks of the other arguments), so here it is only listed and accepted.
     for parser in [p, *sub.choices.values()]:
