@@ -14,15 +14,16 @@ FORMATS = ("mitsuba",)
 
 def cmd_export(args) -> int:
     from drtlab.kernels.mitsuba_export import check_exportable, export_mitsuba
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_file import load_scene, scene_data
     out = Path(args.out).expanduser()
     if out.suffix.lower() != ".xml":
         raise InputError("OUT", f"must be a path ending in .xml, got {str(out)!r}")
     fields.writable_location(out, "OUT")
-    scene = load_scene(args.scene, _overrides(args.set))
+    overrides = _overrides(args.set)
+    scene = load_scene(args.scene, overrides)
     check_exportable(scene)
     out.parent.mkdir(parents=True, exist_ok=True)
-    written = export_mitsuba(scene, out)
+    written = export_mitsuba(scene, out, scene_data(args.scene, overrides))
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
 

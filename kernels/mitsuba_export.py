@@ -47,8 +47,8 @@ def check_exportable(scene: Scene) -> None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
     for i, s in enumerate(scene.shapes):
         if np.any(s.velocity != 0.0):
-            raise InputError(f"shapes[{i}].velocity", "moving shapes (motion blur) have no Mitsuba 3 "
-                                                      f"counterpart ('{s.name or s.kind}')")
+            raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "
+                                                "blur) have no Mitsuba 3 counterpart")
     env = scene.environment
     if env is not None and (env.kind != "constant" or env.image.shape[:2] != DEFAULT_ENV_SHAPE):
         raise InputError("environment", "only a constant environment of the default resolution is "
@@ -56,9 +56,11 @@ def check_exportable(scene: Scene) -> None:
                                         f"{env.width}x{env.height}")
 
 
-def export_mitsuba(scene: Scene, out: Path) -> list[Path]:
+def export_mitsuba(scene: Scene, out: Path, data: dict | None = None) -> list[Path]:
     """Write `scene` as Mitsuba 3 XML at `out` (and its meshes beside it); the files written.
-    Everything is written to temporary names first and renamed at the end: nothing half-written."""
+    `data`, the scene's table (scene_file.scene_data), gives directional lights as written: the
+    loader's normalisation of a unit vector can move its last bit. Everything is written to
+    temporary names first and renamed at the end: nothing half-written."""
     check_exportable(scene)
     meshes: list[tuple[Path, object]] = []
     root = ET.Element("scene", version="3.0.0")
@@ -88,7 +90,7 @@ def export_mitsuba(scene: Scene, out: Path) -> list[Path]:
         if m.emissive:
             emitter = ET.SubElement(shape, "emitter", type="area")
             _vec(emitter, "rgb", "radiance", m.emission)
-    _lights(root, scene)
+    _lights(root, scene, data)
     ET.indent(root)
     files = [(out, ET.tostring(root, encoding="unicode") + "\n")]
     files += [(p, _ply_bytes(mesh)) for p, mesh in meshes]
@@ -186,14 +188,17 @@ def _rectangle(shape, s) -> None:
     ET.SubElement(tw, "matrix", value=" ".join(repr(float(x)) for x in m.ravel()))
 
 
-def _lights(root, scene: Scene) -> None:
+def _lights(root, scene: Scene, data: dict | None) -> None:
+    given = [light.get("direction") for light in (data or {}).get("lights", [])
+             if isinstance(light, dict) and light.get("kind") == "directional"]
     for light in scene.point_lights:
         e = ET.SubElement(root, "emitter", type="point")
         _vec(e, "point", "position", light.position)
         _vec(e, "rgb", "intensity", light.intensity)
-    for light in scene.directional_lights:
+    for k, light in enumerate(scene.directional_lights):
         e = ET.SubElement(root, "emitter", type="directional")
-        _vec(e, "vector", "direction", light.direction)
+        _vec(e, "vector", "direction", given[k] if len(given) == len(scene.directional_lights)
+             else light.direction)
         _vec(e, "rgb", "irradiance", light.irradiance)
     if scene.environment is not None:
         e = ET.SubElement(root, "emitter", type="constant")

@@ -99,6 +99,11 @@ class _Importer:
             self.r.fail(o.path, f"{o.tag} type '{o.type}' is not supported ({why})")
         return o.type
 
+    def nested(self, o: Obj) -> list[Obj]:
+        """o's nested objects and references, in order (a `name` on one is only its label)."""
+        o.used.update(n for n, p in o.props.items() if p.tag == "ref" or isinstance(p.value, Obj))
+        return [self.deref(c) for c in o.children]
+
     def deref(self, child) -> Obj:
         if isinstance(child, str):
             if child not in self.r.ids:
@@ -163,7 +168,7 @@ class _Importer:
     def sensor(self, o: Obj) -> None:
         kind = self.kind(o, SENSORS)
         film = sampler = None
-        for child in map(self.deref, o.children):
+        for child in self.nested(o):
             if child.tag == "film" and film is None:
                 film = child
             elif child.tag == "sampler" and sampler is None:
@@ -244,7 +249,7 @@ class _Importer:
                         ("crop_offset_y", 0)):
             self.number(o, k, full, lambda n, full=full: n == full, f"{full} (drtlab renders the whole film)")
         self.ignore(o, "file_format", "pixel_format", "component_format", "sample_border", "banner")
-        filters = [self.deref(c) for c in o.children]
+        filters = self.nested(o)
         if not filters:
             self.r.fail(o.path, "no <rfilter> means Mitsuba's Gaussian filter, which drtlab lacks; "
                                 "add <rfilter type=\"box\"/>")
@@ -269,7 +274,7 @@ class _Importer:
         chain = self.get(o, "to_world", ("transform",), [])
         flip = self.get(o, "flip_normals", ("boolean",), False)
         bsdf = emitter = None
-        for child in map(self.deref, o.children):
+        for child in self.nested(o):
             if child.tag == "bsdf" and bsdf is None:
                 bsdf = child
             elif child.tag == "emitter" and emitter is None and child.type == "area":
@@ -351,10 +356,10 @@ class _Importer:
             self.materials[unique] = spec
         return self.material_of[key]
 
-    def bsdf(self, o: Obj, inside_twosided: bool = False) -> dict:
+    def bsdf(self, o: Obj) -> dict:
         kind = self.kind(o, BSDFS)
         if kind == "twosided":
-            nested = [self.deref(c) for c in o.children]
+            nested = self.nested(o)
             if len(nested) != 1:
                 self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
                                     "same on both sides)")
@@ -362,9 +367,11 @@ class _Importer:
                 self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
                                             "(diffuse, conductor)")
             self.done(o)
-            return self.bsdf(nested[0], True)
-        for child in o.children:
-            self.r.fail(self.deref(child).path, f"a nested element in a {kind} bsdf is not supported")
+            return self.bsdf(nested[0])
+        for child in self.nested(o):
+            what = "textures are" if child.tag == "texture" else f"a nested <{child.tag}> is"
+            self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
+                                    "constant)")
         if kind == "diffuse":
             spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
         elif kind == "conductor":

@@ -63,6 +63,20 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
     return build_scene(data, name=name, source=source, text=text + _overrides_suffix(overrides))
 
 
+def scene_data(name_or_path: str | Path, overrides: dict | None = None) -> dict:
+    """The scene's table as the loader receives it (overrides applied, not validated): what an
+    exporter reads of what the file said rather than of the validated model (a light's direction
+    as written, before the loader normalises it)."""
+    path, _, _ = _resolve(name_or_path)
+    if _is_xml(path):
+        from drtlab.kernels.mitsuba_import import scene_dict
+        data = scene_dict(path)[0]
+    else:
+        data = _parse_toml(_read_text(path), path)
+    _apply_overrides(data, overrides or {})
+    return data
+
+
 def scene_settings(name_or_path: str | Path) -> dict:
     """The validated [scene] table of a scene (description, width, height, spp, integrator, ...), its
     shapes not built: listing the built-ins then neither generates displaced-sphere's mesh nor
