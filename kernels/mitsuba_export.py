@@ -5,7 +5,7 @@ transforms applied), so that importing the file (mitsuba_import.py) gives back t
 the same image bit for bit. What Mitsuba 3 has no counterpart for is refused in one line naming the
 scene key, before anything is written: the drt and whitted integrators, Phong lobes (glossy,
 glossy_dielectric, plastic), drtlab's GGX (height-correlated masking; Mitsuba's is separable),
-checker textures, moving shapes, a background, pixel filters other than the box, environments other
+checker textures, moving shapes, a background, pixel filters other than box and mitchell, environments other
 than a constant one. Meshes are written beside the XML as binary PLY files in float64.
 """
 from __future__ import annotations
@@ -33,9 +33,9 @@ def check_exportable(scene: Scene) -> None:
     if np.any(scene.background != 0.0):
         raise InputError("scene.background", "an unsampled background has no Mitsuba 3 counterpart; "
                                              "use [environment] kind = \"constant\" (Mitsuba's constant emitter)")
-    if scene.camera.filter != "box":
-        raise InputError("camera.filter", f"'{scene.camera.filter}' is not exported (Mitsuba's filters "
-                                          "differ from drtlab's; exportable: box)")
+    if scene.camera.filter not in ("box", "mitchell"):
+        raise InputError("camera.filter", f"'{scene.camera.filter}' is not exported (Mitsuba's filter "
+                                          "of that name differs or is missing; exportable: box, mitchell)")
     for m in scene.materials:
         if m.kind in PHONG_KINDS:
             raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' has a modified-Phong lobe, which "
@@ -145,7 +145,9 @@ def _sensor(root, scene: Scene) -> None:
     film = ET.SubElement(sensor, "film", type="hdrfilm")
     ET.SubElement(film, "integer", name="width", value=str(scene.width))
     ET.SubElement(film, "integer", name="height", value=str(scene.height))
-    ET.SubElement(film, "rfilter", type="box")
+    if c.filter == "mitchell":          # Mitsuba's own, once samples beyond the border count too
+        ET.SubElement(film, "boolean", name="sample_border", value="true")
+    ET.SubElement(film, "rfilter", type=c.filter)
 
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:

@@ -39,7 +39,7 @@ WHY_NOT = {
     "roughplastic": "drtlab has no rough plastic of Mitsuba's form",
     "disk": "drtlab has no disk shape", "envmap": "drtlab's environment images are not mapped from "
     "Mitsuba's envmap", "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's "
-    "(sigma 0.5, radius 1.5)"}
+    "(sigma 0.5, radius 1.5); supported: box, mitchell"}
 
 
 def scene_dict(path: Path) -> tuple[dict, str]:
@@ -175,7 +175,7 @@ class _Importer:
                 sampler = child
             else:
                 self.r.fail(child.path, f"<{child.tag}> in a sensor is not supported")
-        width, height = self.film(film) if film else (768, 576)
+        width, height, pixel_filter = self.film(film) if film else (768, 576, "box")
         s = self.data["scene"]
         s["resolution"] = [width, height]
         s["spp"] = self.sampler(sampler) if sampler else 4
@@ -183,6 +183,8 @@ class _Importer:
         chain = self.get(o, "to_world", ("transform",), [])
         self.camera_frame(o, chain, cam)
         cam["fov"] = self.vertical_fov(o, width / height)
+        if pixel_filter != "box":
+            cam["filter"] = pixel_filter
         self.ignore(o, "near_clip", "far_clip", "shutter_open", "shutter_close", "shutter_open_time")
         if kind == "thinlens":
             for name in ("aperture_radius", "focus_distance"):
@@ -241,25 +243,35 @@ class _Importer:
             fov = math.degrees(2.0 * math.atan(diagonal / math.sqrt(1.0 + 1.0 / (aspect * aspect)) * 0.5))
         return math.degrees(2.0 * math.atan(math.tan(0.5 * math.radians(fov)) / aspect))
 
-    def film(self, o: Obj) -> tuple[int, int]:
+    def film(self, o: Obj) -> tuple[int, int, str]:
         self.kind(o, ("hdrfilm",))
         size = [int(self.number(o, k, d, lambda n: n == int(n) and n >= 1, "an integer >= 1"))
                 for k, d in (("width", 768), ("height", 576))]
         for k, full in (("crop_width", size[0]), ("crop_height", size[1]), ("crop_offset_x", 0),
                         ("crop_offset_y", 0)):
             self.number(o, k, full, lambda n, full=full: n == full, f"{full} (drtlab renders the whole film)")
-        self.ignore(o, "file_format", "pixel_format", "component_format", "sample_border", "banner")
+        self.ignore(o, "file_format", "pixel_format", "component_format", "banner")
+        border = self.get(o, "sample_border", ("boolean",), False)
         filters = self.nested(o)
         if not filters:
             self.r.fail(o.path, "no <rfilter> means Mitsuba's Gaussian filter, which drtlab lacks; "
                                 "add <rfilter type=\"box\"/>")
+        pixel_filter = "box"
         for f in filters:
             if f.tag != "rfilter":
                 self.r.fail(f.path, f"<{f.tag}> in a film is not supported")
-            self.kind(f, ("box",))
+            if self.kind(f, ("box", "mitchell")) == "mitchell":
+                # Mitsuba splats each sample over radius 2, normalised by the weights: drtlab's
+                # mitchell (B = C = 1/3) once samples beyond the border count too, as drtlab's do.
+                for name in ("B", "C"):
+                    self.number(f, name, 1 / 3, lambda x: abs(x - 1 / 3) < 1e-6, "1/3 (drtlab's mitchell)")
+                if not border:
+                    self.r.fail(f.path, "mitchell needs <boolean name=\"sample_border\" value=\"true\"/> "
+                                        "in the film (drtlab's border pixels have full support)")
+                pixel_filter = "mitchell"
             self.done(f)
         self.done(o)
-        return size[0], size[1]
+        return size[0], size[1], pixel_filter
 
     def sampler(self, o: Obj) -> int:
         self.kind(o, SAMPLERS)

@@ -78,6 +78,13 @@ def test_fov_axis_becomes_the_vertical_fov(tmp_path, axis, w, h, want):
     assert s.camera.position.tolist() == [0, 1, 5] and s.camera.look_at.tolist() == [0, 1, 0]
 
 
+def test_mitchell_filter_with_border_samples(tmp_path):
+    film = xml().replace('<rfilter type="box" name="filter"/>',
+                         '<boolean name="sample_border" value="true"/><rfilter type="mitchell"/>')
+    assert load(tmp_path, film).camera.filter == "mitchell"
+    assert load(tmp_path, xml()).camera.filter == "box"
+
+
 def test_thinlens_and_a_camera_matrix(tmp_path):
     lens = '<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="4.5"/>'
     s = load(tmp_path, xml(sensor="thinlens", lens=lens))
@@ -216,6 +223,8 @@ def test_refused_elements_name_their_path(tmp_path, body, where, what):
 @pytest.mark.parametrize("change,what", [
     (('<rfilter type="box" name="filter"/>', '<rfilter type="gaussian"/>'), "Gaussian"),
     (('<rfilter type="box" name="filter"/>', ''), 'add <rfilter type="box"/>'),
+    (('<rfilter type="box" name="filter"/>', '<rfilter type="mitchell"/>'), "sample_border"),
+    (('<rfilter type="box" name="filter"/>', '<rfilter type="tent"/>'), "supported: box, mitchell"),
     (('value="40.0"', 'value="abc"'), "float[@name=fov]: could not parse"),
     (('value="40.0"', 'value="nan"'), "finite"),
     (('value="3"/>', 'value="$spp"/>'), "undefined parameter $spp"),
@@ -298,6 +307,7 @@ fov = 37.5
 f_number = 2.8
 focal_length = 0.7
 image_distance = 0.8
+filter = "mitchell"
 [materials.floor]
 albedo = [0.7, 0.6, 0.5]
 [materials.glass]
@@ -372,6 +382,7 @@ def test_every_exportable_feature_comes_back_as_the_same_numbers(tmp_path):
 @pytest.mark.parametrize("override,field", [
     ({"scene.integrator": "drt", "scene.russian_roulette": False}, "scene.integrator"),
     ({"camera.filter": "gaussian"}, "camera.filter"),
+    ({"camera.filter": "blackman_harris"}, "camera.filter"),
     ({"materials.floor.kind": "glossy", "materials.floor.exponent": 10}, "materials.floor.kind"),
     ({"materials.floor.albedo2": [0, 0, 0]}, "materials.floor.checker"),
     ({"shapes[2].velocity": [1, 0, 0]}, "shapes.velocity"),
