@@ -118,7 +118,7 @@ def _resolve(name_or_path: str | Path) -> tuple[Path, str, str]:
     if isinstance(name_or_path, Path) or "/" in str(name_or_path) or path.suffix in (".toml", ".xml"):
         raise InputError("scene", f"scene file '{name_or_path}' does not exist")
     raise InputError("scene", f"unknown scene '{name_or_path}'; built-ins: "
-                              f"{', '.join(builtin_names())} or a path to a .toml or Mitsuba 3 .xml file")
+                              f"{', '.join(builtin_names())} or a path to a .toml file (or a Mitsuba 3 .xml file)")
 
 
 def _is_xml(path: Path) -> bool:
