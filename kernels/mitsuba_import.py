@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.kernels.mitsuba_xml import (Obj, Reader, chain_matrix, chain_point, chain_vector,
+from drtlab.kernels.mitsuba_xml import (Obj, Reader, Ref, chain_matrix, chain_point, chain_vector,
                                         drtlab_transform)
 
 # Mitsuba's named indices of refraction (include/mitsuba/render/ior.h).
@@ -104,11 +104,11 @@ class _Importer:
         o.used.update(n for n, p in o.props.items() if p.tag == "ref" or isinstance(p.value, Obj))
         return [self.deref(c) for c in o.children]
 
-    def deref(self, child) -> Obj:
-        if isinstance(child, str):
-            if child not in self.r.ids:
-                self.r.fail(self.r.root.path, f"<ref id='{child}'> names no object")
-            return self.r.ids[child]
+    def deref(self, child: Obj | Ref) -> Obj:
+        if isinstance(child, Ref):
+            if child.id not in self.r.ids:
+                self.r.fail(child.path, f"id '{child.id}' names no object")
+            return self.r.ids[child.id]
         return child
 
     # ---- the scene ---------------------------------------------------------------------------------
@@ -117,8 +117,8 @@ class _Importer:
         self.done(root)
         sensors = []
         for child in root.children:
-            if isinstance(child, str):
-                self.r.fail(root.path, f"a <ref id='{child}'> directly in <scene> is not supported")
+            if isinstance(child, Ref):
+                self.r.fail(child.path, "a <ref> directly in <scene> is not supported")
             if child.tag == "sensor":
                 sensors.append(child)
             elif child.tag == "integrator":
@@ -187,11 +187,12 @@ class _Importer:
             cam["filter"] = pixel_filter
         self.ignore(o, "near_clip", "far_clip", "shutter_open", "shutter_close", "shutter_open_time")
         if kind == "thinlens":
-            for name in ("aperture_radius", "focus_distance"):
-                if name not in o.props:
-                    self.r.fail(o.path, f"thinlens needs {name}")
+            if "aperture_radius" not in o.props:
+                self.r.fail(o.path, "thinlens needs aperture_radius")
             cam["aperture_radius"] = self.number(o, "aperture_radius", 0, lambda x: x >= 0, ">= 0")
-            cam["focus_distance"] = self.number(o, "focus_distance", 1, lambda x: x > 0, "> 0")
+            # Mitsuba's ProjectiveCamera: the focus is at the far clip plane unless given.
+            far = self.number(o, "far_clip", 1e4, lambda x: x > 0, "> 0")
+            cam["focus_distance"] = self.number(o, "focus_distance", far, lambda x: x > 0, "> 0")
         else:
             self.ignore(o, "focus_distance")
         for name in ("principal_point_offset_x", "principal_point_offset_y"):

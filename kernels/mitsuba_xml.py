@@ -39,6 +39,12 @@ class Prop:
 
 
 @dataclass
+class Ref:
+    id: str
+    path: str
+
+
+@dataclass
 class Obj:
     """One object element (<shape type="sphere">): its properties by name, nested objects in order."""
     tag: str
@@ -46,7 +52,7 @@ class Obj:
     path: str
     id: str | None
     props: dict[str, Prop] = field(default_factory=dict)
-    children: list[Obj | str] = field(default_factory=list)     # nested objects or ref ids, in order
+    children: list[Obj | Ref] = field(default_factory=list)     # nested objects and refs, in order
     used: set[str] = field(default_factory=set)
 
 
@@ -135,7 +141,7 @@ class Reader:
                     self.fail(child_path, "<ref> needs an id")
                 if child.get("name"):
                     self._set(obj, child.get("name"), Prop("ref", child.get("id"), child_path), child_path)
-                obj.children.append(child.get("id"))
+                obj.children.append(Ref(child.get("id"), child_path))
             elif child.tag in PROPERTY_TAGS:
                 name = child.get("name")
                 if not name:

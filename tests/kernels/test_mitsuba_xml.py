@@ -89,6 +89,8 @@ def test_thinlens_and_a_camera_matrix(tmp_path):
     lens = '<float name="aperture_radius" value="0.1"/><float name="focus_distance" value="4.5"/>'
     s = load(tmp_path, xml(sensor="thinlens", lens=lens))
     assert (s.camera.aperture_radius, s.camera.focus_distance) == (0.1, 4.5)
+    s = load(tmp_path, xml(sensor="thinlens", lens='<float name="aperture_radius" value="0.1"/>'))
+    assert s.camera.focus_distance == 100.0                   # Mitsuba's default: the far clip
     # A translated camera rotated 180 degrees about y looks down -z... towards +z turned: along -z.
     body = xml().replace('<lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/>',
                          '<rotate y="1" angle="180"/><translate value="0 1 5"/>')
@@ -214,6 +216,7 @@ def test_integrators(tmp_path, integrator, want):
     ('<integrator type="volpath"/>', "integrator(volpath)", "supported: path, direct"),
     ('<texture type="bitmap" id="t"/>', "texture(bitmap)", "not supported"),
     ('<include filename="other.xml"/>', "scene/include", "not supported"),
+    ('<shape type="sphere"><ref id="nothing"/></shape>', "scene/shape[2](sphere)/ref", "'nothing' names no object"),
 ])
 def test_refused_elements_name_their_path(tmp_path, body, where, what):
     msg = refused(tmp_path, xml(body))
