@@ -41,7 +41,7 @@ def add_export_command(sub) -> None:
                     "XML file whose import renders bit-identically in drtlab: the path integrator; "
                     "diffuse, mirror, dielectric and emitter materials; quads, boxes (as six "
                     "rectangles), spheres, meshes (PLY files beside OUT); point and directional "
-                    "lights; a constant environment; pinhole or thin-lens camera; box filter. "
+                    "lights; a constant environment; pinhole or thin-lens camera; box or mitchell filter. "
                     "Anything else (drt, whitted, Phong lobes, GGX, checkers, motion) is refused "
                     "in one line, exit 2.")
     p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml or .xml scene")

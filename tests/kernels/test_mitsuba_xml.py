@@ -401,15 +401,17 @@ def test_export_refuses_what_mitsuba_lacks_in_one_line(tmp_path, capsys, overrid
 
 
 def test_a_study_on_an_xml_scene(tmp_path):
-    # `scenes = ["scenes/cb.xml"]` relative to the experiment file, on the real renderer.
+    # `scenes = ["cb.xml"]`, a file beside the experiment file (not in the working directory), on
+    # the real renderer.
     from fakes import tiny_real_experiment
     from drtlab.experiments.study.backend import default_backend
     from drtlab.experiments.study.config import load_experiment
     from drtlab.experiments.study.runner import run_experiment
-    (tmp_path / "scenes").mkdir()
-    export_mitsuba(load_scene("cornell-box"), tmp_path / "scenes" / "cb.xml")
-    (tmp_path / "tiny.toml").write_text(tiny_real_experiment("xml scene", ["scenes/cb.xml"]))
-    exp = load_experiment(str(tmp_path / "tiny.toml"))
+    (tmp_path / "study").mkdir()
+    export_mitsuba(load_scene("cornell-box"), tmp_path / "study" / "cb.xml")
+    (tmp_path / "study" / "tiny.toml").write_text(tiny_real_experiment("xml scene", ["cb.xml"]))
+    exp = load_experiment(str(tmp_path / "study" / "tiny.toml"))
+    assert exp.studies[0].scenes[0].name == str(tmp_path / "study" / "cb.xml")
     run_experiment(exp, out_dir=tmp_path / "out", gt_root=tmp_path / "gt", backend=default_backend(),
                    threads=2, progress=False, log=lambda m: None, analyze=False)
     rows = list(csv.DictReader(open(tmp_path / "out" / "runs.csv")))
