@@ -123,9 +123,9 @@ def _vec(parent, tag: str, name: str, v) -> None:
 def _integrator(root, scene: Scene) -> None:
     it = ET.SubElement(root, "integrator", type="path")
     ET.SubElement(it, "integer", name="max_depth", value=str(scene.max_depth))
-    # Mitsuba's rr_depth r is drtlab's r - 1 (mitsuba_import.py); a roulette-free path rolls only
-    # from max_depth on, where no path goes.
-    rr = scene.rr_depth + 1 if scene.russian_roulette else scene.max_depth
+    # rr_depth means the same vertex index in both (mitsuba_import.py); a roulette-free path rolls
+    # only from max_depth on, where no path goes.
+    rr = scene.rr_depth if scene.russian_roulette else scene.max_depth
     ET.SubElement(it, "integer", name="rr_depth", value=str(rr))
 
 

@@ -137,7 +137,7 @@ class _Importer:
             self.r.fail(root.path, f"exactly one <sensor> is needed, got {len(sensors)}")
         self.data.setdefault("scene", {}).setdefault("integrator", "path")
         if "max_depth" not in self.data["scene"]:      # no <integrator>: Mitsuba's default path
-            self.data["scene"].update(max_depth=-1, russian_roulette=True, rr_depth=4)
+            self.data["scene"].update(max_depth=-1, russian_roulette=True, rr_depth=5)
         self.sensor(sensors[0])
         self.data["scene"]["description"] = f"Mitsuba 3 scene {self.r.file}"
         return self.data
@@ -158,10 +158,11 @@ class _Importer:
             depth = self.number(o, "max_depth", -1, lambda n: n == -1 or n >= 1, "-1 or >= 1")
             rr = self.number(o, "rr_depth", 5, lambda n: n >= 0, ">= 0")
             s["max_depth"] = int(depth)
-            # Mitsuba rolls after counting the vertex a bounce leads to: its rr_depth r is drtlab's
-            # r - 1; roulette from depth max_depth on never happens.
+            # Both roll with the index k of a path vertex (first hit 0) once k >= rr_depth: Mitsuba
+            # before tracing to vertex k, drtlab at vertex k after its emission (the same unbiased
+            # estimate, another split of the noise). No vertex k >= max_depth: no roulette.
             if depth == -1 or rr < depth:
-                s.update(russian_roulette=True, rr_depth=max(int(rr) - 1, 1))
+                s.update(russian_roulette=True, rr_depth=max(int(rr), 1))
         self.ignore(o, "samples_per_pass", "timeout", "block_size")
         self.done(o)
 

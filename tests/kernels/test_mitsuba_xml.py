@@ -182,9 +182,9 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
 
 
 @pytest.mark.parametrize("integrator,want", [
-    ("", ("path", -1, True, 4)),                                   # Mitsuba's default: path, rr 5
+    ("", ("path", -1, True, 5)),                                   # Mitsuba's default: path, rr 5
     ('<integrator type="path"><integer name="max_depth" value="6"/><integer name="rr_depth" value="3"/></integrator>',
-     ("path", 6, True, 2)),
+     ("path", 6, True, 3)),
     ('<integrator type="path"><integer name="max_depth" value="6"/><integer name="rr_depth" value="6"/></integrator>',
      ("path", 6, False, 5)),                                       # roulette from max_depth: none
     ('<integrator type="direct"/>', ("path", 2, False, 5)),
