@@ -290,8 +290,8 @@ def coordinate_up(n: np.ndarray) -> list[float]:
     is given."""
     sign = math.copysign(1.0, n[2])
     a = -1.0 / (sign + n[2])
-    return [math.copysign(n[0] * n[0] * a, n[2]) + 1.0, math.copysign(n[0] * n[1] * a, n[2]),
-            -math.copysign(n[0], n[2])]
+    # Dr.Jit's mulsign(x, y): x with its sign flipped where y is negative (not copysign).
+    return [sign * (n[0] * n[0] * a) + 1.0, sign * (n[0] * n[1] * a), -sign * n[0]]
 
 
 # ---------------------------------------------------------------------------------------------------

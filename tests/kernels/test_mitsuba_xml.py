@@ -96,6 +96,10 @@ def test_thinlens_and_a_camera_matrix(tmp_path):
                          '<rotate y="1" angle="180"/><translate value="0 1 5"/>')
     c = load(tmp_path, body).camera
     assert np.allclose(c.position, [0, 1, 5]) and np.allclose(c.look_at - c.position, [0, 0, -1])
+    # lookat without up: Mitsuba's coordinate_system(d) (Duff et al. 2017), here for d = (0.6, 0, 0.8):
+    # a = -1 / 1.8, up = (1 + 0.36 a, 0, -0.6).
+    c = load(tmp_path, xml().replace(' up="0, 1, 0"', '').replace('target="0, 1, 0"', 'target="3, 1, 9"')).camera
+    assert np.allclose(c.up, [1 - 0.36 / 1.8, 0, -0.6]) and abs(np.dot(c.up, [0.6, 0, 0.8])) < 1e-12
     mirrored = xml().replace('<lookat origin="0, 1, 5" target="0, 1, 0" up="0, 1, 0"/>',
                              '<scale x="-1"/>')
     assert "to_world" in refused(tmp_path, mirrored)
