@@ -37,8 +37,8 @@ WHY_NOT = {
                        "separable G1 G1: not the same BSDF",
     "plastic": "drtlab's plastic is a Phong coat over a coupled diffuse base, not Mitsuba's model",
     "roughplastic": "drtlab has no rough plastic of Mitsuba's form",
-    "disk": "drtlab has no disk shape", "envmap": "drtlab's environment images are not mapped from "
-    "Mitsuba's envmap", "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's "
+    "disk": "drtlab has no disk shape", "envmap": "its lat-long orientation and bilinear lookup are not "
+    "drtlab's piecewise-constant map", "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's "
     "(sigma 0.5, radius 1.5); supported: box, mitchell"}
 
 
