@@ -39,7 +39,7 @@ def add_export_command(sub) -> None:
         "export", help="write a scene as a Mitsuba 3 XML file", formatter_class=Help,
         description="Write SCENE (a built-in name, a .toml or a Mitsuba .xml path) as a Mitsuba 3 "
                     "XML file whose import renders bit-identically in drtlab: the path integrator; "
-                    "diffuse, mirror, dielectric and emitter materials; quads, boxes (as six "
+                    "diffuse, mirror, beckmann, dielectric and emitter materials; quads, boxes (as six "
                     "rectangles), spheres, meshes (PLY files beside OUT); point and directional "
                     "lights; a constant environment; pinhole or thin-lens camera; box or mitchell filter. "
                     "Anything else (drt, whitted, Phong lobes, GGX, checkers, motion) is refused "

@@ -152,7 +152,7 @@ def _sensor(root, scene: Scene) -> None:
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:
     """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
-    one-sided); material name -> its id."""
+    one-sided; beckmann is Mitsuba's Beckmann roughconductor); material name -> its id."""
     ids: dict[str, str] = {}
     for k, m in enumerate(scene.materials):
         ident = m.name if _is_id(m.name) and m.name not in ids.values() else f"material{k}"
@@ -168,8 +168,11 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _vec(b, "rgb", "reflectance", np.zeros(3))
             continue
         outer = ET.SubElement(root, "bsdf", type="twosided", id=ident)
-        if m.kind == "mirror":
-            b = ET.SubElement(outer, "bsdf", type="conductor")
+        if m.kind in ("mirror", "beckmann"):
+            b = ET.SubElement(outer, "bsdf", type="conductor" if m.kind == "mirror" else "roughconductor")
+            if m.kind == "beckmann":
+                _num(b, "string", "distribution", "beckmann")
+                _num(b, "float", "alpha", m.roughness)
             _vec(b, "rgb", "specular_reflectance", m.albedo)
         else:
             b = ET.SubElement(outer, "bsdf", type="diffuse")

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.kernels.mesh_file import file_has_vertex_normals
 from drtlab.kernels.mitsuba_xml import (Obj, Reader, Ref, chain_matrix, chain_point, chain_vector,
                                         drtlab_transform)
 
@@ -23,23 +24,18 @@ IOR_PRESETS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1
                "silicone oil": 1.52045, "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458,
                "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
                "sodium chloride": 1.544, "amber": 1.55, "pet": 1.5750, "diamond": 2.419}
-SHAPES = ("rectangle", "cube", "sphere", "obj", "ply")
-BSDFS = ("diffuse", "twosided", "dielectric", "conductor")
+SHAPES, INTEGRATORS = ("rectangle", "cube", "sphere", "obj", "ply"), ("path", "direct")
+BSDFS, SENSORS = ("diffuse", "twosided", "dielectric", "conductor", "roughconductor"), ("perspective", "thinlens")
 EMITTERS = ("area", "point", "directional", "constant")
-SENSORS = ("perspective", "thinlens")
-INTEGRATORS = ("path", "direct")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 # Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
 WHY_NOT = {
-    "roughconductor": "drtlab's GGX (kind ggx) uses height-correlated Smith masking, Mitsuba's "
-                      "separable G1 G1: not the same BSDF",
-    "roughdielectric": "drtlab's ggx_dielectric uses height-correlated Smith masking, Mitsuba's "
-                       "separable G1 G1: not the same BSDF",
+    "roughdielectric": "drtlab's ggx_dielectric has height-correlated Smith masking, not G1 G1",
     "plastic": "drtlab's plastic is a Phong coat over a coupled diffuse base, not Mitsuba's model",
-    "roughplastic": "drtlab has no rough plastic of Mitsuba's form",
-    "disk": "drtlab has no disk shape", "envmap": "its lat-long orientation and bilinear lookup are not "
-    "drtlab's piecewise-constant map", "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's "
-    "(sigma 0.5, radius 1.5); supported: box, mitchell"}
+    "roughplastic": "drtlab has no rough plastic of Mitsuba's form", "disk": "drtlab has no disk",
+    "envmap": "its lat-long orientation and bilinear lookup are not drtlab's piecewise-constant map",
+    "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's (sigma 0.5, radius 1.5); "
+                "supported: box, mitchell"}
 
 
 def scene_dict(path: Path) -> tuple[dict, str]:
@@ -334,7 +330,7 @@ class _Importer:
             self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
         if path.suffix.lower() != f".{kind}":
             self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
-        has_normals = _file_has_normals(path)
+        has_normals = file_has_vertex_normals(path)
         face_normals = self.get(o, "face_normals", ("boolean",), False)
         if not face_normals and not has_normals:
             self.r.fail(o.path, "the file has no vertex normals, so Mitsuba would compute smooth ones, "
@@ -377,9 +373,9 @@ class _Importer:
             if len(nested) != 1:
                 self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
                                     "same on both sides)")
-            if nested[0].type not in ("diffuse", "conductor"):
+            if nested[0].type not in ("diffuse", "conductor", "roughconductor"):
                 self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
-                                            "(diffuse, conductor)")
+                                            "(diffuse, conductor, roughconductor)")
             self.done(o)
             return self.bsdf(nested[0])
         for child in self.nested(o):
@@ -388,13 +384,15 @@ class _Importer:
                                     "constant)")
         if kind == "diffuse":
             spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
-        elif kind == "conductor":
+        elif kind in ("conductor", "roughconductor"):
             self.string(o, "material", "none", ("none",))
             for name in ("eta", "k"):
                 if name in o.props:
                     self.r.fail(o.props[name].path, "a complex index of refraction is not supported "
-                                                    "(drtlab's mirror reflects a constant colour)")
+                                                    "(drtlab's conductors reflect a constant colour)")
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
+            if kind == "roughconductor":
+                spec.update(kind="beckmann", roughness=self.roughness(o))
         else:
             ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
             if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
@@ -404,6 +402,22 @@ class _Importer:
                     "albedo": self.colour(o, "specular_transmittance", 1.0)}
         self.done(o)
         return spec
+
+    def roughness(self, o: Obj) -> float:
+        """Mitsuba's isotropic Beckmann alpha: drtlab's `beckmann` is that model (separable Smith
+        G1 G1 in Walter's rational fit); its `ggx` masks with the height-correlated form instead."""
+        distribution = self.string(o, "distribution", "beckmann")
+        if distribution != "beckmann":
+            self.r.fail(o.props["distribution"].path, f"{distribution!r} is not supported (supported: "
+                        "beckmann; drtlab's ggx has height-correlated Smith masking, not G1 G1)")
+        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
+        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha", "alpha_u", "alpha_v")]
+        if alpha[1] is not None or alpha[2] is not None:
+            if alpha[0] is not None or alpha[1] != alpha[2]:
+                self.r.fail(o.path, "anisotropic roughness is not supported: give alpha, or alpha_u "
+                                    "equal to alpha_v")
+            return alpha[1]
+        return 0.1 if alpha[0] is None else alpha[0]
 
     def ior(self, o: Obj, name: str, default: str) -> float:
         p = o.props.get(name)
@@ -434,15 +448,3 @@ class _Importer:
                 {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
         self.done(o)
 
-
-def _file_has_normals(path: Path) -> bool:
-    """Whether an .obj has `vn` lines or a .ply declares nx: what decides Mitsuba's smooth normals."""
-    with path.open("rb") as f:
-        if path.suffix.lower() == ".ply":
-            for line in f:
-                if line.strip() == b"end_header":
-                    return False
-                if line.split()[-1:] == [b"nx"]:
-                    return True
-            return False
-        return any(line.startswith(b"vn ") for line in f)
