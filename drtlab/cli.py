@@ -395,7 +395,7 @@ def _add_progress_flag(parser) -> None:
 def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
                        formatter_class=Help)
-    r.add_argument("scene", help="built-in scene name or path to a .toml scene")
+    r.add_argument("scene", help="built-in scene name or path to a .toml or Mitsuba 3 .xml scene")
     count = r.add_mutually_exclusive_group()
     count.add_argument("--spp", type=int_flag(1, fields.MAX_COUNT), default=None,
                        help="samples per pixel (default: the scene's)")
@@ -523,14 +523,11 @@ def build_parser() -> argparse.ArgumentParser:
     _add_experiment(sub)
     _add_ground_truth(sub)
     _add_image_tools(sub)
-    from drtlab.cli_pointsets import add_pointset_commands
-    add_pointset_commands(sub)
-    from drtlab.cli_lobe import add_lobe_command
-    add_lobe_command(sub)
-    from drtlab.cli_sources import add_sources_command
-    add_sources_command(sub)
-    from drtlab.cli_audit import add_audit_command
-    add_audit_command(sub)
+    from drtlab import cli_audit, cli_export, cli_lobe, cli_pointsets, cli_sources
+    for add in (cli_pointsets.add_pointset_commands, cli_lobe.add_lobe_command,
+                cli_sources.add_sources_command, cli_audit.add_audit_command,
+                cli_export.add_export_command):
+        add(sub)
     # Every command takes --plugin; `main` loads the plugins before parsing (a plugin's names must be
     # known to the checks of the other arguments), so here it is only listed and accepted.
     for parser in [p, *sub.choices.values()]:

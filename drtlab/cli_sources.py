@@ -61,7 +61,7 @@ def add_sources_command(sub) -> None:
                     "share. Groups: " + "; ".join(GROUPS) + " (estimators/dimensions.py says which "
                     "dimensions each holds). Writes sources.json, sources.png (image, the map of the "
                     "group that dominates each pixel's variance, bars of S and T) and manifest.json.")
-    p.add_argument("scene", help="built-in scene name or path to a .toml scene")
+    p.add_argument("scene", help="built-in scene name or path to a .toml or Mitsuba 3 .xml scene")
     p.add_argument("--spp", type=int_flag(2, MAX_SAMPLES), default=DEFAULT_SAMPLES, metavar="N",
                    help="base samples per pixel (each renders len(groups) + 2 samples)")
     p.add_argument("--res", type=resolution_flag, default=None,

@@ -268,3 +268,16 @@ def parse_sphere_grid(t: Table, name: str, material: int, velocity: np.ndarray) 
     return [Shape(kind="sphere", name=f"{name}[{k}]", material=material, center=c, radius=radius,
                   velocity=velocity.copy())
             for k, c in enumerate(sphere_grid_centres(count, center + [0.0, radius, 0.0], size))]
+
+
+def file_has_vertex_normals(path: Path) -> bool:
+    """Whether an .obj has `vn` lines or a .ply declares nx: what decides Mitsuba's smooth normals."""
+    with path.open("rb") as f:
+        if path.suffix.lower() == ".ply":
+            for line in f:
+                if line.strip() == b"end_header":
+                    return False
+                if line.split()[-1:] == [b"nx"]:
+                    return True
+            return False
+        return any(line.startswith(b"vn ") for line in f)

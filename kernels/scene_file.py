@@ -39,16 +39,22 @@ def builtin_descriptions() -> dict[str, str]:
 
 
 def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene:
-    """Load a built-in scene by name, or a .toml file by path, applying dotted-key `overrides`.
+    """Load a built-in scene by name, or a .toml (or Mitsuba 3 .xml) file by path, applying
+    dotted-key `overrides` (to the drtlab scene an .xml file becomes: kernels/mitsuba_import.py).
 
     `overrides` maps dotted keys to values, e.g. {"scene.resolution": [32, 24],
     "materials.gloss1.exponent": 10, "shapes[0].radius": 0.5}; they are applied to the parsed TOML
     before validation, so an override is validated exactly like the file's own value.
     """
     if not isinstance(name_or_path, (str, Path)):
-        raise InputError("scene", f"must be a built-in scene name, a .toml path or a dict shaped like a "
+        raise InputError("scene", f"must be a built-in scene name, a .toml or .xml path or a dict shaped like a "
                                   f"scene file, got {type(name_or_path).__name__}")
     path, name, source = _resolve(name_or_path)
+    if _is_xml(path):
+        from drtlab.kernels.mitsuba_import import scene_dict
+        data, text = scene_dict(path)
+        _apply_overrides(data, overrides or {})
+        return _build_xml(data, name, source, text + _overrides_suffix(overrides), path)
     text = _read_text(path)
     data = _parse_toml(text, path)
     _apply_overrides(data, overrides or {})
@@ -57,11 +63,28 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
     return build_scene(data, name=name, source=source, text=text + _overrides_suffix(overrides))
 
 
+def scene_data(name_or_path: str | Path, overrides: dict | None = None) -> dict:
+    """The scene's table as the loader receives it (overrides applied, not validated): what an
+    exporter reads of what the file said rather than of the validated model (a light's direction
+    as written, before the loader normalises it)."""
+    path, _, _ = _resolve(name_or_path)
+    if _is_xml(path):
+        from drtlab.kernels.mitsuba_import import scene_dict
+        data = scene_dict(path)[0]
+    else:
+        data = _parse_toml(_read_text(path), path)
+    _apply_overrides(data, overrides or {})
+    return data
+
+
 def scene_settings(name_or_path: str | Path) -> dict:
     """The validated [scene] table of a scene (description, width, height, spp, integrator, ...), its
     shapes not built: listing the built-ins then neither generates displaced-sphere's mesh nor
     imports trimesh (0.65 s of `drtlab scenes`)."""
     path, _, _ = _resolve(name_or_path)
+    if _is_xml(path):
+        from drtlab.kernels.mitsuba_import import scene_dict
+        return parse_settings(scene_dict(path)[0]["scene"])
     return parse_settings(_parse_toml(_read_text(path), path).get("scene", REQUIRED))
 
 
@@ -92,10 +115,23 @@ def _resolve(name_or_path: str | Path) -> tuple[Path, str, str]:
         return path, path.stem, str(path)
     if path.is_dir():
         raise InputError("scene", f"'{name_or_path}' is a folder, not a scene file")
-    if isinstance(name_or_path, Path) or "/" in str(name_or_path) or path.suffix == ".toml":
+    if isinstance(name_or_path, Path) or "/" in str(name_or_path) or path.suffix in (".toml", ".xml"):
         raise InputError("scene", f"scene file '{name_or_path}' does not exist")
     raise InputError("scene", f"unknown scene '{name_or_path}'; built-ins: "
-                              f"{', '.join(builtin_names())} or a path to a .toml file")
+                              f"{', '.join(builtin_names())} or a path to a .toml file (or a Mitsuba 3 .xml file)")
+
+
+def _is_xml(path: Path) -> bool:
+    return path.suffix.lower() == ".xml"
+
+
+def _build_xml(data: dict, name: str, source: str, text: str, path: Path) -> Scene:
+    """A Mitsuba file's converted dict through the loader; what the loader refuses is named after the
+    file and the drtlab key it became (the file's elements are checked by the importer first)."""
+    try:
+        return build_scene(data, name=name, source=source, text=text)
+    except InputError as exc:
+        raise InputError(f"{path.name}: as drtlab's {exc.field}", exc.message) from None
 
 
 def _read_text(path: Path) -> str:

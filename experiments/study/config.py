@@ -334,7 +334,7 @@ def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
         label = fields.nonempty_string(entry["label"], f"{fld}.label") if "label" in entry else None
     else:
         raise InputError(fld, f"must be a scene name or a table {{name, overrides, label}}, got {entry!r}")
-    is_path = "/" in name or name.endswith(".toml")
+    is_path = "/" in name or name.endswith((".toml", ".xml"))
     if is_path and base is not None and not Path(name).is_absolute() and (base / name).is_file():
         name = str((base / name).resolve())        # relative to the experiment file
     if label is None:

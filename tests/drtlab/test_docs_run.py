@@ -240,6 +240,16 @@ def check_toml_block(text: str, where: str, tmp_path: Path) -> None:
         assert np.all(np.isfinite(image)) and np.any(image > 0), f"{where}: a black image"
 
 
+def check_xml_block(text: str, where: str, tmp_path: Path) -> None:
+    """A Mitsuba 3 scene: it loads through the importer (kernels/mitsuba_import.py), every shape kept."""
+    from drtlab.kernels.scene_file import load_scene
+    path = tmp_path / "doc-scene.xml"
+    path.write_text(text)
+    scene = load_scene(path)
+    assert len(scene.shapes) == text.count("<shape "), f"{where}: shapes lost"
+    assert scene.emitter_shapes(), f"{where}: no light"
+
+
 # ---------------------------------------------------------------------------------------------------
 # SCENE_FORMAT's reference block
 # ---------------------------------------------------------------------------------------------------
@@ -302,6 +312,8 @@ def test_documented_block_runs(doc, lang, line, text, scratch, capsys, clean_reg
         pass
     elif lang == "toml":
         check_toml_block(text, where, scratch)
+    elif lang == "xml":
+        check_xml_block(text, where, scratch)
     elif lang == "sh" or (lang == "" and commands(text) and _is_command(commands(text)[0])):
         run_shell_block(text, where, capsys)
     else:

@@ -1,0 +1,223 @@
+"""A drtlab scene -> a Mitsuba 3 XML file (`drtlab export SCENE --format mitsuba OUT.xml`).
+
+Written from the loaded `Scene` (world space: boxes are their six quads, sphere grids their spheres,
+transforms applied), so that importing the file (mitsuba_import.py) gives back the same numbers and
+the same image bit for bit. What Mitsuba 3 has no counterpart for is refused in one line naming the
+scene key, before anything is written: the drt and whitted integrators, Phong lobes (glossy,
+glossy_dielectric, plastic), drtlab's GGX (height-correlated masking; Mitsuba's is separable),
+checker textures, moving shapes, a background, pixel filters other than box and mitchell, environments other
+than a constant one. Meshes are written beside the XML as binary PLY files in float64.
+"""
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from drtlab.errors import InputError
+from drtlab.kernels.scene import Scene
+
+PHONG_KINDS = ("glossy", "glossy_dielectric", "plastic")
+GGX_KINDS = ("ggx", "ggx_dielectric")
+# The procedural environment's default lat-long size: what an imported constant emitter becomes.
+DEFAULT_ENV_SHAPE = (32, 64)
+
+
+def check_exportable(scene: Scene) -> None:
+    """One InputError for the first thing of `scene` Mitsuba 3 cannot render as drtlab does."""
+    if scene.integrator != "path":
+        raise InputError("scene.integrator", f"'{scene.integrator}' has no Mitsuba 3 counterpart "
+                                             "(exportable: path)")
+    if np.any(scene.background != 0.0):
+        raise InputError("scene.background", "an unsampled background has no Mitsuba 3 counterpart; "
+                                             "use [environment] kind = \"constant\" (Mitsuba's constant emitter)")
+    if scene.camera.filter not in ("box", "mitchell"):
+        raise InputError("camera.filter", f"'{scene.camera.filter}' is not exported (Mitsuba's filter "
+                                          "of that name differs or is missing; exportable: box, mitchell)")
+    for m in scene.materials:
+        if m.kind in PHONG_KINDS:
+            raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' has a modified-Phong lobe, which "
+                                                         "Mitsuba 3 lacks")
+        if m.kind in GGX_KINDS:
+            raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' uses height-correlated Smith "
+                                                         "masking; Mitsuba 3's GGX uses the separable form")
+        if m.checker is not None:
+            raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
+    for i, s in enumerate(scene.shapes):
+        if np.any(s.velocity != 0.0):
+            raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "
+                                                "blur) have no Mitsuba 3 counterpart")
+    env = scene.environment
+    if env is not None and (env.kind != "constant" or env.image.shape[:2] != DEFAULT_ENV_SHAPE):
+        raise InputError("environment", "only a constant environment of the default resolution is "
+                                        f"exported (Mitsuba's constant emitter), got {env.kind} "
+                                        f"{env.width}x{env.height}")
+
+
+def export_mitsuba(scene: Scene, out: Path, data: dict | None = None) -> list[Path]:
+    """Write `scene` as Mitsuba 3 XML at `out` (and its meshes beside it); the files written.
+    `data`, the scene's table (scene_file.scene_data), gives directional lights as written: the
+    loader's normalisation of a unit vector can move its last bit. Everything is written to
+    temporary names first and renamed at the end: nothing half-written."""
+    check_exportable(scene)
+    meshes: list[tuple[Path, object]] = []
+    root = ET.Element("scene", version="3.0.0")
+    _integrator(root, scene)
+    _sensor(root, scene)
+    names = _bsdfs(root, scene)
+    used_ids = set(names.values())
+    for i, s in enumerate(scene.shapes):
+        m = scene.materials[s.material]
+        shape = ET.SubElement(root, "shape", type={"quad": "rectangle", "sphere": "sphere",
+                                                   "mesh": "ply"}[s.kind])
+        if s.name and s.name not in used_ids and _is_id(s.name):
+            shape.set("id", s.name)
+            used_ids.add(s.name)
+        if s.kind == "quad":
+            _rectangle(shape, s)
+        elif s.kind == "sphere":
+            _vec(shape, "point", "center", s.center)
+            _num(shape, "float", "radius", s.radius)
+        else:
+            path = out.with_name(f"{out.stem}-mesh{i}.ply")
+            meshes.append((path, s.mesh))
+            _num(shape, "string", "filename", path.name)
+            if s.mesh.normals is None:
+                _num(shape, "boolean", "face_normals", "true")
+        ET.SubElement(shape, "ref", id=names[m.name])
+        if m.emissive:
+            emitter = ET.SubElement(shape, "emitter", type="area")
+            _vec(emitter, "rgb", "radiance", m.emission)
+    _lights(root, scene, data)
+    ET.indent(root)
+    files = [(out, ET.tostring(root, encoding="unicode") + "\n")]
+    files += [(p, _ply_bytes(mesh)) for p, mesh in meshes]
+    for path, content in files:
+        tmp = path.with_name(f".{path.name}.tmp")
+        (tmp.write_text if isinstance(content, str) else tmp.write_bytes)(content)
+    for path, _ in files:
+        os.replace(path.with_name(f".{path.name}.tmp"), path)
+    return [p for p, _ in files]
+
+
+def _is_id(name: str) -> bool:
+    return all(c.isalnum() or c in "-_." for c in name) and not name[0].isdigit()
+
+
+def _num(parent, tag: str, name: str, value) -> None:
+    ET.SubElement(parent, tag, name=name, value=value if isinstance(value, str) else repr(float(value))
+                  if tag == "float" else str(value))
+
+
+def _vec(parent, tag: str, name: str, v) -> None:
+    text = " ".join(repr(float(x)) for x in v)
+    if tag == "rgb":
+        ET.SubElement(parent, tag, name=name, value=text)
+    else:
+        x, y, z = (repr(float(c)) for c in v)
+        ET.SubElement(parent, tag, name=name, x=x, y=y, z=z)
+
+
+def _integrator(root, scene: Scene) -> None:
+    it = ET.SubElement(root, "integrator", type="path")
+    ET.SubElement(it, "integer", name="max_depth", value=str(scene.max_depth))
+    # rr_depth means the same vertex index in both (mitsuba_import.py); a roulette-free path rolls
+    # only from max_depth on, where no path goes.
+    rr = scene.rr_depth if scene.russian_roulette else scene.max_depth
+    ET.SubElement(it, "integer", name="rr_depth", value=str(rr))
+
+
+def _sensor(root, scene: Scene) -> None:
+    c = scene.camera
+    sensor = ET.SubElement(root, "sensor", type="thinlens" if c.has_lens else "perspective")
+    _num(sensor, "float", "fov", c.vfov_deg)
+    _num(sensor, "string", "fov_axis", "y")
+    if c.has_lens:
+        _num(sensor, "float", "aperture_radius", c.aperture_radius)
+        _num(sensor, "float", "focus_distance", c.focus_distance)
+    tw = ET.SubElement(sensor, "transform", name="to_world")
+    ET.SubElement(tw, "lookat", **{k: ", ".join(repr(float(x)) for x in v) for k, v in
+                                   (("origin", c.position), ("target", c.look_at), ("up", c.up))})
+    sampler = ET.SubElement(sensor, "sampler", type="independent")
+    ET.SubElement(sampler, "integer", name="sample_count", value=str(scene.spp))
+    film = ET.SubElement(sensor, "film", type="hdrfilm")
+    ET.SubElement(film, "integer", name="width", value=str(scene.width))
+    ET.SubElement(film, "integer", name="height", value=str(scene.height))
+    if c.filter == "mitchell":          # Mitsuba's own, once samples beyond the border count too
+        ET.SubElement(film, "boolean", name="sample_border", value="true")
+    ET.SubElement(film, "rfilter", type=c.filter)
+
+
+def _bsdfs(root, scene: Scene) -> dict[str, str]:
+    """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
+    one-sided; beckmann is Mitsuba's Beckmann roughconductor); material name -> its id."""
+    ids: dict[str, str] = {}
+    for k, m in enumerate(scene.materials):
+        ident = m.name if _is_id(m.name) and m.name not in ids.values() else f"material{k}"
+        ids[m.name] = ident
+        if m.kind == "dielectric":
+            b = ET.SubElement(root, "bsdf", type="dielectric", id=ident)
+            _num(b, "float", "int_ior", m.ior)
+            _num(b, "float", "ext_ior", 1.0)
+            _vec(b, "rgb", "specular_transmittance", m.albedo)
+            continue
+        if m.kind == "emitter":         # black: the import turns it back into kind emitter
+            b = ET.SubElement(root, "bsdf", type="diffuse", id=ident)
+            _vec(b, "rgb", "reflectance", np.zeros(3))
+            continue
+        outer = ET.SubElement(root, "bsdf", type="twosided", id=ident)
+        if m.kind in ("mirror", "beckmann"):
+            b = ET.SubElement(outer, "bsdf", type="conductor" if m.kind == "mirror" else "roughconductor")
+            if m.kind == "beckmann":
+                _num(b, "string", "distribution", "beckmann")
+                _num(b, "float", "alpha", m.roughness)
+            _vec(b, "rgb", "specular_reflectance", m.albedo)
+        else:
+            b = ET.SubElement(outer, "bsdf", type="diffuse")
+            _vec(b, "rgb", "reflectance", m.albedo)
+    return ids
+
+
+def _rectangle(shape, s) -> None:
+    """The quad as Mitsuba's [-1, 1]^2 rectangle: [-1, 1] -> [0, 1] first, then the matrix whose
+    columns are edge_u, edge_v, the unit normal and origin, so that the importer's corner and edges
+    come out as these numbers exactly (0 * x + o = o, 1 * u = u)."""
+    n = np.cross(s.edge_u, s.edge_v)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = s.edge_u, s.edge_v, n / np.linalg.norm(n), s.origin
+    tw = ET.SubElement(shape, "transform", name="to_world")
+    ET.SubElement(tw, "translate", x="1.0", y="1.0", z="0.0")
+    ET.SubElement(tw, "scale", x="0.5", y="0.5", z="1.0")
+    ET.SubElement(tw, "matrix", value=" ".join(repr(float(x)) for x in m.ravel()))
+
+
+def _lights(root, scene: Scene, data: dict | None) -> None:
+    given = [light.get("direction") for light in (data or {}).get("lights", [])
+             if isinstance(light, dict) and light.get("kind") == "directional"]
+    for light in scene.point_lights:
+        e = ET.SubElement(root, "emitter", type="point")
+        _vec(e, "point", "position", light.position)
+        _vec(e, "rgb", "intensity", light.intensity)
+    for k, light in enumerate(scene.directional_lights):
+        e = ET.SubElement(root, "emitter", type="directional")
+        _vec(e, "vector", "direction", given[k] if len(given) == len(scene.directional_lights)
+             else light.direction)
+        _vec(e, "rgb", "irradiance", light.irradiance)
+    if scene.environment is not None:
+        e = ET.SubElement(root, "emitter", type="constant")
+        _vec(e, "rgb", "radiance", scene.environment.image[0, 0])
+
+
+def _ply_bytes(mesh) -> bytes:
+    """Binary little-endian PLY: double x y z (nx ny nz), faces as uchar-counted int lists."""
+    v = np.asarray(mesh.vertices, dtype="<f8")
+    cols = [v] if mesh.normals is None else [v, np.asarray(mesh.normals, dtype="<f8")]
+    props = ["x", "y", "z"] + ([] if mesh.normals is None else ["nx", "ny", "nz"])
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(v)}\n" + "".join(f"property double {p}\n" for p in props)
+              + f"element face {len(mesh.faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+    faces = np.zeros(len(mesh.faces), dtype=[("n", "u1"), ("i", "<i4", 3)])
+    faces["n"], faces["i"] = 3, mesh.faces
+    return header.encode() + np.ascontiguousarray(np.hstack(cols)).tobytes() + faces.tobytes()

@@ -1,0 +1,450 @@
+"""A Mitsuba 3 XML scene -> a drtlab scene dict (SCENE_FORMAT.md, "Mitsuba 3 XML").
+
+Only what drtlab renders exactly as Mitsuba 3 (an RGB variant) would is accepted: every element,
+plugin and property outside that subset is refused, before any rendering, with one line naming its
+path in the file. Properties that cannot change the image (clip planes, the film's file formats, a
+pinhole's focus distance, the sampler's seed) are accepted and dropped. The dict then goes through
+drtlab's own loader (scene_tables.build_scene) like a TOML file's.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from drtlab.kernels.mesh_file import file_has_vertex_normals
+from drtlab.kernels.mitsuba_xml import (Obj, Reader, Ref, chain_matrix, chain_point, chain_vector,
+                                        drtlab_transform)
+
+# Mitsuba's named indices of refraction (include/mitsuba/render/ior.h).
+IOR_PRESETS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277,
+               "carbon dioxide": 1.00045, "water": 1.3330, "acetone": 1.36, "ethanol": 1.361,
+               "carbon tetrachloride": 1.461, "glycerol": 1.4729, "benzene": 1.501,
+               "silicone oil": 1.52045, "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458,
+               "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
+               "sodium chloride": 1.544, "amber": 1.55, "pet": 1.5750, "diamond": 2.419}
+SHAPES, INTEGRATORS = ("rectangle", "cube", "sphere", "obj", "ply"), ("path", "direct")
+BSDFS, SENSORS = ("diffuse", "twosided", "dielectric", "conductor", "roughconductor"), ("perspective", "thinlens")
+EMITTERS = ("area", "point", "directional", "constant")
+SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+# Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
+WHY_NOT = {
+    "roughdielectric": "drtlab's ggx_dielectric has height-correlated Smith masking, not G1 G1",
+    "plastic": "drtlab's plastic is a Phong coat over a coupled diffuse base, not Mitsuba's model",
+    "roughplastic": "drtlab has no rough plastic of Mitsuba's form", "disk": "drtlab has no disk",
+    "envmap": "its lat-long orientation and bilinear lookup are not drtlab's piecewise-constant map",
+    "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's (sigma 0.5, radius 1.5); "
+                "supported: box, mitchell"}
+
+
+def scene_dict(path: Path) -> tuple[dict, str]:
+    """(drtlab scene dict, the XML text) of a Mitsuba 3 XML file; one InputError on anything else."""
+    r = Reader(path)
+    return _Importer(r).convert(), path.read_text(encoding="utf-8", errors="replace")
+
+
+class _Importer:
+    def __init__(self, r: Reader):
+        self.r = r
+        self.materials: dict[str, dict] = {}
+        self.material_of: dict[tuple, str] = {}
+        self.data: dict = {"materials": self.materials, "shapes": []}
+
+    # ---- property access: each read marks the property used; `done` refuses the rest -------------
+    def get(self, o: Obj, name: str, tags: tuple[str, ...], default=None):
+        p = o.props.get(name)
+        if p is None:
+            return default
+        o.used.add(name)
+        if p.tag not in tags:
+            self.r.fail(p.path, f"must be {' or '.join('<' + t + '>' for t in tags)}, got <{p.tag}>")
+        return p.value
+
+    def number(self, o: Obj, name: str, default, rule=None, text=""):
+        v = self.get(o, name, ("float", "integer"), default)
+        if rule is not None and v is not None and not rule(v):
+            self.r.fail(o.props[name].path, f"must be {text}, got {v!r}")
+        return v
+
+    def colour(self, o: Obj, name: str, default):
+        p = o.props.get(name)
+        if p is not None and p.tag in ("texture", "ref"):
+            o.used.add(name)
+            self.r.fail(p.path, "textures are not supported (drtlab has constant colours only)")
+        v = self.get(o, name, ("rgb", "spectrum", "float"), default)
+        return [float(v)] * 3 if isinstance(v, (int, float)) else list(v)
+
+    def string(self, o: Obj, name: str, default, choices=None):
+        v = self.get(o, name, ("string",), default)
+        if choices is not None and v not in choices:
+            self.r.fail(o.props[name].path, f"{v!r} is not supported (supported: {', '.join(choices)})")
+        return v
+
+    def ignore(self, o: Obj, *names: str) -> None:
+        o.used.update(n for n in names if n in o.props)
+
+    def done(self, o: Obj) -> None:
+        for name, p in o.props.items():
+            if name not in o.used:
+                self.r.fail(p.path, f"property '{name}' of {o.tag} '{o.type}' is not supported")
+
+    def kind(self, o: Obj, supported: tuple[str, ...]) -> str:
+        if o.type not in supported:
+            why = WHY_NOT.get(o.type, f"supported: {', '.join(supported)}")
+            self.r.fail(o.path, f"{o.tag} type '{o.type}' is not supported ({why})")
+        return o.type
+
+    def nested(self, o: Obj) -> list[Obj]:
+        """o's nested objects and references, in order (a `name` on one is only its label)."""
+        o.used.update(n for n, p in o.props.items() if p.tag == "ref" or isinstance(p.value, Obj))
+        return [self.deref(c) for c in o.children]
+
+    def deref(self, child: Obj | Ref) -> Obj:
+        if isinstance(child, Ref):
+            if child.id not in self.r.ids:
+                self.r.fail(child.path, f"id '{child.id}' names no object")
+            return self.r.ids[child.id]
+        return child
+
+    # ---- the scene ---------------------------------------------------------------------------------
+    def convert(self) -> dict:
+        root = self.r.root
+        self.done(root)
+        sensors = []
+        for child in root.children:
+            if isinstance(child, Ref):
+                self.r.fail(child.path, "a <ref> directly in <scene> is not supported")
+            if child.tag == "sensor":
+                sensors.append(child)
+            elif child.tag == "integrator":
+                self.integrator(child)
+            elif child.tag == "shape":
+                self.shape(child)
+            elif child.tag == "emitter":
+                self.emitter(child)
+            elif child.tag == "bsdf":
+                if child.id is None:
+                    self.r.fail(child.path, "a <bsdf> in <scene> needs an id (shapes refer to it)")
+            else:
+                self.r.fail(child.path, f"<{child.tag}> is not supported (drtlab has no "
+                                        f"{'media' if child.tag in ('medium', 'phase', 'volume') else child.tag + 's'})")
+        if len(sensors) != 1:
+            self.r.fail(root.path, f"exactly one <sensor> is needed, got {len(sensors)}")
+        self.data.setdefault("scene", {}).setdefault("integrator", "path")
+        if "max_depth" not in self.data["scene"]:      # no <integrator>: Mitsuba's default path
+            self.data["scene"].update(max_depth=-1, russian_roulette=True, rr_depth=5)
+        self.sensor(sensors[0])
+        self.data["scene"]["description"] = f"Mitsuba 3 scene {self.r.file}"
+        return self.data
+
+    def integrator(self, o: Obj) -> None:
+        kind = self.kind(o, INTEGRATORS)
+        if self.get(o, "hide_emitters", ("boolean",), False):
+            self.r.fail(o.props["hide_emitters"].path, "true is not supported (drtlab always shows emitters)")
+        s = self.data.setdefault("scene", {})
+        if "max_depth" in s:
+            self.r.fail(o.path, "a second <integrator>")
+        s["integrator"] = "path"
+        if kind == "direct":        # emitter and BSDF samples combined by MIS: path of depth 2
+            for name in ("shading_samples", "emitter_samples", "bsdf_samples"):
+                self.number(o, name, 1, lambda n: n == 1, "1 (drtlab takes one sample of each)")
+            s["max_depth"] = 2
+        else:
+            depth = self.number(o, "max_depth", -1, lambda n: n == -1 or n >= 1, "-1 or >= 1")
+            rr = self.number(o, "rr_depth", 5, lambda n: n >= 0, ">= 0")
+            s["max_depth"] = int(depth)
+            # Both roll with the index k of a path vertex (first hit 0) once k >= rr_depth: Mitsuba
+            # before tracing to vertex k, drtlab at vertex k after its emission (the same unbiased
+            # estimate, another split of the noise). No vertex k >= max_depth: no roulette.
+            if depth == -1 or rr < depth:
+                s.update(russian_roulette=True, rr_depth=max(int(rr), 1))
+        self.ignore(o, "samples_per_pass", "timeout", "block_size")
+        self.done(o)
+
+    def sensor(self, o: Obj) -> None:
+        kind = self.kind(o, SENSORS)
+        film = sampler = None
+        for child in self.nested(o):
+            if child.tag == "film" and film is None:
+                film = child
+            elif child.tag == "sampler" and sampler is None:
+                sampler = child
+            else:
+                self.r.fail(child.path, f"<{child.tag}> in a sensor is not supported")
+        width, height, pixel_filter = self.film(film) if film else (768, 576, "box")
+        s = self.data["scene"]
+        s["resolution"] = [width, height]
+        s["spp"] = self.sampler(sampler) if sampler else 4
+        cam: dict = {}
+        chain = self.get(o, "to_world", ("transform",), [])
+        self.camera_frame(o, chain, cam)
+        cam["fov"] = self.vertical_fov(o, width / height)
+        if pixel_filter != "box":
+            cam["filter"] = pixel_filter
+        self.ignore(o, "near_clip", "far_clip", "shutter_open", "shutter_close", "shutter_open_time")
+        if kind == "thinlens":
+            if "aperture_radius" not in o.props:
+                self.r.fail(o.path, "thinlens needs aperture_radius")
+            cam["aperture_radius"] = self.number(o, "aperture_radius", 0, lambda x: x >= 0, ">= 0")
+            # Mitsuba's ProjectiveCamera: the focus is at the far clip plane unless given.
+            far = self.number(o, "far_clip", 1e4, lambda x: x > 0, "> 0")
+            cam["focus_distance"] = self.number(o, "focus_distance", far, lambda x: x > 0, "> 0")
+        else:
+            self.ignore(o, "focus_distance")
+        for name in ("principal_point_offset_x", "principal_point_offset_y"):
+            self.number(o, name, 0, lambda x: x == 0, "0 (drtlab's principal point is the centre)")
+        self.data["camera"] = cam
+        self.done(o)
+
+    def camera_frame(self, o: Obj, chain, cam: dict) -> None:
+        if len(chain) == 1 and chain[0][0] == "lookat":
+            origin, target, up = chain[0][2]
+            cam.update(position=list(origin), look_at=list(target), up=list(up))
+            return
+        m = chain_matrix(chain)
+        a = m[:3, :3]
+        lengths = np.linalg.norm(a, axis=0)
+        gram = a.T @ a / lengths.max() ** 2
+        if np.linalg.det(a) <= 0 or not np.allclose(gram, np.eye(3), atol=1e-6):
+            self.r.fail(o.props["to_world"].path if chain else o.path,
+                        "the camera's to_world must be a rotation and translation (with a uniform "
+                        "scale): drtlab cannot mirror or shear the view")
+        position = m[:3, 3]
+        cam.update(position=position.tolist(), look_at=(position + a[:, 2]).tolist(),
+                   up=(a[:, 1] / lengths[1]).tolist())
+
+    def vertical_fov(self, o: Obj, aspect: float) -> float:
+        """parse_fov of src/render/sensor.cpp, turned into drtlab's full vertical fov."""
+        if "fov" in o.props and "focal_length" in o.props:
+            self.r.fail(o.path, "give either fov or focal_length, not both")
+        if "fov" in o.props:
+            fov = self.number(o, "fov", None, lambda x: 0 < x < 180, "in (0, 180) degrees")
+            axis = self.string(o, "fov_axis", "x", ("x", "y", "diagonal", "smaller", "larger"))
+            if axis == "smaller":
+                axis = "y" if aspect > 1 else "x"
+            elif axis == "larger":
+                axis = "x" if aspect > 1 else "y"
+        else:
+            text = self.string(o, "focal_length", "50mm")
+            try:
+                f = float(text[:-2] if text.endswith("mm") else text)
+            except ValueError:
+                self.r.fail(o.props["focal_length"].path, f"must be like 50mm, got {text!r}")
+            if not (math.isfinite(f) and f > 0):
+                self.r.fail(o.props["focal_length"].path, f"must be a positive length, got {text!r}")
+            fov, axis = 2.0 * math.degrees(math.atan(math.sqrt(36 * 36 + 24 * 24) / (2.0 * f))), "diagonal"
+        if axis == "y":
+            return fov
+        if axis == "diagonal":
+            diagonal = 2.0 * math.tan(0.5 * math.radians(fov))
+            fov = math.degrees(2.0 * math.atan(diagonal / math.sqrt(1.0 + 1.0 / (aspect * aspect)) * 0.5))
+        return math.degrees(2.0 * math.atan(math.tan(0.5 * math.radians(fov)) / aspect))
+
+    def film(self, o: Obj) -> tuple[int, int, str]:
+        self.kind(o, ("hdrfilm",))
+        size = [int(self.number(o, k, d, lambda n: n == int(n) and n >= 1, "an integer >= 1"))
+                for k, d in (("width", 768), ("height", 576))]
+        for k, full in (("crop_width", size[0]), ("crop_height", size[1]), ("crop_offset_x", 0),
+                        ("crop_offset_y", 0)):
+            self.number(o, k, full, lambda n, full=full: n == full, f"{full} (drtlab renders the whole film)")
+        self.ignore(o, "file_format", "pixel_format", "component_format", "banner")
+        border = self.get(o, "sample_border", ("boolean",), False)
+        filters = self.nested(o)
+        if not filters:
+            self.r.fail(o.path, "no <rfilter> means Mitsuba's Gaussian filter, which drtlab lacks; "
+                                "add <rfilter type=\"box\"/>")
+        pixel_filter = "box"
+        for f in filters:
+            if f.tag != "rfilter":
+                self.r.fail(f.path, f"<{f.tag}> in a film is not supported")
+            if self.kind(f, ("box", "mitchell")) == "mitchell":
+                # Mitsuba splats each sample over radius 2, normalised by the weights: drtlab's
+                # mitchell (B = C = 1/3) once samples beyond the border count too, as drtlab's do.
+                for name in ("B", "C"):
+                    self.number(f, name, 1 / 3, lambda x: abs(x - 1 / 3) < 1e-6, "1/3 (drtlab's mitchell)")
+                if not border:
+                    self.r.fail(f.path, "mitchell needs <boolean name=\"sample_border\" value=\"true\"/> "
+                                        "in the film (drtlab's border pixels have full support)")
+                pixel_filter = "mitchell"
+            self.done(f)
+        self.done(o)
+        return size[0], size[1], pixel_filter
+
+    def sampler(self, o: Obj) -> int:
+        self.kind(o, SAMPLERS)
+        spp = self.number(o, "sample_count", 4, lambda n: n == int(n) and n >= 1, "an integer >= 1")
+        self.ignore(o, "seed", "jitter", "scramble")        # a drtlab sampler is a render setting
+        self.done(o)
+        return int(spp)
+
+    # ---- shapes, materials, emitters ---------------------------------------------------------------
+    def shape(self, o: Obj) -> None:
+        kind = self.kind(o, SHAPES)
+        chain = self.get(o, "to_world", ("transform",), [])
+        flip = self.get(o, "flip_normals", ("boolean",), False)
+        bsdf = emitter = None
+        for child in self.nested(o):
+            if child.tag == "bsdf" and bsdf is None:
+                bsdf = child
+            elif child.tag == "emitter" and emitter is None and child.type == "area":
+                emitter = child
+            else:
+                self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shape is not "
+                                        "supported (one bsdf and one area emitter)")
+        shape: dict = {"material": self.material(o, bsdf, emitter)}
+        if o.id is not None:
+            shape["name"] = o.id
+        if kind == "rectangle":
+            # Each corner and edge through the chain (exact for an exporter's chain); a mirroring
+            # transform or flip_normals turns the normal: drtlab's is edge_u x edge_v.
+            u, v = chain_vector(chain, [2.0, 0, 0]), chain_vector(chain, [0, 2.0, 0])
+            if (np.linalg.det(chain_matrix(chain)[:3, :3]) < 0) != bool(flip):
+                u, v = v, u
+            shape.update(kind="quad", origin=chain_point(chain, [-1.0, -1.0, 0]).tolist(),
+                         edge_u=u.tolist(), edge_v=v.tolist())
+        else:
+            if flip:
+                self.r.fail(o.props["flip_normals"].path, f"true is not supported on a {kind} "
+                                                          "(drtlab's faces out), only on a rectangle")
+            if kind == "cube":
+                shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
+            elif kind == "sphere":
+                shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
+                             radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
+            else:
+                shape.update(kind="mesh", file=self.mesh_file(o, kind))
+            transform = drtlab_transform(chain)
+            if transform is not None:
+                shape["transform"] = transform
+        self.data["shapes"].append(shape)
+        self.done(o)
+
+    def mesh_file(self, o: Obj, kind: str) -> str:
+        name = self.string(o, "filename", None)
+        if name is None:
+            self.r.fail(o.path, f"{kind} needs a filename")
+        path = Path(name).expanduser()
+        path = path if path.is_absolute() else self.r.folder / path
+        if not path.is_file():
+            self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
+        if path.suffix.lower() != f".{kind}":
+            self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
+        has_normals = file_has_vertex_normals(path)
+        face_normals = self.get(o, "face_normals", ("boolean",), False)
+        if not face_normals and not has_normals:
+            self.r.fail(o.path, "the file has no vertex normals, so Mitsuba would compute smooth ones, "
+                                "which drtlab does not; set face_normals to true (flat shading)")
+        if face_normals and has_normals:
+            self.r.fail(o.props["face_normals"].path, "true with a file that has vertex normals is not "
+                                                      "supported (drtlab shades with the file's normals)")
+        self.ignore(o, "flip_tex_coords")
+        return str(path)
+
+    def material(self, shape: Obj, bsdf: Obj | None, emitter: Obj | None) -> str:
+        """The drtlab material of a (BSDF, area emitter) pair: one per distinct pair, named after the
+        BSDF's id (or the shape's path)."""
+        radiance = None
+        if emitter is not None:
+            radiance = self.colour(emitter, "radiance", 1.0)
+            self.done(emitter)
+        if bsdf is None:                 # Mitsuba gives a shape without a BSDF a diffuse 0.5
+            spec, name = {"kind": "diffuse", "albedo": [0.5] * 3}, "default"
+        else:
+            spec, name = self.bsdf(bsdf), bsdf.id or shape.path.rsplit("/", 1)[-1].split("(")[0]
+        if radiance is not None and any(radiance):
+            if spec["kind"] == "diffuse" and not any(spec["albedo"]):
+                spec = {"kind": "emitter"}       # black: it only emits
+            spec["emission"] = radiance
+        key = repr(sorted(spec.items()))
+        if key not in self.material_of:
+            unique, k = name, 1
+            while unique in self.materials:
+                k += 1
+                unique = f"{name}-{k}"
+            self.material_of[key] = unique
+            self.materials[unique] = spec
+        return self.material_of[key]
+
+    def bsdf(self, o: Obj) -> dict:
+        kind = self.kind(o, BSDFS)
+        if kind == "twosided":
+            nested = self.nested(o)
+            if len(nested) != 1:
+                self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
+                                    "same on both sides)")
+            if nested[0].type not in ("diffuse", "conductor", "roughconductor"):
+                self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
+                                            "(diffuse, conductor, roughconductor)")
+            self.done(o)
+            return self.bsdf(nested[0])
+        for child in self.nested(o):
+            what = "textures are" if child.tag == "texture" else f"a nested <{child.tag}> is"
+            self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
+                                    "constant)")
+        if kind == "diffuse":
+            spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
+        elif kind in ("conductor", "roughconductor"):
+            self.string(o, "material", "none", ("none",))
+            for name in ("eta", "k"):
+                if name in o.props:
+                    self.r.fail(o.props[name].path, "a complex index of refraction is not supported "
+                                                    "(drtlab's conductors reflect a constant colour)")
+            spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
+            if kind == "roughconductor":
+                spec.update(kind="beckmann", roughness=self.roughness(o))
+        else:
+            ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
+            if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
+                self.r.fail(o.props["specular_reflectance"].path, "must be 1 (drtlab's dielectric "
+                                                                  "reflects white)")
+            spec = {"kind": "dielectric", "ior": ior[0] / ior[1],
+                    "albedo": self.colour(o, "specular_transmittance", 1.0)}
+        self.done(o)
+        return spec
+
+    def roughness(self, o: Obj) -> float:
+        """Mitsuba's isotropic Beckmann alpha: drtlab's `beckmann` is that model (separable Smith
+        G1 G1 in Walter's rational fit); its `ggx` masks with the height-correlated form instead."""
+        distribution = self.string(o, "distribution", "beckmann")
+        if distribution != "beckmann":
+            self.r.fail(o.props["distribution"].path, f"{distribution!r} is not supported (supported: "
+                        "beckmann; drtlab's ggx has height-correlated Smith masking, not G1 G1)")
+        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
+        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha", "alpha_u", "alpha_v")]
+        if alpha[1] is not None or alpha[2] is not None:
+            if alpha[0] is not None or alpha[1] != alpha[2]:
+                self.r.fail(o.path, "anisotropic roughness is not supported: give alpha, or alpha_u "
+                                    "equal to alpha_v")
+            return alpha[1]
+        return 0.1 if alpha[0] is None else alpha[0]
+
+    def ior(self, o: Obj, name: str, default: str) -> float:
+        p = o.props.get(name)
+        if p is not None and p.tag == "string" or p is None:
+            preset = self.string(o, name, default)
+            if preset.lower() not in IOR_PRESETS:
+                self.r.fail(p.path, f"unknown index of refraction {preset!r} (a number or one of "
+                                    f"{', '.join(IOR_PRESETS)})")
+            return IOR_PRESETS[preset.lower()]
+        return self.number(o, name, None, lambda x: x > 0, "> 0")
+
+    def emitter(self, o: Obj) -> None:
+        kind = self.kind(o, EMITTERS[1:])
+        if kind == "constant":
+            if "environment" in self.data:
+                self.r.fail(o.path, "a second constant emitter")
+            self.data["environment"] = {"kind": "constant", "radiance": self.colour(o, "radiance", 1.0)}
+        else:
+            chain = self.get(o, "to_world", ("transform",), None)
+            key, value = ("position", "intensity") if kind == "point" else ("direction", "irradiance")
+            given = self.get(o, key, ("point", "vector"), None)
+            if (given is None) == (chain is None):
+                self.r.fail(o.path, f"a {kind} emitter needs either {key} or to_world")
+            if given is None:
+                given = (chain_point(chain, [0.0] * 3) if kind == "point"
+                         else chain_vector(chain, [0, 0, 1.0])).tolist()
+            self.data.setdefault("lights", []).append(
+                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
+        self.done(o)
+
