@@ -9,7 +9,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet experiment-lights ground-truth clean bench-compare
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet experiment-lights ground-truth clean bench-compare crosscheck
 
 venv: $(STAMP)
 
@@ -69,24 +69,23 @@ ground-truth: $(RUNTIME)
 clean:
 	rm -rf $(VENV) .warp-cache
 
-# drtlab vs Mitsuba 3 on mi.cornell_box() -> results/bench/compare.json and a Markdown table. Installs
-# the [compare] extra; Mitsuba's llvm_ad_rgb needs LLVM 19 (DRJIT_LIBLLVM_PATH; LLVM 14 crashes it):
-# Debian's libllvm19 is installed when missing and we are root. Without Mitsuba or LLVM 19 the run
-# says why and skips (exit 0). Flags: make bench-compare BENCH_COMPARE_ARGS='--res 64 --spp 64'.
+# The [compare] extra (mitsuba==3.9.1) for the targets that run Mitsuba 3 beside drtlab; a failed
+# install is said once and the run then skips (exit 0).
+COMPARE_EXTRA = $(INSTALL) -e '.[compare]' || $(PY) -m pip install -q -e '.[compare]' || echo "$@: pip could not install the [compare] extra (mitsuba==3.9.1); the comparison will skip"
+# Mitsuba's llvm_ad_rgb needs LLVM 19 (LLVM 14 crashes it): the script prints its libLLVM-19.so,
+# apt-get installing Debian's libllvm19 when missing and we are root, or says why not.
+LLVM19 = DRJIT_LIBLLVM_PATH="$$(sh experiments/bench/mitsuba/llvm19.sh $@)"
+
+# drtlab vs Mitsuba 3 on mi.cornell_box() -> results/bench/compare.json and a Markdown table. Without
+# Mitsuba or LLVM 19 the run says why and skips (exit 0).
+# Flags: make bench-compare BENCH_COMPARE_ARGS='--res 64 --spp 64'.
 bench-compare: venv
-	@$(INSTALL) -e '.[compare]' || $(PY) -m pip install -q -e '.[compare]' || echo "bench-compare: pip could not install the [compare] extra (mitsuba==3.9.1); the comparison will skip"
-	@llvm="$${DRJIT_LIBLLVM_PATH:-}"; why=""; \
-	find19() { ls /usr/lib/llvm-19/lib/libLLVM-19.so /usr/lib/*-linux-gnu/libLLVM-19.so 2>/dev/null | head -n 1; }; \
-	if [ -z "$$llvm" ]; then llvm=$$(find19); fi; \
-	if [ -z "$$llvm" ]; then \
-	  if [ "$$(id -u)" != 0 ]; then why="not root, so libllvm19 cannot be apt-get installed here: install it (Debian 12+) or set DRJIT_LIBLLVM_PATH to a libLLVM-19.so"; \
-	  elif ! command -v apt-get >/dev/null 2>&1; then why="no apt-get on this system: install LLVM 19 and set DRJIT_LIBLLVM_PATH to its libLLVM-19.so"; \
-	  else echo "bench-compare: apt-get install -y libllvm19 (for Dr.Jit's LLVM backend)"; \
-	    export DEBIAN_FRONTEND=noninteractive; \
-	    { apt-get install -y -qq libllvm19 >/dev/null 2>&1 || { apt-get update -qq >/dev/null 2>&1 && apt-get install -y -qq libllvm19 >/dev/null 2>&1; }; } \
-	      || why="apt-get install libllvm19 failed (not in this system's package lists?): set DRJIT_LIBLLVM_PATH to a libLLVM-19.so"; \
-	    llvm=$$(find19); \
-	  fi; \
-	  [ -n "$$llvm" ] || echo "bench-compare: no LLVM 19 for Mitsuba's llvm_ad_rgb: $${why:-libllvm19 is installed but no libLLVM-19.so was found}"; \
-	fi; \
-	DRJIT_LIBLLVM_PATH="$$llvm" $(PY) -m drtlab.experiments.bench.mitsuba $(BENCH_COMPARE_ARGS)
+	@$(COMPARE_EXTRA)
+	@$(LLVM19) $(PY) -m drtlab.experiments.bench.mitsuba $(BENCH_COMPARE_ARGS)
+
+# drtlab vs Mitsuba 3 on every scene both read: the exportable built-ins (exported to XML) and
+# tests/data/mitsuba/*.xml, several seeds each -> results/crosscheck/ (JSON, Markdown table). Skips
+# (exit 0) without Mitsuba or LLVM 19. Flags: make crosscheck CROSSCHECK_ARGS='--seeds 4'.
+crosscheck: venv
+	@$(COMPARE_EXTRA)
+	@$(LLVM19) $(PY) -m drtlab.experiments.bench.mitsuba.crosscheck $(CROSSCHECK_ARGS)
