@@ -348,8 +348,9 @@ class _Importer:
         if emitter is not None:
             radiance = self.colour(emitter, "radiance", 1.0)
             self.done(emitter)
-        if bsdf is None:                 # Mitsuba gives a shape without a BSDF a diffuse 0.5
-            spec, name = {"kind": "diffuse", "albedo": [0.5] * 3}, "default"
+        if bsdf is None:                 # Mitsuba's default: diffuse 0.5, black on an emitter
+            spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3}
+            name = "default"
         else:
             spec, name = self.bsdf(bsdf), bsdf.id or shape.path.rsplit("/", 1)[-1].split("(")[0]
         if radiance is not None and any(radiance):

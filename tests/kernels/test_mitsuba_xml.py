@@ -165,6 +165,7 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
     <shape type="sphere" id="s4"><bsdf type="dielectric"/></shape>
     <shape type="sphere" id="s5"><ref id="paint"/><emitter type="area"><rgb name="radiance" value="1 2 3"/></emitter></shape>
     <shape type="sphere" id="s6"/>
+    <shape type="sphere" id="s10"><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>
     <shape type="sphere" id="s7"><bsdf type="twosided"><bsdf type="roughconductor"><float name="alpha" value="0.3"/>
       <boolean name="sample_visible" value="false"/><rgb name="specular_reflectance" value="0.7"/></bsdf></bsdf></shape>
     <shape type="sphere" id="s8"><bsdf type="roughconductor"><string name="distribution" value="beckmann"/>
@@ -184,6 +185,8 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
     assert mat["s5"].albedo.tolist() == [0.25, 0.5, 0.75] and mat["s5"].emission.tolist() == [1, 2, 3]
     assert not mat["s1"].emissive                                 # same BSDF, its own material
     assert (mat["s6"].kind, mat["s6"].albedo.tolist()) == ("diffuse", [0.5] * 3)   # Mitsuba's default
+    # ... and black under an area emitter (src/render/shape.cpp): the light only emits
+    assert (mat["s10"].kind, mat["s10"].emission.tolist()) == ("emitter", [2] * 3)
     assert (mat["s7"].kind, mat["s7"].roughness, mat["s7"].albedo.tolist()) == ("beckmann", 0.3, [0.7] * 3)
     assert (mat["s8"].roughness, mat["s9"].kind, mat["s9"].roughness) == (0.2, "beckmann", 0.1)
     assert [p.position.tolist() for p in s.point_lights] == [[1, 2, 3], [4, 0, 0]]

@@ -13,7 +13,7 @@ def markdown(result: dict) -> str:
              f"standard error across seeds; block L1 of 8x8-pixel blocks between the mean images "
              f"over Mitsuba's own seed-to-seed block L1 (drtlab's own in brackets); pass: every "
              f"channel within 1% or 3 combined se, and L1 ratio <= 1.5.", "",
-             "| scene | drtlab R / G / B | Mitsuba R / G / B | max rel. diff | L1 ratio | |z|>3 (expected) | pass |",
+             "| scene | drtlab R / G / B | Mitsuba R / G / B | max rel. diff | L1 ratio | share of pixel z beyond ±3 (expected) | pass |",
              "|---|---|---|---|---|---|---|"]
     for name, r in result["scenes"].items():
         ch, l1, z = r["channels"], r["block_l1"], r["per_pixel_z"]
