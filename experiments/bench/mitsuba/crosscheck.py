@@ -42,8 +42,9 @@ def build_parser() -> Parser:
                            "built-ins and the Mitsuba XML files of --scene-dir. Per scene: channel "
                            "means with standard errors across seeds, block L1 between the renderers "
                            "against each one's own seed-to-seed L1, per-pixel z.")
-    p.add_argument("--seeds", type=int_flag(2, 1000), default=8,
-                   help="independent renders per renderer and scene")
+    p.add_argument("--seeds", type=int_flag(2, 1000), default=32,
+                   help="independent renders per renderer and scene (the standard errors rest on their spread: "
+                        "with few, a caustic's rare bright paths make them unreliable)")
     p.add_argument("--spp", type=int_flag(1, 1 << 20), default=32, help="samples per pixel of each render")
     p.add_argument("--threads", type=int_flag(1, 1024), default=os.cpu_count() or 1,
                    help="CPU threads of both renderers")
@@ -59,7 +60,7 @@ def build_parser() -> Parser:
 
 
 def _command(args) -> int:
-    args.builtin_res = fields.resolution(args.builtin_res, "--builtin-res")
+    args.builtin_res = fields.resolution(args.builtin_res, "--builtin-res", aspect=1.0)
     if not args.scene_dir.is_dir():
         raise InputError("--scene-dir", f"must be a folder of .xml scenes, got {str(args.scene_dir)!r}")
     fields.writable_location(args.out_dir, "--out-dir", folder=True)
