@@ -30,7 +30,9 @@ def test_the_scene_list_is_the_exportable_built_ins_and_the_xml_files(tmp_path):
     args.builtin_res = (48, 48)
     jobs = crosscheck._scenes(args)
     built_in = [j["name"] for j in jobs if j["overrides"] is not None]
-    assert "cornell-box" in built_in and "stratified" not in built_in          # drt: not exportable
+    from drtlab.kernels.scene_file import builtin_names
+    assert "cornell-box" in built_in
+    assert "drt-showcase" in builtin_names() and "drt-showcase" not in built_in   # drt: Mitsuba lacks it
     assert [j["xml"] for j in jobs if j["overrides"] is None] == XML_SCENES
 
 
