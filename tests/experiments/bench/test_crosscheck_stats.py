@@ -66,3 +66,16 @@ def test_own_block_l1_is_that_of_two_independent_means():
     assert self_block_l1(stack) == pytest.approx(want, rel=0.08)
     r = crosscheck(*stacks(5))
     assert r["block_l1"]["expected_if_agreeing"] == pytest.approx(want, rel=0.08)
+
+
+def test_the_table_has_a_row_per_scene_and_marks_a_failure():
+    from drtlab.experiments.bench.mitsuba.crosscheck_report import markdown
+    scenes = {"same": crosscheck(*stacks(1)), "brighter": crosscheck(*stacks(1, scale=1.05))}
+    for r in scenes.values():
+        r["mitsuba"] = {"variant": "llvm_ad_rgb"}
+    text = markdown({"settings": {"seeds": N, "spp": 4}, "scenes": scenes})
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "scene" not in line]
+    assert len(rows) == 2
+    assert rows[0].startswith("| same |") and rows[0].endswith("| yes |")
+    assert rows[1].startswith("| brighter |") and rows[1].endswith("| **no** |")
+    assert all(line.count("|") == 8 for line in text.splitlines() if line.startswith("|"))
