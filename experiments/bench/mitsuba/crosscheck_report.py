@@ -12,6 +12,8 @@ def _means(channels: list[dict], who: str) -> str:
 
 
 def row(name: str, r: dict) -> str:
+    if "error" in r:
+        return f"| {name} | {r['error']} | | | | | **no** |"
     ch, l1, z = r["channels"], r["block_l1"], r["per_pixel_z"]
     worst = max(ch, key=lambda c: c["relative_difference"])
     return (f"| {name} | {_means(ch, 'drtlab')} | {_means(ch, 'mitsuba')} | "

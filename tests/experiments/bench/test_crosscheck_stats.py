@@ -70,12 +70,14 @@ def test_own_block_l1_is_that_of_two_independent_means():
 
 def test_the_table_has_a_row_per_scene_and_marks_a_failure():
     from drtlab.experiments.bench.mitsuba.crosscheck_report import markdown
-    scenes = {"same": crosscheck(*stacks(1)), "brighter": crosscheck(*stacks(1, scale=1.05))}
+    scenes = {"same": crosscheck(*stacks(1)), "brighter": crosscheck(*stacks(1, scale=1.05)),
+              "film": {"pass": False, "error": "image stacks differ"}}
     for r in scenes.values():
         r["mitsuba"] = {"variant": "llvm_ad_rgb"}
     text = markdown({"settings": {"seeds": N, "spp": 4}, "scenes": scenes})
     rows = [line for line in text.splitlines() if line.startswith("| ") and "scene" not in line]
-    assert len(rows) == 2
+    assert len(rows) == 3
     assert rows[0].startswith("| same |") and rows[0].endswith("| yes |")
     assert rows[1].startswith("| brighter |") and rows[1].endswith("| **no** |")
+    assert rows[2].startswith("| film | image stacks differ |") and rows[2].endswith("| **no** |")
     assert all(line.count("|") == 8 for line in text.splitlines() if line.startswith("|"))
