@@ -7,10 +7,10 @@ import time
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, Parser, flag, int_flag, resolution_flag, run_main
+from drtlab.cli_args import (Help, Parser, add_cache_and_threads, add_progress_flag, flag, int_flag,
+                             resolution_flag, run_main, show_progress)
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
-DEFAULT_GT_SPP = 16384
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -78,11 +78,6 @@ def _overrides(pairs: list[str] | None) -> dict:
             value = text
         out[key.strip()] = value
     return out
-
-
-def _show_progress(args) -> bool:
-    """A progress bar only for a person watching: not with --no-progress, not into a log."""
-    return not args.no_progress and sys.stdout.isatty() and sys.stderr.isatty()
 
 
 def _warn(lines: list[str]) -> None:
@@ -198,7 +193,7 @@ def cmd_render(args) -> int:
     t0 = time.perf_counter()
     common = dict(sampler=args.sampler, integrator=args.integrator, seed=args.seed, res=args.res,
                   threads=args.threads, tile=args.tile, device=args.device,
-                  progress=_show_progress(args), variance=args.variance)
+                  progress=show_progress(args), variance=args.variance)
     if args.seconds is not None:
         stats = R.render_for_seconds(scene, args.seconds, **common)
     else:
@@ -237,7 +232,7 @@ def cmd_experiment(args) -> int:
     # The cluster is reached (or started) before any rendering: an unreachable scheduler is one line.
     with open_executor(args.scheduler, args.workers, backend) as executor:
         summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
-                                 threads=args.threads, fresh=args.fresh, progress=_show_progress(args),
+                                 threads=args.threads, fresh=args.fresh, progress=show_progress(args),
                                  argv=sys.argv, executor=executor,
                                  keep_images=True if args.keep_images else None)
     out = args.out if args.out is not None else default_out_dir(exp.name)
@@ -266,131 +261,9 @@ def _print_summary(exp, result) -> None:
                   + (f"; speed-up vs {study.baseline}: " + ", ".join(sp) if sp else ""))
 
 
-def _ground_truth_jobs(args) -> list[tuple]:
-    """(scene ref, integrator, resolution, spp, batch) of every reference the command asks for."""
-    from drtlab.estimators.registry import parse_integrator
-    from drtlab.experiments.study.backend import default_backend
-    from drtlab.experiments.study.config import load_experiment, scene_ref
-    from drtlab.experiments.study.plan import gt_requirements, plan_runs
-    if (args.scene is None) == (args.experiment is None):
-        raise InputError("ground-truth", "give either a SCENE or --experiment NAME (one of the two)")
-    if args.integrator is not None:
-        parse_integrator(args.integrator, "--integrator", unbiased=True)
-    backend = default_backend()
-    if args.experiment is not None:
-        exp = load_experiment(args.experiment, args.profile)
-        jobs = []
-        for (ref, integ, res), (spp, batch) in gt_requirements(exp, plan_runs(exp, backend)).items():
-            if args.integrator and args.integrator != integ:
-                continue
-            if args.res is not None:
-                scene = backend.load_scene(ref.name, ref.overrides_dict or None)
-                res = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
-            jobs.append((ref, integ, res, args.spp or spp, args.batch_spp or batch))
-        return jobs
-    scene = backend.load_scene(args.scene, None)                    # raises InputError
-    integ = parse_integrator(args.integrator or scene.integrator, "--integrator", unbiased=True).name
-    res = None if args.res is None else fields.resolution(args.res, "--res",
-                                                          aspect=scene.height / scene.width)
-    spp = args.spp or DEFAULT_GT_SPP
-    batch = args.batch_spp or max(1, min(512, spp // 8))
-    return [(scene_ref(args.scene, "SCENE"), integ, res, spp, batch)]
-
-
-def cmd_ground_truth(args) -> int:
-    from drtlab.experiments.study import ground_truth as groundtruth
-    from drtlab.experiments.study.backend import default_backend
-    from drtlab.experiments.paths import default_gt_root
-    jobs = _ground_truth_jobs(args)
-    backend = default_backend()
-    root = fields.writable_location(args.gt_dir or default_gt_root(), "--gt-dir", folder=True)
-    for ref, integ, res, spp, batch in jobs:
-        gt = groundtruth.ensure_ground_truth(ref, integ, res, spp, batch, backend, root,
-                                             threads=args.threads, progress=_show_progress(args))
-        how = "reused" if gt.reused else f"rendered in {gt.manifest.get('wall_seconds', 0):.1f} s"
-        print(f"{gt.directory}: {gt.spp} spp, Var_GT {gt.variance:.3e} ({how})")
-    return 0
-
-
-# ---------------------------------------------------------------------------------------------------
-# Image tools
-# ---------------------------------------------------------------------------------------------------
-
-def cmd_info(args) -> int:
-    from drtlab.experiments.tools.images import image_info
-    print("\n".join(image_info(args.file).lines()))
-    return 0
-
-
-def cmd_compare(args) -> int:
-    """A against B, or with --ref each of A and B against R: metrics, error images of each pair,
-    and with --per-pixel-z the z-scores (a pair's image and reference standard errors)."""
-    from drtlab.experiments.tools import images as tools
-    reference = args.ref or args.b
-    images = {path: tools.read_image(path, field)[0]
-              for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
-    se = {}                                     # path -> (standard error, values behind it)
-    if args.per_pixel_z:
-        se_path = args.stderr or tools.stderr_beside(reference)
-        if se_path is None:
-            raise InputError("--per-pixel-z", f"needs the standard error of {reference}: "
-                             "--stderr FILE, or X.stderr.exr beside X.exr (stderr.exr beside a "
-                             "ground truth's mean.exr)")
-        def read_se(se_file, of, field):
-            pixels, meta = tools.read_image(se_file, field)
-            want = images[of].shape[:2]
-            if pixels.shape[:2] != want:
-                raise InputError(field, f"the standard error {se_file} is {pixels.shape[1]}x{pixels.shape[0]} "
-                                        f"but {of} is {want[1]}x{want[0]}: they must have the same resolution")
-            se[of] = (pixels, tools.samples_behind(meta))
-
-        read_se(se_path, reference, "--stderr")
-        for path, field in ((args.a, "A"), (args.b, "B") if args.ref else (None, None)):
-            beside = tools.stderr_beside(path) if path else None
-            if beside is not None:
-                read_se(beside, path, field)
-            elif path and tools.read_image(path, field)[1].get("sampler") != "none":
-                # Taking a noisy image's standard error as 0 counts its noise as a difference (the
-                # example above gave |z| > 3 in 26% of pixels instead of 1.6%).
-                raise InputError("--per-pixel-z", f"{path} has no standard error beside it "
-                                 f"({Path(path).stem}.stderr.exr, which `drtlab render --variance` "
-                                 "writes): its noise would count as a difference; render it with "
-                                 "--variance (only a deterministic whitted image needs none)")
-    out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
-    pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
-    results = []
-    for path, ref_path in pairs:
-        se_img, n_img = se.get(path, (None, None))
-        se_ref, n_ref = se.get(ref_path, (None, None))
-        result = tools.compare_images(images[path], images[ref_path], names=(path, ref_path),
-                                      se_a=se_img, se_b=se_ref, n_a=n_img, n_b=n_ref)
-        print(result.line())
-        results.append(result)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = []
-    for (path, ref_path), result in zip(pairs, results):
-        stem = out_dir / f"{Path(path).stem}-vs-{Path(ref_path).stem}"
-        written += tools.write_error_images(images[path], images[ref_path], stem,
-                                            z=None if result.z is None else result.z.image)
-    print("wrote " + ", ".join(str(p) for p in written))
-    return 0
-
-
 # ---------------------------------------------------------------------------------------------------
 # The parser
 # ---------------------------------------------------------------------------------------------------
-
-def _add_cache_and_threads(parser) -> None:
-    parser.add_argument("--gt-dir", type=Path, default=None,
-                        help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
-    parser.add_argument("--threads", type=int_flag(1, 1024), default=None,
-                        help="CPU threads per render (default: all cores)")
-
-
-def _add_progress_flag(parser) -> None:
-    parser.add_argument("--no-progress", action="store_true",
-                        help="no progress bar (there is none either when output goes to a file or pipe)")
-
 
 def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to EXR + sRGB PNG",
@@ -428,7 +301,7 @@ def _add_render(sub) -> None:
                    help="also write OUT.stderr.exr: each pixel's standard error, sqrt(sample "
                         "variance / spp) of the same samples (exact for independent point sets, an "
                         "upper bound for stratified ones)")
-    _add_progress_flag(r)
+    add_progress_flag(r)
     r.set_defaults(func=cmd_render)
 
 
@@ -444,12 +317,12 @@ def _add_experiment(sub) -> None:
                    help="profile section of the file to use (e.g. quick, full)")
     p.add_argument("--out", type=Path, default=None,
                    help="output folder (default: results/NAME)")
-    _add_cache_and_threads(p)
+    add_cache_and_threads(p)
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
     p.add_argument("--keep-images", action="store_true",
                    help="keep every repetition's image in its cell file (default: the file's "
                         "keep_images; otherwise per cell only the first image and per-pixel moments)")
-    _add_progress_flag(p)
+    add_progress_flag(p)
     from drtlab.experiments.study.cluster import scheduler_address
     cluster = p.add_mutually_exclusive_group()
     cluster.add_argument("--scheduler", type=flag(scheduler_address), default=None, metavar="ADDRESS",
@@ -463,53 +336,6 @@ def _add_experiment(sub) -> None:
     p.set_defaults(func=cmd_experiment)
 
 
-def _add_ground_truth(sub) -> None:
-    g = sub.add_parser(
-        "ground-truth", help="render (or reuse) high-spp references with their standard error",
-        formatter_class=Help,
-        description="Render the reference of one scene, or of every scene of an experiment.")
-    g.add_argument("scene", nargs="?", metavar="SCENE", help="built-in scene name or path")
-    g.add_argument("--spp", type=int_flag(1), default=None,
-                   help=f"reference samples per pixel (default: the experiment's gt_spp, or "
-                        f"{DEFAULT_GT_SPP})")
-    g.add_argument("--batch-spp", type=int_flag(1), default=None,
-                   help="samples per independent batch (default: the experiment's, or spp / 8 up to 512)")
-    g.add_argument("--integrator", default=None,
-                   help="drt | path (default: the scene's, or the experiment's)")
-    g.add_argument("--res", type=resolution_flag, default=None,
-                   help="N (width, scene aspect) or WxH (default: the scene's own)")
-    g.add_argument("--experiment", default=None, metavar="NAME_OR_PATH",
-                   help="render the references every scene of this experiment needs")
-    g.add_argument("--profile", default="quick", help="profile of --experiment to use")
-    _add_cache_and_threads(g)
-    _add_progress_flag(g)
-    g.set_defaults(func=cmd_ground_truth)
-
-
-def _add_image_tools(sub) -> None:
-    from drtlab.experiments.paths import results_root
-    i = sub.add_parser("info", help="resolution, channel statistics, NaN/Inf/negative counts and "
-                                    "drtlab metadata of an EXR", formatter_class=Help)
-    i.add_argument("file", metavar="FILE", help="an EXR (or any image OpenImageIO reads)")
-    i.set_defaults(func=cmd_info)
-    c = sub.add_parser("compare", help="error metrics of A against B, and error images",
-                       formatter_class=Help,
-                       description="RMSE, relMSE, MAE, CIEDE2000 and mean signed error of A against "
-                                   "B (or of A and B against --ref); writes a signed-difference EXR "
-                                   "and a false-colour error PNG of A - B.")
-    c.add_argument("a", metavar="A", help="image to measure")
-    c.add_argument("b", metavar="B", help="reference image (or a second image, with --ref)")
-    c.add_argument("--ref", default=None, metavar="R", help="measure A and B against this reference")
-    c.add_argument("--per-pixel-z", action="store_true",
-                   help="per-pixel z-scores (A - B) / standard error, with the reference's standard "
-                        "error (and A's, when A.stderr.exr exists)")
-    c.add_argument("--stderr", default=None, metavar="FILE",
-                   help="standard-error image of the reference (default: found beside it)")
-    c.add_argument("--out-dir", type=Path, default=results_root() / "compare",
-                   help="where the error images go")
-    c.set_defaults(func=cmd_compare)
-
-
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="drtlab", formatter_class=Help,
                 description="Monte Carlo estimator studies for distribution ray tracing (Warp kernels).")
@@ -521,10 +347,8 @@ def build_parser() -> argparse.ArgumentParser:
         .set_defaults(func=cmd_samplers)
     _add_render(sub)
     _add_experiment(sub)
-    _add_ground_truth(sub)
-    _add_image_tools(sub)
-    from drtlab import cli_audit, cli_export, cli_lobe, cli_pointsets, cli_sources
-    for add in (cli_pointsets.add_pointset_commands, cli_lobe.add_lobe_command,
+    from drtlab import cli_audit, cli_export, cli_ground_truth, cli_images, cli_lobe, cli_pointsets, cli_sources
+    for add in (cli_ground_truth.add_ground_truth_command, cli_images.add_image_commands, cli_pointsets.add_pointset_commands, cli_lobe.add_lobe_command,
                 cli_sources.add_sources_command, cli_audit.add_audit_command,
                 cli_export.add_export_command):
         add(sub)

@@ -101,3 +101,21 @@ def run_main(build_parser, argv: list[str] | None = None, prepare=None) -> int:
     except KeyboardInterrupt:
         print("drtlab: interrupted", file=sys.stderr)
         return 130
+
+
+def show_progress(args) -> bool:
+    """A progress bar only for a person watching: not with --no-progress, not into a log."""
+    return not args.no_progress and sys.stdout.isatty() and sys.stderr.isatty()
+
+
+def add_cache_and_threads(parser) -> None:
+    from pathlib import Path
+    parser.add_argument("--gt-dir", type=Path, default=None,
+                        help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
+    parser.add_argument("--threads", type=int_flag(1, 1024), default=None,
+                        help="CPU threads per render (default: all cores)")
+
+
+def add_progress_flag(parser) -> None:
+    parser.add_argument("--no-progress", action="store_true",
+                        help="no progress bar (there is none either when output goes to a file or pipe)")

@@ -72,6 +72,7 @@ KINDS = (
     MaterialKind("ggx", microfacet=True, checker=True),
     MaterialKind("ggx_dielectric", microfacet=True, transmits=True),
     MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
+    MaterialKind("ggx_separable", microfacet=True, checker=True, model="ggx_separable"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -19,6 +19,7 @@ from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIE
                                       GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
 from drtlab.kernels.material_kinds import KIND_BY_NAME, KINDS, MATERIAL_CODE
 from drtlab.kernels.materials.dielectric import interface, refract_dir
+from drtlab.kernels.static_tag import variant_tag
 
 
 def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
@@ -130,6 +131,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 co = wp.abs(cos_o)
                 # Non-delta kinds end the ray with their direct light (plastic and ggx as glossy).
                 ends = kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC or kind == GGX
+                _variant = wp.static(variant_tag(MODEL_ENDS))  # noqa: F841 (static_tag.py)
                 for i in range(wp.static(len(MODEL_ENDS))):
                     if kind == wp.static(MODEL_ENDS[i]):
                         ends = True

@@ -1,7 +1,9 @@
 """The plan of an experiment: every run (scene, sampler, integrator, resolution, spp, repetition, seed)
-in sweep order, the references its groups need, and how a cell's repetitions are cut into batches."""
+in sweep order, the references its groups need, how a cell's repetitions are cut into batches
+(`Batch`) and the row each run leaves in the table of runs (`run_record`)."""
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 from functools import cached_property
 
@@ -100,3 +102,50 @@ def batch_ranges(reps: int, pixels: int, spp: int, start: int = 0) -> list[tuple
     per = max(1, min(-(-BATCH_SAMPLES // (pixels * spp)), MAX_BATCH_PIXELS // pixels))
     per = min(per, max(1, -(-(reps - start) // MIN_BATCHES)))
     return [(a, min(a + per, reps)) for a in range(start, reps, per)]
+
+
+def check_image_sizes(exp, gt_req: dict) -> None:
+    """Every group's image (its reference's, with per-pixel moments, the largest) fits this
+    machine, else the one line of `check_image_size` naming the resolution's field."""
+    from drtlab.kernels.render import check_image_size
+    for scene_ref, _, (w, h) in gt_req:
+        study = next(st for st in exp.studies if scene_ref in st.scenes)
+        field = f"resolution (study {study.name}, scene {scene_ref.label})"
+        check_image_size(w, h, moments=True, field=field)
+
+
+@dataclass
+class Batch:
+    """Repetitions [a, b) of one cell, to render together."""
+    cell: str
+    runs: list                    # RunSpec, in repetition order
+    fingerprints: list
+
+    @property
+    def batch_id(self) -> str:
+        return f"r{self.runs[0].rep:05d}-{self.runs[-1].rep + 1:05d}"
+
+
+# A run's row of the table of runs (run_store): its plan entry, its metrics and its batch's timings.
+def run_record(r: RunSpec, fingerprint: str, batch: Batch, result, wall: float, gt,
+               metrics: dict, code_version: str, worker: str = "local") -> dict:
+    n = len(batch.runs)
+    render_s = float(result.render_seconds) / n
+    return {
+        "run_id": r.run_id, "fingerprint": fingerprint, "cell": r.cell,
+        "scene": r.scene.label, "scene_key": r.scene.key, "sampler": r.sampler,
+        "integrator": r.integrator, "width": r.resolution[0], "height": r.resolution[1],
+        "spp": r.spp, "rep": r.rep, "seed": r.seed, "studies": ";".join(r.studies),
+        **metrics,
+        # A batch's timings, shared out over its repetitions (each row carries its share).
+        "render_seconds": render_s,
+        "cpu_seconds": float(getattr(result, "cpu_seconds", result.render_seconds)) / n,
+        "compile_seconds": float(getattr(result, "compile_seconds", 0.0)) / n,
+        "wall_seconds": float(wall) / n,
+        "samples_per_second": r.spp * r.resolution[0] * r.resolution[1] / max(render_s, 1e-12),
+        "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
+        "code_version": code_version,
+        "worker": worker,                     # where it rendered: a Dask worker's address, or local
+        "batch": batch.batch_id, "batch_reps": n,
+        "batch_time": time.time(),            # when it was committed: load steps show against it
+    }

@@ -24,19 +24,19 @@ import numpy as np
 
 from drtlab.experiments.study import analysis, manifest, report
 from drtlab.experiments.study import ground_truth as gtmod
+from drtlab.experiments.study.cell_growth import CellGrowth
 from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
-from drtlab.experiments.study.plan import (RunSpec, batch_ranges, gt_requirements, plan_runs,
-                                           run_fingerprint)
+from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
+                                           plan_runs, run_fingerprint, run_record)
 from drtlab.experiments.study.progress import Progress
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.study.metrics import compile_metric_kernels, reference_lab, score_batch
-from drtlab.experiments.error_metrics import plugin_metrics, record_key
+from drtlab.experiments.error_metrics import plugin_metrics
 from drtlab.experiments.study.results import ExperimentResult
 from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
-from drtlab.experiments.stats.intervals import repetitions_for_precision
 
 # Seconds between commits of the table and the changed cell files (and at each group's end and an
 # interrupted sweep's): rewriting a 10,000-row table after every batch was a tenth of the sweep.
@@ -66,7 +66,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                                 folder=True)
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
-    _check_image_sizes(exp, gt_req)           # before the folder, its lock or a compile
+    check_image_sizes(exp, gt_req)            # before the folder, its lock or a compile
     cells = len({r.cell for r in plan})
     samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
     log(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
@@ -93,16 +93,6 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         lock.close()
 
 
-def _check_image_sizes(exp: Experiment, gt_req: dict) -> None:
-    """Every group's image (its reference's, with per-pixel moments, the largest) fits this
-    machine, else the one line of `check_image_size` naming the resolution's field."""
-    from drtlab.kernels.render import check_image_size
-    for scene_ref, _, (w, h) in gt_req:
-        study = next(st for st in exp.studies if scene_ref in st.scenes)
-        field = f"resolution (study {study.name}, scene {scene_ref.label})"
-        check_image_size(w, h, moments=True, field=field)
-
-
 def _reference_info(gt) -> dict:
     """What the summary and the manifest record of a group's ground truth."""
     return {"dir": str(gt.directory), "spp": gt.spp, "batches": gt.batches, "variance": gt.variance,
@@ -112,43 +102,7 @@ def _reference_info(gt) -> dict:
 
 
 @dataclass
-class _Batch:
-    """Repetitions [a, b) of one cell, to render together."""
-    cell: str
-    runs: list                    # RunSpec, in repetition order
-    fingerprints: list
-
-    @property
-    def batch_id(self) -> str:
-        return f"r{self.runs[0].rep:05d}-{self.runs[-1].rep + 1:05d}"
-
-
-def _run_record(r: RunSpec, fingerprint: str, batch: _Batch, result, wall: float, gt,
-                metrics: dict, code_version: str, worker: str = "local") -> dict:
-    n = len(batch.runs)
-    render_s = float(result.render_seconds) / n
-    return {
-        "run_id": r.run_id, "fingerprint": fingerprint, "cell": r.cell,
-        "scene": r.scene.label, "scene_key": r.scene.key, "sampler": r.sampler,
-        "integrator": r.integrator, "width": r.resolution[0], "height": r.resolution[1],
-        "spp": r.spp, "rep": r.rep, "seed": r.seed, "studies": ";".join(r.studies),
-        **metrics,
-        # A batch's timings, shared out over its repetitions (each row carries its share).
-        "render_seconds": render_s,
-        "cpu_seconds": float(getattr(result, "cpu_seconds", result.render_seconds)) / n,
-        "compile_seconds": float(getattr(result, "compile_seconds", 0.0)) / n,
-        "wall_seconds": float(wall) / n,
-        "samples_per_second": r.spp * r.resolution[0] * r.resolution[1] / max(render_s, 1e-12),
-        "gt_spp": gt.spp, "gt_key": gt.manifest.get("key"),
-        "code_version": code_version,
-        "worker": worker,                     # where it rendered: a Dask worker's address, or local
-        "batch": batch.batch_id, "batch_reps": n,
-        "batch_time": time.time(),            # when it was committed: load steps show against it
-    }
-
-
-@dataclass
-class _Sweep:
+class _Sweep(CellGrowth):
     """The cells of a plan, group by group (one ground truth in memory at a time): each batch of
     repetitions reused or rendered; precision-targeted cells grown batch by batch."""
     plan: list[RunSpec]
@@ -286,10 +240,7 @@ class _Sweep:
         self._flush(group_end=True)
         self.cell_files.clear()                   # one group's cell files in memory at a time
 
-    def _targeted(self, cells: dict) -> bool:
-        return any(getattr(self._settings(cruns[0]), "target_rel_ci", None) for cruns in cells.values())
-
-    def _cell_batches(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch]:
+    def _cell_batches(self, cell: str, cruns: list[RunSpec], gt) -> list[Batch]:
         """The batches of a cell still to render; a cell with stored runs of other code or another
         reference starts over (its cell file merged those runs' images)."""
         key, code = gt.manifest.get("key"), self._code(cruns[0].sampler)
@@ -302,7 +253,7 @@ class _Sweep:
         pixels = cruns[0].resolution[0] * cruns[0].resolution[1]
         return self._batches(cell, cruns, gt, batch_ranges(len(cruns), pixels, cruns[0].spp))
 
-    def _batches(self, cell: str, cruns: list[RunSpec], gt, ranges) -> list[_Batch]:
+    def _batches(self, cell: str, cruns: list[RunSpec], gt, ranges) -> list[Batch]:
         """The not yet committed runs of each range, as batches (a range whose runs are all stored
         is reused: its images are in the cell file already)."""
         out = []
@@ -312,71 +263,10 @@ class _Sweep:
                     if self.records.get(r.run_id, {}).get("fingerprint") != fp]
             self.stats["runs_reused"] += (b - a) - len(todo)
             if todo:
-                out.append(_Batch(cell, [r for r, _ in todo], [fp for _, fp in todo]))
+                out.append(Batch(cell, [r for r, _ in todo], [fp for _, fp in todo]))
         return out
 
-    def _grow(self, cell: str, cruns: list[RunSpec], gt) -> list[_Batch] | None:
-        """The batches of a precision-targeted cell's next repetitions (those not stored yet), or None
-        when its target is met or its budget spent (recorded in `targets`)."""
-        settings = self._settings(cruns[0])
-        target = getattr(settings, "target_rel_ci", None)
-        if not target:
-            return None
-        have = [r for r in self.plan if r.cell == cell]
-        study = self.studies[cruns[0].studies[0]]
-        key = record_key(study.metric)
-        values = [self.records[r.run_id][key] for r in have if r.run_id in self.records]
-        prec = repetitions_for_precision(values, target)
-        budget = settings.max_runs_at(cruns[0].spp)
-        met = bool(prec["enough"])
-        self.targets[cell] = {"target_rel_ci": target, "mse_rel_ci": prec["current_rel_halfwidth"],
-                              "target_met": met, "runs": len(have), "max_runs": budget,
-                              "runs_needed": prec["repetitions"]}
-        if met or len(have) >= budget:
-            return None
-        self.stats["runs_added_for_precision"] += min(2 * len(have), budget) - len(have)
-        return self._extend(cell, cruns, gt, study, have, min(2 * len(have), budget))
-
-    def _extend(self, cell: str, cruns: list[RunSpec], gt, study, have: list, new_n: int) -> list[_Batch]:
-        """The plan grown by a cell's repetitions len(have)..new_n, and their batches."""
-        r0 = cruns[0]
-        extra = [RunSpec(r0.scene, r0.sampler, r0.integrator, r0.resolution, r0.spp, rep,
-                         run_seed(study.seed, r0.scene.key, r0.sampler, r0.integrator, r0.resolution,
-                                  r0.spp, rep), r0.studies)
-                 for rep in range(len(have), new_n)]
-        self.plan.extend(extra)
-        pixels = r0.resolution[0] * r0.resolution[1]
-        self.bar.add_work(sum(r.spp * pixels for r in extra), len(extra))
-        return self._batches(cell, have + extra, gt, batch_ranges(new_n, pixels, r0.spp, start=len(have)))
-
-    def _resolve(self, cell: str, cruns: list[RunSpec], gt, spent: dict) -> list[_Batch] | None:
-        """The batches that double an unresolved cell's repetitions (within `max_samples_per_cell`
-        and the study's `max_seconds`, of which each scene gets its share), or None. Unresolved here
-        means by the cell's own runs (resolution.cell_resolution without the sampler's tail: more
-        runs do not lighten a heavy tail)."""
-        from drtlab.experiments.stats.intervals import positive_mean_ci
-        from drtlab.experiments.stats.resolution import cell_resolution
-        study = self.studies[cruns[0].studies[0]]
-        settings = self._settings(cruns[0])
-        budget = getattr(settings, "max_seconds", None)
-        if not budget:
-            return None
-        have = [r for r in self.plan if r.cell == cell]
-        recs = [self.records[r.run_id] for r in have if r.run_id in self.records]
-        values = [rec[record_key(study.metric)] for rec in recs]
-        if not recs or cell_resolution(values, positive_mean_ci(values)["lo"])[0]:
-            return None
-        per_rep = float(np.mean([rec["render_seconds"] for rec in recs]))
-        new_n = min(2 * len(have), settings.max_runs_at(cruns[0].spp))
-        cost = per_rep * (new_n - len(have))
-        share = budget / max(1, len(study.scenes))
-        if new_n <= len(have) or spent.get(study.name, 0.0) + cost > share:
-            return None
-        spent[study.name] = spent.get(study.name, 0.0) + cost
-        self.stats["runs_added_for_resolution"] += new_n - len(have)
-        return self._extend(cell, cruns, gt, study, have, new_n)
-
-    def _render_batches(self, batches: list[_Batch], ctx: "_GroupContext") -> None:
+    def _render_batches(self, batches: list[Batch], ctx: "_GroupContext") -> None:
         if not batches:
             return
         if ctx.gt_lab is None:
@@ -407,7 +297,7 @@ class _Sweep:
                 self._commit(b_, result_, wall_, ctx, worker_)
                 workers[worker_] = workers.get(worker_, 0) + len(b_.runs)
 
-    def _commit(self, b: _Batch, result, wall: float, ctx: "_GroupContext", worker: str) -> None:
+    def _commit(self, b: Batch, result, wall: float, ctx: "_GroupContext", worker: str) -> None:
         """A rendered batch: its metrics, its rows and its cell file (run_store's commit protocol)."""
         images = np.asarray(result.images, dtype=np.float64)
         metrics, sums = score_batch(images, ctx.gt.mean, ctx.gt.stderr, ctx.gt_lab,
@@ -417,7 +307,7 @@ class _Sweep:
             for row, value in zip(metrics, m.score(images, ctx.gt.mean, ctx.gt.stderr)):
                 row[m.record] = value
         for r, fp, m in zip(b.runs, b.fingerprints, metrics):
-            self.records[r.run_id] = _run_record(r, fp, b, result, wall, ctx.gt, m,
+            self.records[r.run_id] = run_record(r, fp, b, result, wall, ctx.gt, m,
                                                  self._code(r.sampler), worker)
         if b.cell not in self.cell_files:
             self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
@@ -434,7 +324,7 @@ class _Sweep:
         self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
                         f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
 
-    def _first_runs(self, b: _Batch, key: str, default: int | None) -> int | None:
+    def _first_runs(self, b: Batch, key: str, default: int | None) -> int | None:
         """How many of a batch's runs a per-run limit of the cell's settings (`key`: a cell's first
         N runs only; None: all) scores: a prefix, the batch being in repetition order."""
         limit = getattr(self._settings(b.runs[0]), key, default)

@@ -103,7 +103,7 @@ def check_exponent(text: str, field_name: str = "--exponent") -> float:
 
 def check_roughness(text: str, field_name: str = "--roughness") -> float:
     from drtlab.kernels.material_kinds import ROUGHNESS_MIN
-    return _float(text, field_name, f"in [{ROUGHNESS_MIN:g}, 1] (GGX alpha)",
+    return _float(text, field_name, f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
                   lambda v: ROUGHNESS_MIN <= v <= 1.0)
 
 
@@ -226,7 +226,7 @@ def analyse(kind: str, *, exponent: float = 20.0, ior: float = 1.5,
     t0 = time.perf_counter()
     check_kind(kind)
     if kind in USES_ROUGHNESS:
-        exponent = float(roughness)          # the kernels' lobe shape parameter (GGX alpha)
+        exponent = float(roughness)          # the kernels' lobe shape parameter (the microfacet alpha)
     ad = C.BSDFAdapter(strategy != "uniform", "d" if strategy == "importance-ggxd" else "vndf")
     m = len(incident)
     level = C.sidak(FAMILY_ALPHA, m)

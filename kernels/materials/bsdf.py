@@ -10,6 +10,7 @@ from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phon
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
 from drtlab.kernels.material_kinds import KINDS, MATERIAL_CODE, kinds_where
+from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
                                                  interface, refract_dir)
 from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
@@ -67,10 +68,12 @@ def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
     out = []
     if strategy.lobes:
         from drtlab.kernels.lobe_samplers import samplers_of
-        out = [(MATERIAL_CODE[s.kind], s.sample, s.pdf, s.kind in LOBE_CHOICE_KINDS)
+        # The plugin's fingerprint (its whole file) last: the cache tag of the unrolled table covers
+        # helpers the two functions call (static_tag.py).
+        out = [(MATERIAL_CODE[s.kind], s.sample, s.pdf, s.kind in LOBE_CHOICE_KINDS, s.fingerprint)
                for s in samplers_of(strategy) if s.kind in kinds]
     taken = {p[0] for p in out}
-    out += [(code, m.sample, m.pdf, code in LOBE_CHOICE_CODES) for code, m, _ in models if code not in taken]
+    out += [(code, m.sample, m.pdf, code in LOBE_CHOICE_CODES, m) for code, m, _ in models if code not in taken]
     return tuple(out)
 
 
@@ -120,6 +123,7 @@ def _make_eval(kinds: frozenset, models: tuple):
         if wp.static(K_GGXD):
             if kind == GGX_DIELECTRIC:
                 r = eval_ggx(albedo, exponent, ior, n, wo, wi, 1)
+        _variant = wp.static(variant_tag(MODELS))  # noqa: F841 (the loop table, hashed: static_tag.py)
         for i in range(wp.static(len(MODELS))):
             if kind == wp.static(MODELS[i][0]):
                 r = wp.static(MODELS[i][1].eval_bsdf)(albedo, exponent, ior, n, wo, wi)
@@ -148,6 +152,7 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
         cos_o = wp.dot(n, wo)
         cos_i = wp.dot(n, wi)
         p = float(0.0)
+        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS)))  # noqa: F841 (static_tag.py)
         if wp.static(not LOBE):
             if kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
                 p = INV_4PI
@@ -234,6 +239,7 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                     wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
         s = Scatter()
         s.valid = 0
+        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS)))  # noqa: F841 (static_tag.py)
         s.delta = 0
         cos_o = wp.dot(n, wo)
         nf = n

@@ -9,7 +9,8 @@ chi-square cases and the albedo cases); negative controls judged at the same lev
 * Directional albedo: the mean sample weight against a float64 quadrature of the formula, two-sided
   z; negative control: the quadrature at alpha +25%.
 Deterministic: the formula equals the renderer's, reciprocity, Walter's G1 fit within 0.35% of the
-exact Smith masking of the Beckmann distribution.
+exact Smith masking of the Beckmann distribution. What every kind of the kind table must do in the
+integrators: tests/kernels/test_kind_table.py.
 """
 from __future__ import annotations
 
@@ -140,28 +141,3 @@ def test_directional_albedo_and_its_negative_control(alpha, theta):
     assert 0 < ref <= 1 and abs(mean - ref) / se < z_crit, (mean, se, ref)
     assert abs(wrong - ref) / se >= z_crit + stats.norm.isf(0.01)        # the control is detectable
     assert abs(mean - wrong) / se >= z_crit, (mean, wrong)
-
-
-@pytest.mark.parametrize("integrator", ["path", "drt", "whitted"])
-def test_integrators_render_it_finite(integrator):
-    import drtlab
-    scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": integrator})
-    for m in scene.materials:
-        if m.kind == "ggx":
-            m.kind = "beckmann"
-    img = drtlab.render(scene, spp=4, sampler="independent+importance", seed=1)
-    assert np.all(np.isfinite(img)) and np.all(img >= 0) and img.mean() > 0
-
-
-def test_whitted_ends_the_ray_at_it_with_direct_light():
-    """Whitted treats the kind as ggx: direct light, no mirror continuation. A black beckmann
-    surface then renders exactly as a black diffuse one (a continued ray would show reflections)."""
-    import drtlab
-    images = []
-    for kind in ("beckmann", "diffuse"):
-        scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": "whitted"})
-        for m in scene.materials:
-            if m.kind == "ggx":
-                m.kind, m.albedo = kind, np.zeros(3)
-        images.append(drtlab.render(scene, spp=1, seed=1))
-    assert np.array_equal(images[0], images[1])

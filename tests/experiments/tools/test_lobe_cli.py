@@ -132,7 +132,7 @@ def test_negative_control_wrong_pdf_is_rejected(wrong):
     (["glossy", "--samples", "10"], "--samples", "10000"),
     (["glossy", "--seed", "-1"], "--seed", "integer"),
     (["ggx", "--roughness", "0"], "--roughness", "[0.001, 1]"),
-    (["ggx", "--roughness", "2"], "--roughness", "GGX alpha"),
+    (["ggx", "--roughness", "2"], "--roughness", "microfacet alpha"),
 ])
 def test_bad_input_is_one_line_exit_2(argv, field, words, tmp_path, capsys):
     run_bad(["lobe", *argv, "--out", str(tmp_path / "out")], field, tmp_path, capsys)

@@ -1,0 +1,86 @@
+"""What every material kind of the kind table (`MaterialKind.model`: a module in kernels/materials/
+with eval_bsdf, sample and pdf) must do in the renderer, whatever its model: every integrator
+renders it finite and non-negative, whitted ends a ray at it with direct light (as at ggx), and its
+sampled weights are what eval_bsdf / pdf say. Each model's own statistics live beside it
+(test_beckmann.py, test_ggx_separable.py)."""
+import numpy as np
+import pytest
+
+import drtlab
+from drtlab.experiments.stats import chi2 as C
+from drtlab.kernels.material_kinds import KINDS
+
+from bsdf_checks import assert_consistent
+
+MODEL_KINDS = [k.name for k in KINDS if k.model]
+
+
+def _scene(kind: str, integrator: str, albedo=None):
+    scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": integrator})
+    for m in scene.materials:
+        if m.kind == "ggx":
+            m.kind = kind
+            if albedo is not None:
+                m.albedo = np.asarray(albedo, dtype=np.float64)
+    return scene
+
+
+def test_the_table_has_model_kinds():
+    assert {"beckmann", "ggx_separable"} <= set(MODEL_KINDS)
+
+
+@pytest.mark.parametrize("kind", MODEL_KINDS)
+@pytest.mark.parametrize("integrator", ["path", "drt", "whitted"])
+def test_integrators_render_it_finite(kind, integrator):
+    img = drtlab.render(_scene(kind, integrator), spp=4, sampler="independent+importance", seed=1)
+    assert np.all(np.isfinite(img)) and np.all(img >= 0) and img.mean() > 0
+
+
+@pytest.mark.parametrize("kind", MODEL_KINDS)
+def test_whitted_ends_the_ray_at_it_with_direct_light(kind):
+    """A black surface of the kind renders exactly as a black diffuse one: a continued (mirror) ray
+    would show reflections."""
+    images = [drtlab.render(_scene(k, "whitted", albedo=[0, 0, 0]), spp=1, seed=1) for k in (kind, "diffuse")]
+    assert np.array_equal(images[0], images[1])
+
+
+@pytest.mark.parametrize("kind", MODEL_KINDS)
+@pytest.mark.parametrize("lobe", [True, False])
+def test_weights_are_eval_over_pdf(kind, lobe):
+    case = (kind, (0.8, 0.6, 0.4), 0.4, 1.5, (0.0, 0.0, 1.0), (0.6, 0.0, 0.8))
+    assert_consistent(C.BSDFAdapter(lobe).sample(case, 20_000, 3), f"{kind} lobe={lobe}")
+
+
+def _bsdf_kernel_hash(kinds: frozenset) -> bytes:
+    """Warp's module hash (the disk cache's key) of a kernel calling make_bsdf's functions."""
+    import dataclasses
+
+    import warp as wp
+    from drtlab.experiments.stats.chi2.adapters import _routine_variant
+    from drtlab.kernels.materials import make_bsdf
+    features, strategy = _routine_variant()
+    b = make_bsdf(dataclasses.replace(features, kinds=kinds), strategy)
+    sample_bsdf, eval_bsdf = b.sample_bsdf, b.eval_bsdf
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def k(kind: int, out: wp.array(dtype=wp.vec3)):
+        n = wp.vec3(0.0, 0.0, 1.0)
+        s = sample_bsdf(kind, wp.vec3(1.0), 0.5, 1.5, n, n, 0.5, wp.vec2(0.3, 0.6))
+        out[0] = s.weight + eval_bsdf(kind, wp.vec3(1.0), 0.5, 1.5, n, n, n)
+    return k.module.get_module_hash()
+
+
+def test_kinds_of_the_table_change_the_kernel_cache_key():
+    """Two scenes whose only difference is which model kind they hold compile apart: Warp does not
+    hash an unrolled loop's static values (kernels/static_tag.py), the variant tag does."""
+    hashes = {kind: _bsdf_kernel_hash(frozenset({"diffuse", kind})) for kind in MODEL_KINDS}
+    assert len(set(hashes.values())) == len(MODEL_KINDS), hashes
+
+
+def test_the_variant_tag_reads_numbers_and_sources():
+    from drtlab.kernels.materials import beckmann, ggx_separable
+    from drtlab.kernels.static_tag import variant_tag
+    assert variant_tag(((9, beckmann),)) == variant_tag(((9, beckmann),))
+    assert len({variant_tag(()), variant_tag(((9, beckmann),)), variant_tag(((10, beckmann),)),
+                variant_tag(((9, ggx_separable),)), variant_tag(((9, beckmann.sample),)),
+                variant_tag(((9, beckmann.pdf),))}) == 6
