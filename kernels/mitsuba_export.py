@@ -21,6 +21,8 @@ from drtlab.kernels.scene import Scene
 
 PHONG_KINDS = ("glossy", "glossy_dielectric", "plastic")
 GGX_KINDS = ("ggx", "ggx_dielectric")
+# drtlab's kinds that are Mitsuba's roughconductor (material "none"), by its `distribution`.
+ROUGH_CONDUCTORS = {"beckmann": "beckmann", "ggx_separable": "ggx"}
 # The procedural environment's default lat-long size: what an imported constant emitter becomes.
 DEFAULT_ENV_SHAPE = (32, 64)
 
@@ -42,7 +44,8 @@ def check_exportable(scene: Scene) -> None:
                                                          "Mitsuba 3 lacks")
         if m.kind in GGX_KINDS:
             raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' uses height-correlated Smith "
-                                                         "masking; Mitsuba 3's GGX uses the separable form")
+                                                         "masking; Mitsuba 3's GGX uses the separable form "
+                                                         "(kind ggx_separable)")
         if m.checker is not None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
     for i, s in enumerate(scene.shapes):
@@ -152,7 +155,7 @@ def _sensor(root, scene: Scene) -> None:
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:
     """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
-    one-sided; beckmann is Mitsuba's Beckmann roughconductor); material name -> its id."""
+    one-sided; beckmann and ggx_separable are Mitsuba's roughconductor); material name -> its id."""
     ids: dict[str, str] = {}
     for k, m in enumerate(scene.materials):
         ident = m.name if _is_id(m.name) and m.name not in ids.values() else f"material{k}"
@@ -168,10 +171,10 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _vec(b, "rgb", "reflectance", np.zeros(3))
             continue
         outer = ET.SubElement(root, "bsdf", type="twosided", id=ident)
-        if m.kind in ("mirror", "beckmann"):
+        if m.kind in ("mirror",) + tuple(ROUGH_CONDUCTORS):
             b = ET.SubElement(outer, "bsdf", type="conductor" if m.kind == "mirror" else "roughconductor")
-            if m.kind == "beckmann":
-                _num(b, "string", "distribution", "beckmann")
+            if m.kind in ROUGH_CONDUCTORS:
+                _num(b, "string", "distribution", ROUGH_CONDUCTORS[m.kind])
                 _num(b, "float", "alpha", m.roughness)
             _vec(b, "rgb", "specular_reflectance", m.albedo)
         else:

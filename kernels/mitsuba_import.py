@@ -393,7 +393,7 @@ class _Importer:
                                                     "(drtlab's conductors reflect a constant colour)")
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
             if kind == "roughconductor":
-                spec.update(kind="beckmann", roughness=self.roughness(o))
+                spec.update(zip(("kind", "roughness"), self.roughness(o)))
         else:
             ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
             if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
@@ -404,21 +404,23 @@ class _Importer:
         self.done(o)
         return spec
 
-    def roughness(self, o: Obj) -> float:
-        """Mitsuba's isotropic Beckmann alpha: drtlab's `beckmann` is that model (separable Smith
-        G1 G1 in Walter's rational fit); its `ggx` masks with the height-correlated form instead."""
+    def roughness(self, o: Obj) -> tuple[str, float]:
+        """(drtlab kind, isotropic alpha) of a roughconductor: `beckmann` and `ggx_separable` are
+        Mitsuba's two distributions with its separable Smith masking (drtlab's `ggx` masks with
+        the height-correlated form instead)."""
+        kinds = {"beckmann": "beckmann", "ggx": "ggx_separable"}
         distribution = self.string(o, "distribution", "beckmann")
-        if distribution != "beckmann":
+        if distribution not in kinds:
             self.r.fail(o.props["distribution"].path, f"{distribution!r} is not supported (supported: "
-                        "beckmann; drtlab's ggx has height-correlated Smith masking, not G1 G1)")
+                        f"{', '.join(kinds)})")
         self.ignore(o, "sample_visible")            # the proposal only: the same estimate
         alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha", "alpha_u", "alpha_v")]
         if alpha[1] is not None or alpha[2] is not None:
             if alpha[0] is not None or alpha[1] != alpha[2]:
                 self.r.fail(o.path, "anisotropic roughness is not supported: give alpha, or alpha_u "
                                     "equal to alpha_v")
-            return alpha[1]
-        return 0.1 if alpha[0] is None else alpha[0]
+            return kinds[distribution], alpha[1]
+        return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
 
     def ior(self, o: Obj, name: str, default: str) -> float:
         p = o.props.get(name)

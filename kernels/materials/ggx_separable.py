@@ -1,5 +1,5 @@
 """`ggx_separable`: a rough conductor with GGX microfacets and Smith masking in its separable form,
-G = G1(wo) G1(wi), as Mitsuba 3's `roughconductor` with `distribution="ggx"` (its default) and
+G = G1(wo) G1(wi), as Mitsuba 3's `roughconductor` with `distribution="ggx"` and
 `material="none"` (facets reflecting `albedo`, its `specular_reflectance`).
 
 drtlab's `ggx` kind uses the height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Heitz 2014),

@@ -171,6 +171,8 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
     <shape type="sphere" id="s8"><bsdf type="roughconductor"><string name="distribution" value="beckmann"/>
       <float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/></bsdf></shape>
     <shape type="sphere" id="s9"><bsdf type="roughconductor"/></shape>
+    <shape type="sphere" id="s11"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>
+      <float name="alpha" value="0.25"/></bsdf></shape>
     <emitter type="point"><point name="position" value="1, 2, 3"/><rgb name="intensity" value="5"/></emitter>
     <emitter type="point"><transform name="to_world"><translate x="4"/></transform></emitter>
     <emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/><rgb name="irradiance" value="2"/></emitter>
@@ -189,6 +191,7 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
     assert (mat["s10"].kind, mat["s10"].emission.tolist()) == ("emitter", [2] * 3)
     assert (mat["s7"].kind, mat["s7"].roughness, mat["s7"].albedo.tolist()) == ("beckmann", 0.3, [0.7] * 3)
     assert (mat["s8"].roughness, mat["s9"].kind, mat["s9"].roughness) == (0.2, "beckmann", 0.1)
+    assert (mat["s11"].kind, mat["s11"].roughness) == ("ggx_separable", 0.25)   # Mitsuba's separable GGX
     assert [p.position.tolist() for p in s.point_lights] == [[1, 2, 3], [4, 0, 0]]
     assert s.point_lights[1].intensity.tolist() == [1, 1, 1]
     assert s.directional_lights[0].direction.tolist() == [0, -1, 0]
@@ -213,9 +216,9 @@ def test_integrators(tmp_path, integrator, want):
 # ---------------------------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("body,where,what", [
-    ('<shape type="sphere"><bsdf type="roughconductor"><string name="distribution" value="ggx"/></bsdf></shape>',
+    ('<shape type="sphere"><bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf></shape>',
      "scene/shape[2](sphere)/bsdf(roughconductor)/string[@name=distribution]",
-     "'ggx' is not supported (supported: beckmann"),
+     "'phong' is not supported (supported: beckmann, ggx"),
     ('<shape type="sphere"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughconductor)", "anisotropic"),
     ('<shape type="sphere"><bsdf type="roughdielectric"/></shape>', "bsdf(roughdielectric)", "Smith"),
@@ -263,12 +266,12 @@ def test_malformed_and_missing_files_through_the_cli(tmp_path, capsys):
     for path, field in ((tmp_path / "bad.xml", "scene"), (tmp_path / "none.xml", "scene")):
         assert main(["render", str(path), "--out", str(tmp_path / "o.exr")]) == 2
         assert_one_line_error(capsys.readouterr().err, field)
-    (tmp_path / "ggx.xml").write_text(xml('<shape type="sphere"><bsdf type="roughconductor">'
-                                          '<string name="distribution" value="ggx"/></bsdf></shape>'))
-    assert main(["render", str(tmp_path / "ggx.xml"), "--out", str(tmp_path / "o.exr")]) == 2
-    assert_one_line_error(capsys.readouterr().err, "ggx.xml: scene/shape[2](sphere)/bsdf(roughconductor)"
+    (tmp_path / "aniso.xml").write_text(xml('<shape type="sphere"><bsdf type="roughconductor">'
+                                            '<string name="distribution" value="phong"/></bsdf></shape>'))
+    assert main(["render", str(tmp_path / "aniso.xml"), "--out", str(tmp_path / "o.exr")]) == 2
+    assert_one_line_error(capsys.readouterr().err, "aniso.xml: scene/shape[2](sphere)/bsdf(roughconductor)"
                                                    "/string[@name=distribution]")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.xml", "ggx.xml"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["aniso.xml", "bad.xml"]
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -343,6 +346,10 @@ albedo = [0.8, 0.8, 0.7]
 kind = "beckmann"
 roughness = 0.35
 albedo = [0.9, 0.8, 0.6]
+[materials.metal]
+kind = "ggx_separable"
+roughness = 0.2
+albedo = [0.95, 0.7, 0.5]
 [materials.lamp]
 kind = "emitter"
 emission = [5, 4, 3]
@@ -371,6 +378,11 @@ transform = { translate = [0.1, 0.0, 0.0], scale = 1.1 }
 kind = "sphere"
 material = "rough"
 center = [1.5, 0.3, -0.5]
+radius = 0.3
+[[shapes]]
+kind = "sphere"
+material = "metal"
+center = [-1.5, 0.3, -0.8]
 radius = 0.3
 [[shapes]]
 kind = "mesh"
@@ -405,7 +417,7 @@ def test_every_exportable_feature_comes_back_as_the_same_numbers(tmp_path):
     (tmp_path / "rich.toml").write_text(RICH)
     a = load_scene(tmp_path / "rich.toml")
     written = export_mitsuba(a, tmp_path / "rich.xml", scene_data(tmp_path / "rich.toml"))
-    assert [p.name for p in written] == ["rich.xml", "rich-mesh9.ply"]
+    assert [p.name for p in written] == ["rich.xml", "rich-mesh10.ply"]
     b = load_scene(tmp_path / "rich.xml")
     assert _model(a) == _model(b)
 
