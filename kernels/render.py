@@ -1,4 +1,4 @@
-"""Render entry points: the kernel-variant cache and the tiled thread-pool launcher.
+"""Render entry points: the tiled thread-pool launcher (its kernels: kernels/variants.py).
 
 Determinism: a pixel's value is the float64 sum of its samples in index order, split into passes
 whose boundaries depend only on spp; tiles cover disjoint pixels. Thread count and tile size decide
@@ -7,7 +7,6 @@ only who computes a pixel, never what it sums to.
 from __future__ import annotations
 
 import os
-import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
@@ -18,6 +17,7 @@ from drtlab.estimators.registry import DEFAULT_SAMPLER, SamplerSpec, parse_integ
 from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.scene_upload import upload, uses_vector_quads
+from drtlab.kernels.variants import get_gather, get_kernel, variant_key
 from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
                                      Features, features_of)
 from drtlab.kernels.filters import BOX, FILTERS
@@ -30,14 +30,6 @@ from drtlab.warp_runtime import warp as _wp
 PASS_SAMPLES = 64
 DEFAULT_TILE = 16
 DEVICES = ("cpu", "cuda")
-
-_lock = threading.Lock()
-_kernels: dict = {}
-_compiling: dict = {}        # variant key -> the lock its one compile holds
-# Building a variant's Warp functions (the kernel factory) registers them in their Python module's
-# Warp module: one factory at a time, or two variants can pick up each other's closures.
-_factory_lock = threading.Lock()
-
 
 @dataclass
 class RenderStats:
@@ -68,72 +60,6 @@ class RenderStats:
         return self.width * self.height * self.spp / max(self.render_seconds, 1e-12)
 
 
-def _after_fork_in_child() -> None:
-    # A forked child inherits the pools but not their worker threads (and maybe a held lock).
-    global _lock, _factory_lock
-    _lock = threading.Lock()
-    _factory_lock = threading.Lock()
-    _compiling.clear()
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_after_fork_in_child)
-
-
-def _variant_key(features: Features, spec: SamplerSpec, device: str) -> tuple:
-    """What tells two compiled kernels apart (features as Features.code_key() gives them; a plugin's
-    point set by its fingerprint too, so an edited one recompiles; a strategy by all its fields)."""
-    return (features, spec.pointset.name, spec.pointset.fingerprint, spec.strategy, device)
-
-
-def get_kernel(features: Features, spec: SamplerSpec, device: str):
-    """The compiled kernel for (features, sampler); compiled once per process, cached on disk."""
-    if features.whitted:
-        # Whitted reads no sampler: one variant serves every sampler name.
-        spec = parse_sampler("uniform")
-    features = features.code_key()
-
-    def build():
-        from drtlab.kernels.render_kernel import build_kernel
-        return build_kernel(features, spec.pointset, spec.strategy)
-
-    return _compiled_once(_variant_key(features, spec, device), build, device)
-
-
-def _compiled_once(key, build, device: str):
-    """(kernel, compile seconds) of `key`, built by `build()` and loaded once per process (0.0
-    seconds when it was already): one lock per key, so a kernel compiles once and different ones
-    at once (Warp runs its codegen under its own lock and the native compile, mostly, unlocked)."""
-    wp = _wp()
-    with _lock:
-        entry = _kernels.get(key)
-        if entry is not None:
-            return entry[0], 0.0
-        variant_lock = _compiling.setdefault(key, threading.Lock())
-    with variant_lock:
-        with _lock:
-            entry = _kernels.get(key)
-        if entry is not None:
-            return entry[0], 0.0
-        with _factory_lock:
-            kernel = build()
-        t0 = time.perf_counter()
-        wp.load_module(kernel.module, device=device)
-        entry = (kernel, time.perf_counter() - t0)
-        with _lock:
-            _kernels[key] = entry
-        return entry
-
-
-def get_gather(features: Features, device: str):
-    """The splatting gather kernel of `features.filter` (kernels/splat.py); one per filter."""
-    def build():
-        from drtlab.kernels.splat import make_gather
-        return make_gather(features)
-
-    return _compiled_once(("gather", features.filter, device), build, device)
-
-
 def render_features(scene: Scene, integrator: str, spec: SamplerSpec,
                     device: str = "cpu") -> Features:
     """The features of rendering `scene` with `integrator` and the sampler `spec` on `device`: the
@@ -157,7 +83,7 @@ def compile_variants(jobs, threads: int | None = None, device: str = "cpu") -> d
     for scene, sampler, integrator in jobs:
         spec, scene, integ = _resolve_job(scene, sampler, integrator, None)
         f = render_features(scene, integ, spec, device)
-        keys.setdefault(_variant_key(f.code_key(), spec, device), (f, spec))
+        keys.setdefault(variant_key(f.code_key(), spec, device), (f, spec))
     t0 = time.perf_counter()
 
     def compile_one(fs):

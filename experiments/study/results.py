@@ -1,9 +1,8 @@
 """What the analysis hands to the report, to summary.json and to the CLI: typed results.
 
-`analysis` builds these; `report` and `figures` read them; `Summary.to_json()` is the content of
-summary.json (the key names and their order are part of the file's format: change them in one place,
-here). Every `to_json()` returns plain Python values (non-finite floats stay floats; the JSON writer
-turns them into null).
+`analysis` builds these; `report` and `figures` read them; `Summary.to_json()` is summary.json's
+content (key names and order are the file's format: changed here only). Every `to_json()` returns
+plain Python values (non-finite floats stay floats; the JSON writer turns them into null).
 """
 from __future__ import annotations
 
