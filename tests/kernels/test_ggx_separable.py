@@ -19,7 +19,7 @@ from scipy import stats
 from drtlab.experiments.stats import chi2 as C
 
 import ggx_util as gu
-from bsdf_checks import assert_consistent
+from bsdf_checks import microfacet_chi2
 from stats_util import ALPHA, seed_for
 
 N = 400_000
@@ -55,17 +55,8 @@ def test_formula_is_mitsubas_separable_ggx():
 @pytest.mark.parametrize("alpha,theta,cap", CHI2_CASES)
 def test_sampling_chi2(alpha, theta, cap):
     name = f"ggx_separable a={alpha:g} wo={theta:g}"
-    ad = C.BSDFAdapter(True)
-    s = ad.sample(case(alpha, theta), N, seed_for("ggxsep-chi2", name))
-    assert_consistent(s, name)
-    if cap:
-        refl = 2 * wo_at(theta)[2] * NORMAL - wo_at(theta)
-        domain = C.CapDomain(refl, 1.0 - math.cos(8.0 * alpha))
-    else:
-        domain = C.SphericalDomain(NORMAL)
-    r = C.run_chi2(domain, lambda n, seed: (s.wi, s.valid), ad.pdf(case(alpha, theta)), name=name,
-                   sample_count=N, res=(101, 202), seed=seed_for("ggxsep-grid", name), test_count=M_TESTS)
-    assert r.passed, r.summary()
+    microfacet_chi2(C.BSDFAdapter(True), case(alpha, theta), name, N, M_TESTS, seed_for("ggxsep-chi2", name),
+                    alpha if cap else None)
 
 
 @pytest.mark.parametrize("alpha,theta", ALBEDO_CASES)

@@ -30,3 +30,23 @@ def assert_albedo_with_controls(cid: str, model, mean: float, se: float, control
         wrong = dataclasses.replace(model, **change).albedo_value()
         assert abs(wrong - ref) / se >= z_crit + stats.norm.isf(0.01), f"{cid}/{name}: design"
         assert abs(mean - wrong) / se >= z_crit, f"{cid}: negative control '{name}' not rejected"
+
+
+def microfacet_chi2(ad: C.BSDFAdapter, case, name: str, n: int, tests: int, seed: int, cap_alpha=None):
+    """The chi-square harness on `n` samples of `case` (kind, albedo, alpha, ior, normal, wo) from
+    adapter `ad`, after the consistency checks: over the sphere, or with `cap_alpha` over the cap of
+    8 alpha about the mirror direction (the rest cell holds the tail); Sidak over `tests`. Returns
+    (samples, result)."""
+    import math
+    s = ad.sample(case, n, seed)
+    assert_consistent(s, name)
+    normal, wo = np.asarray(case[4], float), np.asarray(case[5], float)
+    if cap_alpha is not None:
+        refl = 2 * (wo @ normal) * normal - wo
+        domain = C.CapDomain(refl, 1.0 - math.cos(8.0 * cap_alpha))
+    else:
+        domain = C.SphericalDomain(normal)
+    r = C.run_chi2(domain, lambda k, sd: (s.wi, s.valid), ad.pdf(case), name=name, sample_count=n,
+                   res=(101, 202), seed=seed + 1, test_count=tests)
+    assert r.passed, r.summary()
+    return s, r
