@@ -1,8 +1,9 @@
-"""report.html of a tiny study on the fake renderer: self-contained (nothing fetched, every image
-inline), complete (every scene, sampler and N), and working in a real headless Chromium (no console
-error, no request beyond the file, a key flips the canvas, exposure brightens it, the crop table's
-numbers are numpy's on the same float16 pixels). The page's screenshot is kept under
-results/test-artefacts/."""
+"""report.html on the fake renderer: a tiny study's page is self-contained (nothing fetched, every
+image and FLIP map inline) and complete (every scene, sampler and N); the default study's page (its
+experiment file at 16 x 12 pixels) works in a real headless Chromium (its 12 viewers load, no
+console error, no request beyond the file, a key flips the canvas, exposure brightens it, the crop
+table's numbers are numpy's on the same float16 pixels, the FLIP map and the error maps differ). The
+page's screenshot is kept under results/test-artefacts/."""
 import base64
 import re
 import shutil
@@ -26,6 +27,24 @@ def tiny_report(tmp_path_factory):
         mp.setattr(analysis, "STUDY_CHAIN", {"nsteps": 200, "burn": 50})
         exp = tiny_experiment(tmp)
         run(exp, tmp / "out", tmp / "gt", analyze=True)
+    return tmp / "out"
+
+
+@pytest.fixture(scope="module")
+def default_report(tmp_path_factory):
+    """The default study (experiments/studies/stratified.toml: two studies, six scenes, four
+    samplers) on the fake renderer at 16 x 12 pixels and N = 1, 4, without its variance
+    decompositions: the page `make experiment-stratified` writes, in miniature."""
+    from drtlab.experiments.study import analysis
+    from drtlab.experiments.study.config import EXPERIMENT_DIR
+    text = (EXPERIMENT_DIR / "stratified.toml").read_text()
+    text = (text[:text.index("[profile.quick]")] + "[profile.quick]\nspp = [1, 4]\nrepetitions = 3\n"
+            "resolution = [16, 12]\ngt_spp = 1024\ngt_batch_spp = 256\n\n" + text[text.index("[profile.full]"):])
+    text = re.sub(r"(?m)^variance_sources = .*$", "", text)
+    tmp = tmp_path_factory.mktemp("default-report")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(analysis, "STUDY_CHAIN", {"nsteps": 200, "burn": 50})
+        run(tiny_experiment(tmp, text), tmp / "out", tmp / "gt", analyze=True)
     return tmp / "out"
 
 
@@ -95,10 +114,10 @@ CANVAS = "Array.from(window.drtViewers[0].ctx.getImageData(0, 0, {w}, {h}).data)
 
 def test_the_page_in_headless_chromium(request):
     exe, sync_playwright = _chromium()
-    tiny_report = request.getfixturevalue("tiny_report")        # built only where a browser runs
+    report = request.getfixturevalue("default_report")          # built only where a browser runs
     from drtlab.experiments.study.figures import choose_crop
     from drtlab.experiments.study.ground_truth import load_ground_truth
-    html = tiny_report / "report.html"
+    html = report / "report.html"
     errors, requests = [], []
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=exe, args=["--no-sandbox"])
@@ -109,7 +128,7 @@ def test_the_page_in_headless_chromium(request):
             page.on("request", lambda r: requests.append(r.url))
             page.route(re.compile(r"^(?!file:|data:)"), lambda route: route.abort())
             page.goto(html.as_uri())
-            page.wait_for_function("window.drtViewers && window.drtViewers.length === 2")
+            page.wait_for_function("window.drtViewers && window.drtViewers.length === 12")  # 2 studies x 6 scenes
             w, h = page.evaluate("[window.drtViewers[0].W, window.drtViewers[0].H]")
             canvas = lambda: np.array(page.evaluate(CANVAS.format(w=w, h=h)), dtype=np.uint8).reshape(h, w, 4)  # noqa: E731
             reference = canvas()
@@ -129,10 +148,10 @@ def test_the_page_in_headless_chromium(request):
             # computes them on the same float16 pixels (three significant digits shown).
             row = page.evaluate("Array.from(window.drtViewers[0].rows[1].children).map(c => c.textContent)")
             key = page.evaluate("window.drtViewers[0].v.images[1].key")
-            gt_dir = next(d for d in (tiny_report.parent / "gt").iterdir() if "aa-edges" in d.name)
+            gt_dir = next(d for d in (report.parent / "gt").iterdir() if "aa-edges" in d.name)
             gt = load_ground_truth(gt_dir).mean
             from drtlab.experiments.study.run_store import first_image
-            x16, g16 = (a.astype(np.float16).astype(np.float64) for a in (first_image(tiny_report, key), gt))
+            x16, g16 = (a.astype(np.float16).astype(np.float64) for a in (first_image(report, key), gt))
             y, x, size = choose_crop(gt)
             crop = (slice(y, y + size), slice(x, x + size))
             assert float(row[3]) == pytest.approx(np.mean((x16 - g16) ** 2), rel=6e-3)
