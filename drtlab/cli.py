@@ -234,7 +234,7 @@ def cmd_experiment(args) -> int:
         summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
                                  threads=args.threads, fresh=args.fresh, progress=show_progress(args),
                                  argv=sys.argv, executor=executor,
-                                 keep_images=True if args.keep_images else None)
+                                 keep_images=True if args.keep_images else None, yes=args.yes)
     out = args.out if args.out is not None else default_out_dir(exp.name)
     _print_summary(exp, summary)
     print(f"report: {out / 'report.md'} (interactive: {out / 'report.html'})")
@@ -319,6 +319,10 @@ def _add_experiment(sub) -> None:
                    help="output folder (default: results/NAME)")
     add_cache_and_threads(p)
     p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the up-front estimate passes its limits (24 h of rendering, "
+                        "90%% of this machine's memory); without it such a study is refused before "
+                        "anything is written")
     p.add_argument("--keep-images", action="store_true",
                    help="keep every repetition's image in its cell file (default: the file's "
                         "keep_images; otherwise per cell only the first image and per-pixel moments)")

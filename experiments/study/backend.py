@@ -42,6 +42,9 @@ class Backend:
     # render_batch(scene, spp=, sampler=, integrator=, seeds=, res=, threads=) -> BatchResult-like;
     # None: `batch` renders the seeds one by one through `render` (fakes)
     render_batch: Callable[..., Any] | None = None
+    # speed(scene, sampler, integrator, res, threads) -> samples per second, from a short probe
+    # (the up-front estimate, study/estimate.py); None: not known (fakes)
+    speed: Callable[..., Any] | None = None
 
     def batch(self, scene, *, spp, sampler, integrator, seeds, res, threads=None) -> BatchResult:
         """One render per seed, as one batch when the renderer can."""
@@ -72,8 +75,14 @@ def default_backend(device: str = "cpu") -> Backend:
     def precompile(jobs, threads=None):
         return compile_variants(jobs, threads=threads, device=device)
 
+    def speed(scene, sampler, integrator, res, threads=None):
+        from drtlab.experiments.study.estimate import PROBE_SECONDS
+        from drtlab.kernels.render import measured_speed
+        return measured_speed(scene, sampler, integrator, res=res, threads=threads, device=device,
+                              probe_seconds=PROBE_SECONDS, full_size=True)
+
     return Backend(load_scene=load_scene, render=render, code_version=CODE_VERSION,
-                   name=f"warp-{device}", precompile=precompile, render_batch=render_batch)
+                   name=f"warp-{device}", precompile=precompile, render_batch=render_batch, speed=speed)
 
 
 def default_scene_loader():

@@ -26,6 +26,7 @@ from drtlab.experiments.study import analysis, manifest, report
 from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.cell_growth import CellGrowth
 from drtlab.experiments.study.config import Experiment
+from drtlab.experiments.study.estimate import check_budget, estimate
 from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
                                            plan_runs, run_fingerprint, run_record)
@@ -48,12 +49,14 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                    progress: bool = True, clock: Callable[[], float] = time.perf_counter,
                    log: Callable[[str], None] | None = None, analyze: bool = True,
                    argv: list[str] | None = None, executor=None,
-                   keep_images: bool | None = None) -> ExperimentResult:
+                   keep_images: bool | None = None, yes: bool = False) -> ExperimentResult:
     """Run (or resume) the sweep, then analyse it and write every output. Returns the run counts,
     the wall time and (with `analyze`) the typed summary; `result["studies"]` reads summary.json's
     content. With an `executor` (`cluster.DaskExecutor`) the batches render on its cluster and this
     process writes their results; the timing-only batches and the analysis stay here.
-    `keep_images` (default: each study's setting) keeps every repetition's image in its cell file."""
+    `keep_images` (default: each study's setting) keeps every repetition's image in its cell file.
+    Before any output: the study's estimated rendering time and memory (estimate.py), refused past
+    its limits unless `yes`."""
     if backend is None:
         from drtlab.experiments.study.backend import default_backend
         backend = default_backend()
@@ -71,6 +74,17 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
     log(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
         + (f"{samples / 1e6:.1f} M samples" if samples >= 1e5 else f"{samples:,} samples"))
+    gt_pending = {g: gtmod.pending_samples(g[0], g[1], g[2], req[0], req[1], backend, gt_root)
+                  for g, req in gt_req.items()}
+    # Runs a resumed sweep has stored are not estimated (read only: nothing is written yet).
+    stored = {} if fresh else store.load_records(out_dir)
+    pending = [r for r in plan if r.run_id not in stored]
+    check_budget(estimate(pending, gt_req, gt_pending, backend, threads, probe=False), yes)   # memory
+    precompiled = _precompile(plan, backend, threads, executor, log)
+    if pending or any(gt_pending.values()):
+        cost = estimate(pending, gt_req, gt_pending, backend, threads, probe=executor is None)
+        log(cost.line())
+        check_budget(cost, yes)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_output(out_dir)               # one sweep at a time per output folder
@@ -81,7 +95,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
                        records=store.load_records(out_dir), executor=executor,
                        studies={s.name: s for s in exp.studies}, keep_images=keep_images)
-        sweep.run(gt_req, progress)
+        sweep.run(gt_req, gt_pending, progress, precompiled)
         if analyze:
             sweep.calibrate()
             if any(st.settings.variance_sources for st in exp.studies):
@@ -91,6 +105,29 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         return _analyse_and_report(exp, sweep, analyze, argv, t_start)
     finally:
         lock.close()
+
+
+def _precompile(plan, backend, threads, executor, log) -> dict | None:
+    """Every kernel variant the sweep, its ground truths and its timing batches need, compiled
+    side by side first (a cold kernel cache: ~4 s per variant, one core each); a warm cache
+    loads them in milliseconds. Renders on a cluster compile there instead. Returns the facts the
+    manifest records, or None."""
+    if executor is not None or getattr(backend, "precompile", None) is None:
+        return None
+    scenes, jobs = {}, {}
+    for r in plan:
+        if r.scene not in scenes:
+            scenes[r.scene] = backend.load_scene(r.scene.name, r.scene.overrides_dict or None)
+        for sampler in (r.sampler, gtmod.GT_SAMPLER):
+            jobs.setdefault((r.scene, sampler, r.integrator), (scenes[r.scene], sampler, r.integrator))
+    facts = backend.precompile(list(jobs.values()), threads)
+    # The metrics' kernels too: a cold cache compiles them in seconds the sweep would book as its own.
+    metrics_s = compile_metric_kernels()
+    facts = {**facts, "wall_seconds": facts["wall_seconds"] + metrics_s, "metric_kernels_seconds": metrics_s}
+    if facts["compiled"]:
+        log(f"compiled {facts['compiled']} kernel variants in {facts['wall_seconds']:.1f} s "
+            f"on {facts['threads']} threads ({facts['compile_seconds']:.1f} s of compiles)")
+    return {k: round(v, 3) if isinstance(v, float) else v for k, v in facts.items()}
 
 
 def _reference_info(gt) -> dict:
@@ -124,18 +161,17 @@ class _Sweep(CellGrowth):
     dirty: set = field(default_factory=set)          # cells changed since the last commit
     loose: set = field(default_factory=set)          # cells committed uncompressed in this group
 
-    def run(self, gt_req: dict, progress: bool) -> None:
-        # Work estimate for one bar: pending GT samples + pending run samples (done runs checked below).
-        gt_pending = {g: gtmod.pending_samples(g[0], g[1], g[2], req[0], req[1], self.backend, self.gt_root)
-                      for g, req in gt_req.items()}
+    def run(self, gt_req: dict, gt_pending: dict, progress: bool, precompiled: dict | None) -> None:
+        # Work for one bar: pending GT samples + pending run samples (done runs checked below).
         candidates = [r for r in self.plan if r.run_id not in self.records]
         total = sum(gt_pending.values()) + sum(r.spp * r.resolution[0] * r.resolution[1] for r in candidates)
-        self.bar = Progress(total, len(candidates), progress)
+        self.bar = Progress(total, len(candidates), progress, log=self.log)
         self.stats = {"runs_planned": len(self.plan), "runs_new": 0, "runs_reused": 0,
                       "runs_added_for_precision": 0, "runs_added_for_resolution": 0, "batches": 0}
         self._seconds = {"render_total": 0.0, "ground_truth_total": 0.0}
         self._flushed_at = time.monotonic()
-        self._precompile()
+        if precompiled is not None:
+            self.stats["kernel_precompile"] = precompiled
         t0 = time.perf_counter()
         try:
             groups: dict = {}
@@ -148,30 +184,6 @@ class _Sweep(CellGrowth):
             self.bar.close()
             self._seconds["sweep_seconds"] = time.perf_counter() - t0
             self.stats.update({k: round(v, 3) for k, v in self._seconds.items()})
-
-    def _precompile(self) -> None:
-        """Every kernel variant the sweep, its ground truths and its timing batches need, compiled
-        side by side first (a cold kernel cache: ~4 s per variant, one core each); a warm cache
-        loads them in milliseconds. Renders on a cluster compile there instead."""
-        if self.executor is not None or getattr(self.backend, "precompile", None) is None:
-            return
-        scenes, jobs = {}, {}
-        for r in self.plan:
-            if r.scene not in scenes:
-                scenes[r.scene] = self.backend.load_scene(r.scene.name, r.scene.overrides_dict or None)
-            for sampler in (r.sampler, gtmod.GT_SAMPLER):
-                jobs.setdefault((r.scene, sampler, r.integrator),
-                                (scenes[r.scene], sampler, r.integrator))
-        self.bar.update(0, "compiling kernel variants")
-        facts = self.backend.precompile(list(jobs.values()), self.threads)
-        # The metrics' kernels too: a cold cache compiles them in seconds the sweep would book as its own.
-        metrics_s = compile_metric_kernels()
-        facts = {**facts, "wall_seconds": facts["wall_seconds"] + metrics_s, "metric_kernels_seconds": metrics_s}
-        self.stats["kernel_precompile"] = {k: round(v, 3) if isinstance(v, float) else v
-                                           for k, v in facts.items()}
-        if facts["compiled"]:
-            self.log(f"compiled {facts['compiled']} kernel variants in {facts['wall_seconds']:.1f} s "
-                     f"on {facts['threads']} threads ({facts['compile_seconds']:.1f} s of compiles)")
 
     def _code(self, sampler: str) -> str:
         """The code a sampler's runs were rendered and scored by: the backend's, with a plugin point
