@@ -2,12 +2,13 @@
 kind, with the density it draws with (MIS and the sample's weight read it). One interface for a
 user's plugins (pbrt-v4's `BxDF::Sample_f` / `PDF` pair, for one kind):
 
-    sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo: wp.vec3,
+    sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3,
            u_lobe: float, u: wp.vec2) -> wp.vec3         a world-space direction wi
-    pdf(shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float
+    pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float
                                                           its solid-angle density at wi
 
-`nf` is the shading normal turned to wo's side, `shape` the material's lobe shape (the Phong exponent,
+`n` is the shading normal as the surface has it (outward: a dielectric reads inside from outside
+by the side wo lies on; a reflecting lobe usually turns it to wo's side first), `shape` the material's lobe shape (the Phong exponent,
 or GGX's alpha), `u` two uniform numbers of the sample's direction dimensions and `u_lobe` a third
 (a uniform number for the kinds that choose between lobes, `material_kinds.lobe_choice`; 0 for the
 others). The material's own `eval_bsdf` stays the integrand: the sample's weight is
@@ -80,9 +81,9 @@ def register(ls: LobeSampler, who: str, fingerprint: str) -> LobeSampler:
         raise InputError(who, f"kind must be one of {', '.join(SAMPLED_KINDS)} (delta and emitting kinds "
                               f"are not sampled by a density), got {ls.kind!r}")
     check_warp_function(ls.sample, "sample", (wp.vec3, float, float, wp.vec3, wp.vec3, float, wp.vec2),
-                        wp.vec3, who, "(albedo: vec3, shape, ior, nf: vec3, wo: vec3, u_lobe, u: vec2)")
+                        wp.vec3, who, "(albedo: vec3, shape, ior, n: vec3, wo: vec3, u_lobe, u: vec2)")
     check_warp_function(ls.pdf, "pdf", (float, float, wp.vec3, wp.vec3, wp.vec3), float, who,
-                        "(shape, ior, nf: vec3, wo: vec3, wi: vec3)")
+                        "(shape, ior, n: vec3, wo: vec3, wi: vec3)")
     ls = replace(ls, fingerprint=fingerprint)
     LOBE_SAMPLERS[ls.name] = ls
     return ls

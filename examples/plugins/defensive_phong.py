@@ -16,8 +16,9 @@ from drtlab.estimators.domain_maps import (INV_PI, frame_to_world, phong_lobe_pd
 
 
 @wp.func
-def defensive_sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, u_lobe: float,
+def defensive_sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
                      u: wp.vec2) -> wp.vec3:
+    nf = wp.sign(wp.dot(n, wo)) * n                 # the normal on wo's side: the lobe reflects
     if u[0] < 0.5:
         return frame_to_world(square_to_phong_lobe(wp.vec2(2.0 * u[0], u[1]), shape),
                               2.0 * wp.dot(nf, wo) * nf - wo)
@@ -25,7 +26,8 @@ def defensive_sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo:
 
 
 @wp.func
-def defensive_pdf(shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+def defensive_pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    nf = wp.sign(wp.dot(n, wo)) * n
     cos_i = wp.dot(nf, wi)
     if cos_i <= 0.0:
         return 0.0

@@ -208,10 +208,7 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
                         p = ggx_normal_pdf(exponent, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
             for i in range(wp.static(len(PLUG))):
                 if kind == wp.static(PLUG[i][0]):
-                    nf = n
-                    if cos_o < 0.0:
-                        nf = -n
-                    p = wp.static(PLUG[i][2])(exponent, ior, nf, wo, wi)
+                    p = wp.static(PLUG[i][2])(exponent, ior, n, wo, wi)
         return p
 
     return pdf_bsdf
@@ -332,7 +329,7 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                     ul = float(0.0)
                     if wp.static(PLUG[i][3]):
                         ul = u_lobe
-                    wi = wp.static(PLUG[i][1])(albedo, exponent, ior, nf, wo, ul, u)
+                    wi = wp.static(PLUG[i][1])(albedo, exponent, ior, n, wo, ul, u)
         pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
         if pdf > 0.0:
             fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)

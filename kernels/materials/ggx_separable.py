@@ -32,9 +32,13 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 
 
 @wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, u_lobe: float,
+def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
            u: wp.vec2) -> wp.vec3:
-    co = wp.dot(nf, wo)
+    nf = n
+    co = wp.dot(n, wo)
+    if co < 0.0:
+        nf = -n
+        co = -co
     if co <= 0.0:
         return wp.vec3(0.0)
     wm = _sample_normal(nf, wo, co, shape, u)
@@ -45,7 +49,10 @@ def sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, 
 
 
 @wp.func
-def pdf(shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    nf = n
+    if wp.dot(n, wo) < 0.0:
+        nf = -n
     mf = ggx_half(nf, 1.0, wo, wi, 0)
     if mf.valid == 0:
         return 0.0

@@ -28,14 +28,14 @@ from drtlab.estimators.domain_maps import INV_PI, frame_to_world, square_to_cosi
 
 
 @wp.func
-def cosine_sample(albedo: wp.vec3, shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, u_lobe: float,
+def cosine_sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
                   u: wp.vec2) -> wp.vec3:
-    return frame_to_world(square_to_cosine_hemisphere(u), nf)
+    return frame_to_world(square_to_cosine_hemisphere(u), wp.sign(wp.dot(n, wo)) * n)
 
 
 @wp.func
-def cosine_pdf(shape: float, ior: float, nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    return wp.max(wp.dot(nf, wi), 0.0) * INV_PI * 1.1
+def cosine_pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    return wp.max(wp.sign(wp.dot(n, wo)) * wp.dot(n, wi), 0.0) * INV_PI * 1.1
 
 
 drtlab.register_lobe_sampler(drtlab.LobeSampler("cosine-off", "cosine, pdf 10% high", "diffuse",
