@@ -73,6 +73,7 @@ KINDS = (
     MaterialKind("ggx_dielectric", microfacet=True, transmits=True),
     MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
     MaterialKind("ggx_separable", microfacet=True, checker=True, model="ggx_separable"),
+    MaterialKind("ggx_dielectric_separable", microfacet=True, transmits=True, model="ggx_dielectric_separable"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -155,13 +155,18 @@ def _sensor(root, scene: Scene) -> None:
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:
     """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
-    one-sided; beckmann and ggx_separable are Mitsuba's roughconductor); material name -> its id."""
+    one-sided; beckmann and ggx_separable are Mitsuba's roughconductor, ggx_dielectric_separable its
+    roughdielectric); material name -> its id."""
     ids: dict[str, str] = {}
     for k, m in enumerate(scene.materials):
         ident = m.name if _is_id(m.name) and m.name not in ids.values() else f"material{k}"
         ids[m.name] = ident
-        if m.kind == "dielectric":
-            b = ET.SubElement(root, "bsdf", type="dielectric", id=ident)
+        if m.kind in ("dielectric", "ggx_dielectric_separable"):
+            rough = m.kind != "dielectric"
+            b = ET.SubElement(root, "bsdf", type="roughdielectric" if rough else "dielectric", id=ident)
+            if rough:
+                _num(b, "string", "distribution", "ggx")
+                _num(b, "float", "alpha", m.roughness)
             _num(b, "float", "int_ior", m.ior)
             _num(b, "float", "ext_ior", 1.0)
             _vec(b, "rgb", "specular_transmittance", m.albedo)

@@ -18,12 +18,11 @@ from drtlab.kernels.mitsuba_xml import (IOR_PRESETS, Obj, Reader, Ref, chain_mat
                                         chain_vector, drtlab_transform)
 
 SHAPES, INTEGRATORS = ("rectangle", "cube", "sphere", "obj", "ply"), ("path", "direct")
-BSDFS, SENSORS = ("diffuse", "twosided", "dielectric", "conductor", "roughconductor"), ("perspective", "thinlens")
-EMITTERS = ("area", "point", "directional", "constant")
+BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor")
+SENSORS, EMITTERS = ("perspective", "thinlens"), ("area", "point", "directional", "constant")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 # Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
 WHY_NOT = {
-    "roughdielectric": "drtlab's ggx_dielectric has height-correlated Smith masking, not G1 G1",
     "plastic": "drtlab's plastic is a Phong coat over a coupled diffuse base, not Mitsuba's model",
     "roughplastic": "drtlab has no rough plastic of Mitsuba's form", "disk": "drtlab has no disk",
     "envmap": "its lat-long orientation and bilinear lookup are not drtlab's piecewise-constant map",
@@ -394,13 +393,18 @@ class _Importer:
                                                                   "reflects white)")
             spec = {"kind": "dielectric", "ior": ior[0] / ior[1],
                     "albedo": self.colour(o, "specular_transmittance", 1.0)}
+            if kind == "roughdielectric":
+                rough, alpha = self.roughness(o)
+                if rough != "ggx_separable":        # Beckmann, Mitsuba's default here too
+                    self.r.fail((o.props.get("distribution") or o).path, "'beckmann' is not supported "
+                                "for a roughdielectric (supported: ggx): drtlab has no rough Beckmann glass")
+                spec.update(kind="ggx_dielectric_separable", roughness=alpha)
         self.done(o)
         return spec
 
     def roughness(self, o: Obj) -> tuple[str, float]:
-        """(drtlab kind, isotropic alpha) of a roughconductor: `beckmann` and `ggx_separable` are
-        Mitsuba's two distributions with its separable Smith masking (drtlab's `ggx` masks with
-        the height-correlated form instead)."""
+        """(drtlab kind, isotropic alpha) of a rough conductor: `beckmann`, `ggx_separable` (Mitsuba's
+        separable Smith masking; drtlab's `ggx` masks with the height-correlated form)."""
         kinds = {"beckmann": "beckmann", "ggx": "ggx_separable"}
         distribution = self.string(o, "distribution", "beckmann")
         if distribution not in kinds:

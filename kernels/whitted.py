@@ -17,7 +17,7 @@ from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
                                       GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
-from drtlab.kernels.material_kinds import KIND_BY_NAME, KINDS, MATERIAL_CODE
+from drtlab.kernels.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.static_tag import variant_tag
 
@@ -29,10 +29,10 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     SPLITS = f.whitted_splits
     MESHES = f.meshes
     ENV = f.environment
-    # The kind table's model kinds (MaterialKind.model) end the ray with their direct light, as ggx.
-    MODEL_ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and k.name in f.kinds)
-    if any(KIND_BY_NAME[k].model and KIND_BY_NAME[k].transmits for k in f.kinds):
-        raise NotImplementedError("whitted: a transmitting kind from the kind table has no splitting rule")
+    # The kind table's model kinds (MaterialKind.model): a reflecting one ends the ray with its
+    # direct light, as ggx; a transmitting one splits as a smooth dielectric, as ggx_dielectric.
+    MODEL_ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and not k.transmits and k.name in f.kinds)
+    MODEL_SPLITS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and k.transmits and k.name in f.kinds)
     intersect = rays.intersect
     visible = rays.visible
     visible_mesh = rays.visible_mesh
@@ -149,7 +149,12 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if kind == MIRROR:
                     beta = wp.cw_mul(beta, albedo)
                 if wp.static(SPLITS > 0):
-                    if kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
+                    splits = kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC
+                    _split_variant = wp.static(variant_tag(MODEL_SPLITS))  # noqa: F841 (static_tag.py)
+                    for i in range(wp.static(len(MODEL_SPLITS))):
+                        if kind == wp.static(MODEL_SPLITS[i]):
+                            splits = True
+                    if splits:
                         it = interface(ns, wo, sd.materials.ior[m])
                         eta = it.eta
                         F = it.F

@@ -13,6 +13,8 @@ from drtlab.kernels.material_kinds import KINDS
 from bsdf_checks import assert_consistent
 
 MODEL_KINDS = [k.name for k in KINDS if k.model]
+REFLECTING = [k.name for k in KINDS if k.model and not k.transmits]
+TRANSMITTING = [k.name for k in KINDS if k.model and k.transmits]
 
 
 def _scene(kind: str, integrator: str, albedo=None):
@@ -26,7 +28,7 @@ def _scene(kind: str, integrator: str, albedo=None):
 
 
 def test_the_table_has_model_kinds():
-    assert {"beckmann", "ggx_separable"} <= set(MODEL_KINDS)
+    assert {"beckmann", "ggx_separable"} <= set(REFLECTING) and "ggx_dielectric_separable" in TRANSMITTING
 
 
 @pytest.mark.parametrize("kind", MODEL_KINDS)
@@ -36,12 +38,21 @@ def test_integrators_render_it_finite(kind, integrator):
     assert np.all(np.isfinite(img)) and np.all(img >= 0) and img.mean() > 0
 
 
-@pytest.mark.parametrize("kind", MODEL_KINDS)
+@pytest.mark.parametrize("kind", REFLECTING)
 def test_whitted_ends_the_ray_at_it_with_direct_light(kind):
     """A black surface of the kind renders exactly as a black diffuse one: a continued (mirror) ray
     would show reflections."""
     images = [drtlab.render(_scene(k, "whitted", albedo=[0, 0, 0]), spp=1, seed=1) for k in (kind, "diffuse")]
     assert np.array_equal(images[0], images[1])
+
+
+@pytest.mark.parametrize("kind", TRANSMITTING)
+def test_whitted_splits_at_it_as_at_a_smooth_dielectric(kind):
+    """Whitted treats a transmitting kind as ggx_dielectric: a smooth interface it splits into
+    reflection and refraction, so the two render the same image, bit for bit (and not a black
+    surface's: the split does something)."""
+    images = [drtlab.render(_scene(k, "whitted"), spp=1, seed=1) for k in (kind, "ggx_dielectric", "diffuse")]
+    assert np.array_equal(images[0], images[1]) and not np.array_equal(images[0], images[2])
 
 
 @pytest.mark.parametrize("kind", MODEL_KINDS)

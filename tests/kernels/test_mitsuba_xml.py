@@ -173,6 +173,8 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
     <shape type="sphere" id="s9"><bsdf type="roughconductor"/></shape>
     <shape type="sphere" id="s11"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>
       <float name="alpha" value="0.25"/></bsdf></shape>
+    <shape type="sphere" id="s12"><bsdf type="roughdielectric"><string name="distribution" value="ggx"/>
+      <float name="alpha" value="0.15"/><float name="int_ior" value="1.33"/></bsdf></shape>
     <emitter type="point"><point name="position" value="1, 2, 3"/><rgb name="intensity" value="5"/></emitter>
     <emitter type="point"><transform name="to_world"><translate x="4"/></transform></emitter>
     <emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/><rgb name="irradiance" value="2"/></emitter>
@@ -192,6 +194,8 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
     assert (mat["s7"].kind, mat["s7"].roughness, mat["s7"].albedo.tolist()) == ("beckmann", 0.3, [0.7] * 3)
     assert (mat["s8"].roughness, mat["s9"].kind, mat["s9"].roughness) == (0.2, "beckmann", 0.1)
     assert (mat["s11"].kind, mat["s11"].roughness) == ("ggx_separable", 0.25)   # Mitsuba's separable GGX
+    assert (mat["s12"].kind, mat["s12"].roughness, mat["s12"].ior) == ("ggx_dielectric_separable", 0.15,
+                                                                       1.33 / 1.000277)
     assert [p.position.tolist() for p in s.point_lights] == [[1, 2, 3], [4, 0, 0]]
     assert s.point_lights[1].intensity.tolist() == [1, 1, 1]
     assert s.directional_lights[0].direction.tolist() == [0, -1, 0]
@@ -221,7 +225,7 @@ def test_integrators(tmp_path, integrator, want):
      "'phong' is not supported (supported: beckmann, ggx"),
     ('<shape type="sphere"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughconductor)", "anisotropic"),
-    ('<shape type="sphere"><bsdf type="roughdielectric"/></shape>', "bsdf(roughdielectric)", "Smith"),
+    ('<shape type="sphere"><bsdf type="roughdielectric"/></shape>', "bsdf(roughdielectric)", "rough Beckmann glass"),
     ('<shape type="sphere"><bsdf type="plastic"/></shape>', "bsdf(plastic)", "Phong"),
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
      "bsdf(diffuse)/texture(checkerboard)", "textures"),
@@ -350,6 +354,11 @@ albedo = [0.9, 0.8, 0.6]
 kind = "ggx_separable"
 roughness = 0.2
 albedo = [0.95, 0.7, 0.5]
+[materials.frosted]
+kind = "ggx_dielectric_separable"
+roughness = 0.3
+ior = 1.45
+albedo = [0.9, 0.95, 1.0]
 [materials.lamp]
 kind = "emitter"
 emission = [5, 4, 3]
@@ -385,6 +394,11 @@ material = "metal"
 center = [-1.5, 0.3, -0.8]
 radius = 0.3
 [[shapes]]
+kind = "sphere"
+material = "frosted"
+center = [0.2, 0.3, -1.5]
+radius = 0.3
+[[shapes]]
 kind = "mesh"
 material = "glow"
 generate = "displaced_sphere"
@@ -417,7 +431,7 @@ def test_every_exportable_feature_comes_back_as_the_same_numbers(tmp_path):
     (tmp_path / "rich.toml").write_text(RICH)
     a = load_scene(tmp_path / "rich.toml")
     written = export_mitsuba(a, tmp_path / "rich.xml", scene_data(tmp_path / "rich.toml"))
-    assert [p.name for p in written] == ["rich.xml", "rich-mesh10.ply"]
+    assert [p.name for p in written] == ["rich.xml", "rich-mesh11.ply"]
     b = load_scene(tmp_path / "rich.xml")
     assert _model(a) == _model(b)
 

@@ -1,0 +1,63 @@
+"""`ggx_dielectric_separable`: rough glass with GGX microfacets and Smith masking in its separable
+form, G = G1(wo) G1(wi), as Mitsuba 3's `roughdielectric` with `distribution="ggx"`: the model of
+`ggx_dielectric` (Walter et al. 2007, ggx.py's comment; `albedo` the transmission tint, the 1/eta^2
+of radiance) but with Mitsuba's masking where `ggx_dielectric` has the height-correlated G2.
+
+A kind from the kind table (`material_kinds.MaterialKind.model`), transmitting: eval_bsdf, and the
+lobe sampling behind the interface of a lobe sampler (kernels/lobe_samplers.py): a visible normal
+(Dupuy & Benyoub 2023), reflection with probability F(wo.wm) (the lobe choice number u_lobe), else
+refraction, a direction landing on the wrong side dropped; the pdf is the normal's times |dwm/dwi|
+times the lobe's probability, as the built-in ggx_dielectric's.
+"""
+import warp as wp
+
+from drtlab.kernels.materials.dielectric import fresnel, interface, refract_dir
+from drtlab.kernels.materials.ggx import ggx_d_at, ggx_g1, ggx_half, make_ggx_normals
+
+_sample_normal, _normal_pdf = make_ggx_normals(True)
+
+
+@wp.func
+def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    it = interface(n, wo, ior)
+    mf = ggx_half(it.nf, it.eta, wo, wi, 1)
+    if mf.valid == 0:
+        return wp.vec3(0.0)
+    ci = wp.abs(wp.dot(it.nf, wi))
+    dg = ggx_d_at(shape, it.nf, mf.wm) * ggx_g1(shape, it.co) * ggx_g1(shape, ci) / it.co
+    if mf.reflect == 1:
+        return wp.vec3(0.25 * mf.F * dg)
+    return albedo * ((1.0 - mf.F) * dg * mf.dwm * mf.om / (it.eta * it.eta))
+
+
+@wp.func
+def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
+           u: wp.vec2) -> wp.vec3:
+    it = interface(n, wo, ior)
+    if it.co <= 0.0:
+        return wp.vec3(0.0)
+    wm = _sample_normal(it.nf, wo, it.co, shape, u)
+    om = wp.dot(wo, wm)
+    if om <= 0.0:
+        return wp.vec3(0.0)
+    if u_lobe < fresnel(om, it.eta):
+        wi = 2.0 * om * wm - wo
+        if wp.dot(it.nf, wi) <= 0.0:
+            return wp.vec3(0.0)         # reflected below: the pdf would read it as refracted
+        return wi
+    wi = refract_dir(wo, wm, om, it.eta)
+    if wp.dot(it.nf, wi) >= 0.0:
+        return wp.vec3(0.0)             # refracted above: the pdf would read it as reflected
+    return wi
+
+
+@wp.func
+def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    it = interface(n, wo, ior)
+    mf = ggx_half(it.nf, it.eta, wo, wi, 1)
+    if mf.valid == 0:
+        return 0.0
+    pl = mf.F
+    if mf.reflect == 0:
+        pl = 1.0 - mf.F
+    return _normal_pdf(shape, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
