@@ -353,8 +353,10 @@ def choose_crop(gt: np.ndarray) -> tuple[int, int, int]:
 
 
 def image_strip(scene_label: str, samplers, strip_spp, gt_mean, cells: dict, out_dir: Path,
-                path: Path) -> None:
-    """GT and each sampler at a few spp, the same crop; rows = samplers, columns = spp."""
+                path: Path | None, flips: dict | None = None):
+    """GT and each sampler at a few spp, the same crop; rows = samplers, columns = spp; under each
+    crop its whole image's HDR-FLIP against the reference where `flips` has it ((sampler, spp) ->
+    value). Saved to `path`, or without one the matplotlib Figure returned."""
     from matplotlib.patches import Rectangle
     plt = compact_pyplot()
     y, x, size = choose_crop(gt_mean)
@@ -388,15 +390,20 @@ def image_strip(scene_label: str, samplers, strip_spp, gt_mean, cells: dict, out
             ax.imshow(to_srgb(crop(first_image(out_dir, cell))), interpolation="nearest")
             if r == 0:
                 ax.set_title(f"{n} spp", fontsize=7)
+            fl = (flips or {}).get((s, n))
+            if fl is not None and math.isfinite(fl):
+                ax.set_xlabel(f"FLIP {fl:.3f}", fontsize=6, labelpad=1)
             if c == 2:
                 ax.set_ylabel(s, fontsize=7)
     fig.suptitle(scene_label, fontsize=8)
     fig.tight_layout(pad=0.3)
+    if path is None:
+        return fig
     fig.savefig(path)
     plt.close(fig)
 
 
-def strip_job(label, samplers, strip_spp, gt_dir, cells, out_dir, path) -> Path:
+def strip_job(label, samplers, strip_spp, gt_dir, cells, out_dir, path, flips=None) -> Path:
     """`image_strip` with the reference read from its folder (a job for `parallel.pmap`)."""
-    image_strip(label, samplers, strip_spp, load_ground_truth(gt_dir).mean, cells, out_dir, path)
+    image_strip(label, samplers, strip_spp, load_ground_truth(gt_dir).mean, cells, out_dir, path, flips)
     return path

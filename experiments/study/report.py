@@ -84,12 +84,14 @@ def _render_figures(exp, summary: Summary, plan, records: dict, out_dir: Path, g
             g = next((r.group for r in plan if r.scene == scene and study.name in r.studies), None)
             if g is None:
                 continue
-            run_ids = {(r.sampler, r.spp): r.cell for r in plan
-                       if r.group == g and r.rep == 0 and r.run_id in records}
+            first = [r for r in plan if r.group == g and r.rep == 0 and r.run_id in records]
+            run_ids = {(r.sampler, r.spp): r.cell for r in first}
+            # The shown image's own HDR-FLIP (stored when the cell's flip_runs reaches repetition 0).
+            flips = {(r.sampler, r.spp): records[r.run_id].get("flip") for r in first}
             name = f"{slug(study.name)}--{scene.label}.png" if len(exp.studies) > 1 else f"{scene.label}.png"
             calls.append((strip_job, (f"{scene.label} ({study.name})", study.samplers,
                                       study.settings.strip_spp, gts[g]["dir"], run_ids, out_dir,
-                                      images_dir / name), {}))
+                                      images_dir / name), {"flips": flips}))
             strips[(study.name, scene.label)] = images_dir / name
     n_strips = len(calls)
     calls += [(plot_study, (study, plots_dir), {}) for study in summary.studies]

@@ -173,3 +173,19 @@ def test_the_page_in_headless_chromium(request):
     assert not errors, errors
     assert all(u.startswith(("file:", "data:")) for u in requests), requests
     assert SCREENSHOT.stat().st_size > 0
+
+
+def test_the_image_strips_carry_each_crops_flip(tiny_report):
+    """Under each crop of a strip, its image's HDR-FLIP as the run table stores it (repetition 0)."""
+    import pandas as pd
+    from drtlab.experiments.study.figures import image_strip
+    from drtlab.experiments.study.ground_truth import load_ground_truth
+    runs = pd.read_parquet(tiny_report / "runs.parquet")
+    first = runs[(runs["scene"] == "aa-edges") & (runs["rep"] == 0)]
+    cells = {(r.sampler, r.spp): r.cell for r in first.itertuples()}
+    flips = {(r.sampler, r.spp): r.flip for r in first.itertuples()}
+    assert all(np.isfinite(v) and v > 0 for v in flips.values())
+    gt = load_ground_truth(next(d for d in (tiny_report.parent / "gt").iterdir() if "aa-edges" in d.name)).mean
+    fig = image_strip("aa-edges", ["uniform", "stratified"], [1, 4], gt, cells, tiny_report, None, flips)
+    labels = {ax.get_xlabel() for ax in fig.axes} - {""}
+    assert labels == {f"FLIP {flips[(s, n)]:.3f}" for s in ("uniform", "stratified") for n in (1, 4)}
