@@ -62,7 +62,9 @@ def add_ground_truth_command(sub) -> None:
     g.add_argument("scene", nargs="?", metavar="SCENE", help="built-in scene name or path")
     g.add_argument("--spp", type=int_flag(1), default=None,
                    help=f"reference samples per pixel (default: the experiment's gt_spp, or "
-                        f"{DEFAULT_GT_SPP})")
+                        f"{DEFAULT_GT_SPP}), rounded up to whole batches of --batch-spp and at least "
+                        "2 batches (the standard error needs them); the line printed says the spp "
+                        "rendered")
     g.add_argument("--batch-spp", type=int_flag(1), default=None,
                    help="samples per independent batch (default: the experiment's, or spp / 8 up to 512)")
     g.add_argument("--integrator", default=None,
