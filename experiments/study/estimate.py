@@ -36,12 +36,15 @@ class Estimate:
 
     def line(self) -> str:
         t = "time unknown" if self.seconds is None else (
-            f"about {_duration(self.seconds)} of rendering ({_duration(self.reference_seconds)} of it "
+            f"{_duration(self.seconds)} of rendering ({_duration(self.reference_seconds)} of it "
             f"the references)")
+        t = t if t.startswith(("under", "time")) else "about " + t
         return f"estimate: {t}, peak memory about {self.memory_mib:,.0f} MiB"
 
 
 def _duration(seconds: float) -> str:
+    if seconds < 1:
+        return "under 1 s"
     if seconds < 90:
         return f"{seconds:.0f} s"
     if seconds < 5400:
