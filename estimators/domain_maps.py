@@ -13,6 +13,14 @@ INV_4PI = wp.constant(0.07957747154594766788)
 
 
 @wp.func
+def facing(n: wp.vec3, w: wp.vec3) -> wp.vec3:
+    """The normal n turned to w's side (n itself where w lies in the plane)."""
+    if wp.dot(n, w) < 0.0:
+        return -n
+    return n
+
+
+@wp.func
 def frame_to_world(v: wp.vec3, n: wp.vec3) -> wp.vec3:
     # Duff et al. 2017: branch-free orthonormal basis, continuous except on the -z pole.
     s = 1.0

@@ -14,7 +14,7 @@ Single scattering only, as the GGX conductor: light among the facets is lost at 
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI, frame_to_world, sincos_turns
+from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, sincos_turns
 
 
 @wp.func
@@ -67,9 +67,7 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 @wp.func
 def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
            u: wp.vec2) -> wp.vec3:
-    nf = n
-    if wp.dot(n, wo) < 0.0:
-        nf = -n
+    nf = facing(n, wo)
     t2 = -shape * shape * wp.log(1.0 - u[0])
     c = 1.0 / wp.sqrt(1.0 + t2)
     s = wp.sqrt(wp.max(1.0 - c * c, 0.0))
@@ -86,9 +84,7 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
 
 @wp.func
 def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    nf = n
-    if wp.dot(n, wo) < 0.0:
-        nf = -n
+    nf = facing(n, wo)
     if wp.dot(nf, wi) <= 0.0 or wp.dot(nf, wo) <= 0.0:
         return 0.0
     wm = _half(nf, wo, wi)

@@ -12,6 +12,7 @@ density of Heitz 2018), as Mitsuba samples them, whatever the strategy's `microf
 """
 import warp as wp
 
+from drtlab.estimators.domain_maps import facing
 from drtlab.kernels.materials.ggx import ggx_d_at, ggx_g1, ggx_half, make_ggx_normals
 
 _sample_normal, _normal_pdf = make_ggx_normals(True)
@@ -50,10 +51,8 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
 
 @wp.func
 def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    nf = n
-    if wp.dot(n, wo) < 0.0:
-        nf = -n
-    mf = ggx_half(nf, 1.0, wo, wi, 0)
+    mf = ggx_half(facing(n, wo), 1.0, wo, wi, 0)
     if mf.valid == 0:
         return 0.0
+    nf = facing(n, wo)
     return _normal_pdf(shape, nf, wp.dot(nf, wo), mf.wm, mf.om) * mf.dwm
