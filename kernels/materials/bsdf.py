@@ -1,5 +1,6 @@
 """The kind switches of one kernel variant: eval, pdf and sample of every material kind the scene has
 (the package docstring describes them)."""
+from types import SimpleNamespace
 from typing import NamedTuple
 
 import warp as wp
@@ -32,6 +33,8 @@ class Scatter:
 # The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
 LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
 LOBE_CHOICE_CODES = frozenset(MATERIAL_CODE[k] for k in LOBE_CHOICE_KINDS)
+# The kinds whose code is in this module's switches (a kind with a `model` brings its own module).
+SWITCH_KINDS = kinds_where(lambda k: not k.model and not k.emitter)
 
 
 class Bsdf(NamedTuple):
@@ -82,15 +85,21 @@ def _built_in(kinds: frozenset, plug: tuple) -> frozenset:
     return frozenset(kinds) - {k for k, code in MATERIAL_CODE.items() if any(p[0] == code for p in plug)}
 
 
+def _present(kinds: frozenset) -> SimpleNamespace:
+    """Which of the switch-coded kinds a variant compiles in, as attributes its functions read with
+    wp.static (K.diffuse, K.ggx_dielectric, ...)."""
+    return SimpleNamespace(**{k: k in kinds for k in SWITCH_KINDS})
+
+
+def _sphere_codes(models: tuple) -> tuple:
+    """The codes of the transmitting model kinds: a uniform proposal draws them over the sphere."""
+    return tuple(code for code, _, transmits in models if transmits)
+
+
 def _make_eval(kinds: frozenset, models: tuple):
     """eval_bsdf (f|cos|) of `kinds`."""
     MODELS = models
-    K_DIFFUSE = "diffuse" in kinds
-    K_GLOSSY = "glossy" in kinds
-    K_GDIEL = "glossy_dielectric" in kinds
-    K_PLASTIC = "plastic" in kinds
-    K_GGX = "ggx" in kinds
-    K_GGXD = "ggx_dielectric" in kinds
+    K = _present(kinds)
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
@@ -99,11 +108,11 @@ def _make_eval(kinds: frozenset, models: tuple):
         r = wp.vec3(0.0)
         cos_o = wp.dot(n, wo)
         cos_i = wp.dot(n, wi)
-        if wp.static(K_DIFFUSE):
+        if wp.static(K.diffuse):
             if kind == DIFFUSE:
                 if cos_o * cos_i > 0.0:
                     r = albedo * (wp.abs(cos_i) * INV_PI)
-        if wp.static(K_GLOSSY):
+        if wp.static(K.glossy):
             if kind == GLOSSY:
                 if cos_o * cos_i > 0.0:
                     refl = 2.0 * cos_o * n - wo
@@ -111,16 +120,16 @@ def _make_eval(kinds: frozenset, models: tuple):
                     if ca > 0.0:
                         r = albedo * ((exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
                                       * wp.abs(cos_i))
-        if wp.static(K_GDIEL):
+        if wp.static(K.glossy_dielectric):
             if kind == GLOSSY_DIELECTRIC:
                 r = eval_glossy_dielectric(albedo, exponent, ior, n, wo, wi)
-        if wp.static(K_PLASTIC):
+        if wp.static(K.plastic):
             if kind == PLASTIC:
                 r = eval_plastic(albedo, exponent, ior, n, wo, wi)
-        if wp.static(K_GGX):
+        if wp.static(K.ggx):
             if kind == GGX:
                 r = eval_ggx(albedo, exponent, ior, n, wo, wi, 0)
-        if wp.static(K_GGXD):
+        if wp.static(K.ggx_dielectric):
             if kind == GGX_DIELECTRIC:
                 r = eval_ggx(albedo, exponent, ior, n, wo, wi, 1)
         _variant = wp.static(variant_tag(MODELS))  # noqa: F841 (the loop table, hashed: static_tag.py)
@@ -134,14 +143,8 @@ def _make_eval(kinds: frozenset, models: tuple):
 
 def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, models: tuple):
     """pdf_bsdf (the density sample_bsdf proposes with) of `all_kinds`."""
-    kinds = _built_in(all_kinds, plug)
-    SPHERE_MODELS = tuple(code for code, _, transmits in models if transmits)
-    K_DIFFUSE = "diffuse" in kinds
-    K_GLOSSY = "glossy" in kinds
-    K_GDIEL = "glossy_dielectric" in kinds
-    K_PLASTIC = "plastic" in kinds
-    K_GGX = "ggx" in kinds
-    K_GGXD = "ggx_dielectric" in kinds
+    K = _present(_built_in(all_kinds, plug))
+    SPHERE_MODELS = _sphere_codes(models)
     LOBE = lobe
     PLUG = plug
 
@@ -162,11 +165,11 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
                 if kind == wp.static(SPHERE_MODELS[i]):
                     p = INV_4PI
         if wp.static(LOBE):
-            if wp.static(K_DIFFUSE):
+            if wp.static(K.diffuse):
                 if kind == DIFFUSE:
                     if cos_o * cos_i > 0.0:
                         p = wp.abs(cos_i) * INV_PI
-            if wp.static(K_GLOSSY):
+            if wp.static(K.glossy):
                 if kind == GLOSSY:
                     if cos_o * cos_i > 0.0:
                         nf = n
@@ -174,13 +177,13 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
                             nf = -n
                         refl = 2.0 * wp.abs(cos_o) * nf - wo
                         p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
-            if wp.static(K_GDIEL):
+            if wp.static(K.glossy_dielectric):
                 if kind == GLOSSY_DIELECTRIC:
                     it = interface(n, wo, ior)
                     lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
                     # The proposal is the Fresnel-weighted mixture of both lobes wherever wi lies.
                     p = it.F * lobes[0] + (1.0 - it.F) * lobes[1]
-            if wp.static(K_PLASTIC):
+            if wp.static(K.plastic):
                 if kind == PLASTIC:
                     if cos_o * cos_i > 0.0:
                         # The mixture of the coat's Phong lobe and the base's cosine lobe.
@@ -188,7 +191,7 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
                         refl = 2.0 * cos_o * n - wo
                         p = (pc * phong_lobe_pdf(wp.dot(refl, wi), exponent)
                              + (1.0 - pc) * wp.abs(cos_i) * INV_PI)
-            if wp.static(K_GGX):
+            if wp.static(K.ggx):
                 if kind == GGX:
                     nf = n
                     if cos_o < 0.0:
@@ -196,7 +199,7 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
                     mf = ggx_half(nf, 1.0, wo, wi, 0)
                     if mf.valid == 1:
                         p = ggx_normal_pdf(exponent, nf, wp.abs(cos_o), mf.wm, mf.om) * mf.dwm
-            if wp.static(K_GGXD):
+            if wp.static(K.ggx_dielectric):
                 if kind == GGX_DIELECTRIC:
                     it = interface(n, wo, ior)
                     mf = ggx_half(it.nf, it.eta, wo, wi, 1)
@@ -218,17 +221,9 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                   models: tuple):
     """sample_bsdf of `all_kinds`: delta lobes directly, the others by proposal and eval_bsdf /
     pdf_bsdf (a plugged kind by its lobe sampler)."""
-    kinds = _built_in(all_kinds, plug)
+    K = _present(_built_in(all_kinds, plug))
     PLUG = plug
-    SPHERE_MODELS = tuple(code for code, _, transmits in models if transmits)
-    K_DIFFUSE = "diffuse" in kinds
-    K_GLOSSY = "glossy" in kinds
-    K_MIRROR = "mirror" in kinds
-    K_DIEL = "dielectric" in kinds
-    K_GDIEL = "glossy_dielectric" in kinds
-    K_PLASTIC = "plastic" in kinds
-    K_GGX = "ggx" in kinds
-    K_GGXD = "ggx_dielectric" in kinds
+    SPHERE_MODELS = _sphere_codes(models)
     LOBE = lobe
 
     @wp.func
@@ -243,14 +238,14 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
         if cos_o < 0.0:
             nf = -n
         co = wp.abs(cos_o)
-        if wp.static(K_MIRROR):
+        if wp.static(K.mirror):
             if kind == MIRROR:
                 s.wi = 2.0 * co * nf - wo
                 s.weight = albedo
                 s.delta = 1
                 s.valid = 1
                 return s
-        if wp.static(K_DIEL):
+        if wp.static(K.dielectric):
             if kind == DIELECTRIC:
                 it = interface(n, wo, ior)
                 eta = it.eta
@@ -282,32 +277,32 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                 if kind == wp.static(SPHERE_MODELS[i]):
                     wi = square_to_uniform_sphere(u)
         if wp.static(LOBE):
-            if wp.static(K_DIFFUSE):
+            if wp.static(K.diffuse):
                 if kind == DIFFUSE:
                     wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
-            if wp.static(K_GLOSSY):
+            if wp.static(K.glossy):
                 if kind == GLOSSY:
                     wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
-            if wp.static(K_GDIEL):
+            if wp.static(K.glossy_dielectric):
                 if kind == GLOSSY_DIELECTRIC:
                     it = interface(n, wo, ior)
                     axis = 2.0 * co * nf - wo
                     if u_lobe >= it.F:
                         axis = refract_dir(wo, nf, co, it.eta)
                     wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
-            if wp.static(K_PLASTIC):
+            if wp.static(K.plastic):
                 if kind == PLASTIC:
                     if u_lobe < plastic_coat_probability(co, ior):
                         wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
                     else:
                         wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
-            if wp.static(K_GGX):
+            if wp.static(K.ggx):
                 if kind == GGX:
                     if co <= 0.0:
                         return s
                     wm = sample_ggx_normal(nf, wo, co, exponent, u)
                     wi = 2.0 * wp.dot(wo, wm) * wm - wo
-            if wp.static(K_GGXD):
+            if wp.static(K.ggx_dielectric):
                 if kind == GGX_DIELECTRIC:
                     it = interface(n, wo, ior)
                     if it.co <= 0.0:
