@@ -13,13 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.kernels.mesh_file import file_has_vertex_normals
-from drtlab.kernels.mitsuba_xml import (IOR_PRESETS, Obj, Reader, Ref, chain_matrix, chain_point,
-                                        chain_vector, drtlab_transform)
+from drtlab.kernels.mitsuba_materials import MaterialMapping
+from drtlab.kernels.mitsuba_shapes import ShapeMapping
+from drtlab.kernels.mitsuba_xml import Obj, Reader, Ref, chain_matrix
 
-SHAPES, INTEGRATORS = ("rectangle", "cube", "sphere", "obj", "ply"), ("path", "direct")
-BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor")
-SENSORS, EMITTERS = ("perspective", "thinlens"), ("area", "point", "directional", "constant")
+INTEGRATORS, SENSORS = ("path", "direct"), ("perspective", "thinlens")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 # Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
 WHY_NOT = {
@@ -36,7 +34,7 @@ def scene_dict(path: Path) -> tuple[dict, str]:
     return _Importer(r).convert(), path.read_text(encoding="utf-8", errors="replace")
 
 
-class _Importer:
+class _Importer(ShapeMapping, MaterialMapping):
     def __init__(self, r: Reader):
         self.r = r
         self.materials: dict[str, dict] = {}
@@ -269,182 +267,3 @@ class _Importer:
         self.ignore(o, "seed", "jitter", "scramble")        # a drtlab sampler is a render setting
         self.done(o)
         return int(spp)
-
-    # ---- shapes, materials, emitters ---------------------------------------------------------------
-    def shape(self, o: Obj) -> None:
-        kind = self.kind(o, SHAPES)
-        chain = self.get(o, "to_world", ("transform",), [])
-        flip = self.get(o, "flip_normals", ("boolean",), False)
-        bsdf = emitter = None
-        for child in self.nested(o):
-            if child.tag == "bsdf" and bsdf is None:
-                bsdf = child
-            elif child.tag == "emitter" and emitter is None and child.type == "area":
-                emitter = child
-            else:
-                self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shape is not "
-                                        "supported (one bsdf and one area emitter)")
-        shape: dict = {"material": self.material(o, bsdf, emitter)}
-        if o.id is not None:
-            shape["name"] = o.id
-        if kind == "rectangle":
-            # Each corner and edge through the chain (exact for an exporter's chain); a mirroring
-            # transform or flip_normals turns the normal: drtlab's is edge_u x edge_v.
-            u, v = chain_vector(chain, [2.0, 0, 0]), chain_vector(chain, [0, 2.0, 0])
-            if (np.linalg.det(chain_matrix(chain)[:3, :3]) < 0) != bool(flip):
-                u, v = v, u
-            shape.update(kind="quad", origin=chain_point(chain, [-1.0, -1.0, 0]).tolist(),
-                         edge_u=u.tolist(), edge_v=v.tolist())
-        else:
-            if flip:
-                self.r.fail(o.props["flip_normals"].path, f"true is not supported on a {kind} "
-                                                          "(drtlab's faces out), only on a rectangle")
-            if kind == "cube":
-                shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
-            elif kind == "sphere":
-                shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
-                             radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
-            else:
-                shape.update(kind="mesh", file=self.mesh_file(o, kind))
-            transform = drtlab_transform(chain)
-            if transform is not None:
-                shape["transform"] = transform
-        self.data["shapes"].append(shape)
-        self.done(o)
-
-    def mesh_file(self, o: Obj, kind: str) -> str:
-        name = self.string(o, "filename", None)
-        if name is None:
-            self.r.fail(o.path, f"{kind} needs a filename")
-        path = Path(name).expanduser()
-        path = path if path.is_absolute() else self.r.folder / path
-        if not path.is_file():
-            self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
-        if path.suffix.lower() != f".{kind}":
-            self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
-        has_normals = file_has_vertex_normals(path)
-        face_normals = self.get(o, "face_normals", ("boolean",), False)
-        if not face_normals and not has_normals:
-            self.r.fail(o.path, "the file has no vertex normals, so Mitsuba would compute smooth ones, "
-                                "which drtlab does not; set face_normals to true (flat shading)")
-        if face_normals and has_normals:
-            self.r.fail(o.props["face_normals"].path, "true with a file that has vertex normals is not "
-                                                      "supported (drtlab shades with the file's normals)")
-        self.ignore(o, "flip_tex_coords")
-        return str(path)
-
-    def material(self, shape: Obj, bsdf: Obj | None, emitter: Obj | None) -> str:
-        """The drtlab material of a (BSDF, area emitter) pair: one per distinct pair, named after the
-        BSDF's id (or the shape's path)."""
-        radiance = None
-        if emitter is not None:
-            radiance = self.colour(emitter, "radiance", 1.0)
-            self.done(emitter)
-        if bsdf is None:                 # Mitsuba's default: diffuse 0.5, black on an emitter
-            spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3}
-            name = "default"
-        else:
-            spec, name = self.bsdf(bsdf), bsdf.id or shape.path.rsplit("/", 1)[-1].split("(")[0]
-        if radiance is not None and any(radiance):
-            if spec["kind"] == "diffuse" and not any(spec["albedo"]):
-                spec = {"kind": "emitter"}       # black: it only emits
-            spec["emission"] = radiance
-        key = repr(sorted(spec.items()))
-        if key not in self.material_of:
-            unique, k = name, 1
-            while unique in self.materials:
-                k += 1
-                unique = f"{name}-{k}"
-            self.material_of[key] = unique
-            self.materials[unique] = spec
-        return self.material_of[key]
-
-    def bsdf(self, o: Obj) -> dict:
-        kind = self.kind(o, BSDFS)
-        if kind == "twosided":
-            nested = self.nested(o)
-            if len(nested) != 1:
-                self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
-                                    "same on both sides)")
-            if nested[0].type not in ("diffuse", "conductor", "roughconductor"):
-                self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
-                                            "(diffuse, conductor, roughconductor)")
-            self.done(o)
-            return self.bsdf(nested[0])
-        for child in self.nested(o):
-            what = "textures are" if child.tag == "texture" else f"a nested <{child.tag}> is"
-            self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
-                                    "constant)")
-        if kind == "diffuse":
-            spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
-        elif kind in ("conductor", "roughconductor"):
-            self.string(o, "material", "none", ("none",))
-            for name in ("eta", "k"):
-                if name in o.props:
-                    self.r.fail(o.props[name].path, "a complex index of refraction is not supported "
-                                                    "(drtlab's conductors reflect a constant colour)")
-            spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
-            if kind == "roughconductor":
-                spec.update(zip(("kind", "roughness"), self.roughness(o)))
-        else:
-            ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
-            if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
-                self.r.fail(o.props["specular_reflectance"].path, "must be 1 (drtlab's dielectric "
-                                                                  "reflects white)")
-            spec = {"kind": "dielectric", "ior": ior[0] / ior[1],
-                    "albedo": self.colour(o, "specular_transmittance", 1.0)}
-            if kind == "roughdielectric":
-                rough, alpha = self.roughness(o)
-                if rough != "ggx_separable":        # Beckmann, Mitsuba's default here too
-                    self.r.fail((o.props.get("distribution") or o).path, "'beckmann' is not supported "
-                                "for a roughdielectric (supported: ggx): drtlab has no rough Beckmann glass")
-                spec.update(kind="ggx_dielectric_separable", roughness=alpha)
-        self.done(o)
-        return spec
-
-    def roughness(self, o: Obj) -> tuple[str, float]:
-        """(drtlab kind, isotropic alpha) of a rough conductor: `beckmann`, `ggx_separable` (Mitsuba's
-        separable Smith masking; drtlab's `ggx` masks with the height-correlated form)."""
-        kinds = {"beckmann": "beckmann", "ggx": "ggx_separable"}
-        distribution = self.string(o, "distribution", "beckmann")
-        if distribution not in kinds:
-            self.r.fail(o.props["distribution"].path, f"{distribution!r} is not supported (supported: "
-                        f"{', '.join(kinds)})")
-        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
-        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha", "alpha_u", "alpha_v")]
-        if alpha[1] is not None or alpha[2] is not None:
-            if alpha[0] is not None or alpha[1] != alpha[2]:
-                self.r.fail(o.path, "anisotropic roughness is not supported: give alpha, or alpha_u "
-                                    "equal to alpha_v")
-            return kinds[distribution], alpha[1]
-        return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
-
-    def ior(self, o: Obj, name: str, default: str) -> float:
-        p = o.props.get(name)
-        if p is not None and p.tag == "string" or p is None:
-            preset = self.string(o, name, default)
-            if preset.lower() not in IOR_PRESETS:
-                self.r.fail(p.path, f"unknown index of refraction {preset!r} (a number or one of "
-                                    f"{', '.join(IOR_PRESETS)})")
-            return IOR_PRESETS[preset.lower()]
-        return self.number(o, name, None, lambda x: x > 0, "> 0")
-
-    def emitter(self, o: Obj) -> None:
-        kind = self.kind(o, EMITTERS[1:])
-        if kind == "constant":
-            if "environment" in self.data:
-                self.r.fail(o.path, "a second constant emitter")
-            self.data["environment"] = {"kind": "constant", "radiance": self.colour(o, "radiance", 1.0)}
-        else:
-            chain = self.get(o, "to_world", ("transform",), None)
-            key, value = ("position", "intensity") if kind == "point" else ("direction", "irradiance")
-            given = self.get(o, key, ("point", "vector"), None)
-            if (given is None) == (chain is None):
-                self.r.fail(o.path, f"a {kind} emitter needs either {key} or to_world")
-            if given is None:
-                given = (chain_point(chain, [0.0] * 3) if kind == "point"
-                         else chain_vector(chain, [0, 0, 1.0])).tolist()
-            self.data.setdefault("lights", []).append(
-                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
-        self.done(o)
-

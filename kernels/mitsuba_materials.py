@@ -1,0 +1,109 @@
+"""Mitsuba 3 XML BSDFs (and a shape's area emitter) -> drtlab materials.
+
+A mixin of the importer (kernels/mitsuba_import.py), which gives it the property access (`get`,
+`number`, `colour`, `string`, `done`, ...). One drtlab material per distinct (BSDF, emitter) pair.
+"""
+from __future__ import annotations
+
+from drtlab.kernels.mitsuba_xml import IOR_PRESETS, Obj
+
+BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor")
+
+
+class MaterialMapping:
+    def material(self, shape: Obj, bsdf: Obj | None, emitter: Obj | None) -> str:
+        """The drtlab material of a (BSDF, area emitter) pair: one per distinct pair, named after the
+        BSDF's id (or the shape's path)."""
+        radiance = None
+        if emitter is not None:
+            radiance = self.colour(emitter, "radiance", 1.0)
+            self.done(emitter)
+        if bsdf is None:                 # Mitsuba's default: diffuse 0.5, black on an emitter
+            spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3}
+            name = "default"
+        else:
+            spec, name = self.bsdf(bsdf), bsdf.id or shape.path.rsplit("/", 1)[-1].split("(")[0]
+        if radiance is not None and any(radiance):
+            if spec["kind"] == "diffuse" and not any(spec["albedo"]):
+                spec = {"kind": "emitter"}       # black: it only emits
+            spec["emission"] = radiance
+        key = repr(sorted(spec.items()))
+        if key not in self.material_of:
+            unique, k = name, 1
+            while unique in self.materials:
+                k += 1
+                unique = f"{name}-{k}"
+            self.material_of[key] = unique
+            self.materials[unique] = spec
+        return self.material_of[key]
+
+    def bsdf(self, o: Obj) -> dict:
+        kind = self.kind(o, BSDFS)
+        if kind == "twosided":
+            nested = self.nested(o)
+            if len(nested) != 1:
+                self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
+                                    "same on both sides)")
+            if nested[0].type not in ("diffuse", "conductor", "roughconductor"):
+                self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
+                                            "(diffuse, conductor, roughconductor)")
+            self.done(o)
+            return self.bsdf(nested[0])
+        for child in self.nested(o):
+            what = "textures are" if child.tag == "texture" else f"a nested <{child.tag}> is"
+            self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
+                                    "constant)")
+        if kind == "diffuse":
+            spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
+        elif kind in ("conductor", "roughconductor"):
+            self.string(o, "material", "none", ("none",))
+            for name in ("eta", "k"):
+                if name in o.props:
+                    self.r.fail(o.props[name].path, "a complex index of refraction is not supported "
+                                                    "(drtlab's conductors reflect a constant colour)")
+            spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
+            if kind == "roughconductor":
+                spec.update(zip(("kind", "roughness"), self.roughness(o)))
+        else:
+            ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
+            if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
+                self.r.fail(o.props["specular_reflectance"].path, "must be 1 (drtlab's dielectric "
+                                                                  "reflects white)")
+            spec = {"kind": "dielectric", "ior": ior[0] / ior[1],
+                    "albedo": self.colour(o, "specular_transmittance", 1.0)}
+            if kind == "roughdielectric":
+                rough, alpha = self.roughness(o)
+                if rough != "ggx_separable":        # Beckmann, Mitsuba's default here too
+                    self.r.fail((o.props.get("distribution") or o).path, "'beckmann' is not supported "
+                                "for a roughdielectric (supported: ggx): drtlab has no rough Beckmann glass")
+                spec.update(kind="ggx_dielectric_separable", roughness=alpha)
+        self.done(o)
+        return spec
+
+    def roughness(self, o: Obj) -> tuple[str, float]:
+        """(drtlab kind, isotropic alpha) of a rough conductor: `beckmann`, `ggx_separable` (Mitsuba's
+        separable Smith masking; drtlab's `ggx` masks with the height-correlated form)."""
+        kinds = {"beckmann": "beckmann", "ggx": "ggx_separable"}
+        distribution = self.string(o, "distribution", "beckmann")
+        if distribution not in kinds:
+            self.r.fail(o.props["distribution"].path, f"{distribution!r} is not supported (supported: "
+                        f"{', '.join(kinds)})")
+        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
+        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha", "alpha_u", "alpha_v")]
+        if alpha[1] is not None or alpha[2] is not None:
+            if alpha[0] is not None or alpha[1] != alpha[2]:
+                self.r.fail(o.path, "anisotropic roughness is not supported: give alpha, or alpha_u "
+                                    "equal to alpha_v")
+            return kinds[distribution], alpha[1]
+        return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
+
+    def ior(self, o: Obj, name: str, default: str) -> float:
+        p = o.props.get(name)
+        if p is not None and p.tag == "string" or p is None:
+            preset = self.string(o, name, default)
+            if preset.lower() not in IOR_PRESETS:
+                self.r.fail(p.path, f"unknown index of refraction {preset!r} (a number or one of "
+                                    f"{', '.join(IOR_PRESETS)})")
+            return IOR_PRESETS[preset.lower()]
+        return self.number(o, name, None, lambda x: x > 0, "> 0")
+

@@ -1,0 +1,100 @@
+"""Mitsuba 3 XML shapes and emitters -> the drtlab scene dict's shapes, lights and environment.
+
+A mixin of the importer (kernels/mitsuba_import.py), which gives it the property access (`get`,
+`number`, `colour`, `string`, `done`, ...) and the material mapping (kernels/mitsuba_materials.py).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from drtlab.kernels.mesh_file import file_has_vertex_normals
+from drtlab.kernels.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
+
+SHAPES = ("rectangle", "cube", "sphere", "obj", "ply")
+EMITTERS = ("area", "point", "directional", "constant")
+
+
+class ShapeMapping:
+    def shape(self, o: Obj) -> None:
+        kind = self.kind(o, SHAPES)
+        chain = self.get(o, "to_world", ("transform",), [])
+        flip = self.get(o, "flip_normals", ("boolean",), False)
+        bsdf = emitter = None
+        for child in self.nested(o):
+            if child.tag == "bsdf" and bsdf is None:
+                bsdf = child
+            elif child.tag == "emitter" and emitter is None and child.type == "area":
+                emitter = child
+            else:
+                self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shape is not "
+                                        "supported (one bsdf and one area emitter)")
+        shape: dict = {"material": self.material(o, bsdf, emitter)}
+        if o.id is not None:
+            shape["name"] = o.id
+        if kind == "rectangle":
+            # Each corner and edge through the chain (exact for an exporter's chain); a mirroring
+            # transform or flip_normals turns the normal: drtlab's is edge_u x edge_v.
+            u, v = chain_vector(chain, [2.0, 0, 0]), chain_vector(chain, [0, 2.0, 0])
+            if (np.linalg.det(chain_matrix(chain)[:3, :3]) < 0) != bool(flip):
+                u, v = v, u
+            shape.update(kind="quad", origin=chain_point(chain, [-1.0, -1.0, 0]).tolist(),
+                         edge_u=u.tolist(), edge_v=v.tolist())
+        else:
+            if flip:
+                self.r.fail(o.props["flip_normals"].path, f"true is not supported on a {kind} "
+                                                          "(drtlab's faces out), only on a rectangle")
+            if kind == "cube":
+                shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
+            elif kind == "sphere":
+                shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
+                             radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
+            else:
+                shape.update(kind="mesh", file=self.mesh_file(o, kind))
+            transform = drtlab_transform(chain)
+            if transform is not None:
+                shape["transform"] = transform
+        self.data["shapes"].append(shape)
+        self.done(o)
+
+    def mesh_file(self, o: Obj, kind: str) -> str:
+        name = self.string(o, "filename", None)
+        if name is None:
+            self.r.fail(o.path, f"{kind} needs a filename")
+        path = Path(name).expanduser()
+        path = path if path.is_absolute() else self.r.folder / path
+        if not path.is_file():
+            self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
+        if path.suffix.lower() != f".{kind}":
+            self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
+        has_normals = file_has_vertex_normals(path)
+        face_normals = self.get(o, "face_normals", ("boolean",), False)
+        if not face_normals and not has_normals:
+            self.r.fail(o.path, "the file has no vertex normals, so Mitsuba would compute smooth ones, "
+                                "which drtlab does not; set face_normals to true (flat shading)")
+        if face_normals and has_normals:
+            self.r.fail(o.props["face_normals"].path, "true with a file that has vertex normals is not "
+                                                      "supported (drtlab shades with the file's normals)")
+        self.ignore(o, "flip_tex_coords")
+        return str(path)
+
+    def emitter(self, o: Obj) -> None:
+        kind = self.kind(o, EMITTERS[1:])
+        if kind == "constant":
+            if "environment" in self.data:
+                self.r.fail(o.path, "a second constant emitter")
+            self.data["environment"] = {"kind": "constant", "radiance": self.colour(o, "radiance", 1.0)}
+        else:
+            chain = self.get(o, "to_world", ("transform",), None)
+            key, value = ("position", "intensity") if kind == "point" else ("direction", "irradiance")
+            given = self.get(o, key, ("point", "vector"), None)
+            if (given is None) == (chain is None):
+                self.r.fail(o.path, f"a {kind} emitter needs either {key} or to_world")
+            if given is None:
+                given = (chain_point(chain, [0.0] * 3) if kind == "point"
+                         else chain_vector(chain, [0, 0, 1.0])).tolist()
+            self.data.setdefault("lights", []).append(
+                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
+        self.done(o)
+
