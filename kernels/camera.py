@@ -61,9 +61,9 @@ def make_camera(f: Features, pointset: PointSet, pixel_filter: PixelFilter | Non
         lens = wp.vec2(0.0, 0.0)
         o = sd.camera.position
         # A runtime switch (one branch per sample): scenes with and without a lens share a variant.
-        if sd.camera.aperture > 0.0:
+        if sd.camera.aperture_radius > 0.0:
             lens = square_to_disk(get2d(seed, pix, idx, wp.uint32(wp.static(dims.LENS)),
-                                        spp)) * sd.camera.aperture
+                                        spp)) * sd.camera.aperture_radius
             o = o + sd.camera.right * lens[0] + sd.camera.up * lens[1]
         ray = CameraRay()
         ray.o = o

@@ -115,7 +115,7 @@ class CameraData:
     forward: wp.vec3
     half_width: float
     half_height: float
-    aperture: float
+    aperture_radius: float     # 0: a pinhole (kernels/camera.py tests it per sample)
     focus_distance: float
     shutter_open: float
     shutter_close: float

@@ -23,9 +23,14 @@ class Camera:
     up: np.ndarray
     vfov_deg: float                     # full vertical field of view
     aperture_radius: float = 0.0        # 0 -> pinhole
-    focus_distance: float = 1.0         # distance along the view axis of the plane in focus
+    focus_distance: float = 1.0         # distance along the view axis of the plane in focus (> 0:
+                                        # the kernels divide by it, pinhole or not)
     shutter: tuple[float, float] = (0.0, 0.0)
     filter: str = "box"                 # pixel reconstruction filter, a name in kernels/filters.py
+
+    def __post_init__(self):
+        if not self.focus_distance > 0.0:
+            raise ValueError(f"Camera.focus_distance must be > 0, got {self.focus_distance}")
 
     @property
     def has_lens(self) -> bool:

@@ -13,6 +13,7 @@ import pickle
 import threading
 from collections import OrderedDict
 from collections.abc import Callable
+from dataclasses import fields
 from functools import partial
 
 import numpy as np
@@ -26,8 +27,8 @@ from drtlab.kernels.features import material_kinds, splits_for, uses_quad_simd, 
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.filters import BOX, filter_cdf
 from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_CODE
-from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
-from drtlab.kernels.scene import Scene
+from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
+from drtlab.kernels.scene import Camera, Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
 
@@ -234,6 +235,13 @@ def camera_basis(cam) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return pos, fwd, right, np.cross(right, fwd)
 
 
+# A camera parameter reaches the kernels by its name: every float of CameraData that the Camera model
+# also has is copied as it is (the lens's aperture_radius and focus_distance), so a new lens or
+# shutter parameter is a field in both and its use in kernels/camera.py, and nothing here.
+CAMERA_SCALARS = tuple(name for name, var in CameraData.vars.items()
+                       if var.type is wp.float32 and name in {f.name for f in fields(Camera)})
+
+
 def _put_camera(sd: SceneData, scene: Scene) -> None:
     cam = scene.camera
     pos, fwd, right, up = camera_basis(cam)
@@ -245,8 +253,8 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     half_h = math.tan(math.radians(cam.vfov_deg) / 2)
     c.half_height = float(half_h)
     c.half_width = float(half_h * scene.width / scene.height)
-    c.aperture = float(cam.aperture_radius)
-    c.focus_distance = float(cam.focus_distance if cam.focus_distance > 0 else 1.0)
+    for name in CAMERA_SCALARS:
+        setattr(c, name, float(getattr(cam, name)))
     c.shutter_open = float(cam.shutter[0])
     c.shutter_close = float(cam.shutter[1])
 

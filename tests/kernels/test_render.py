@@ -416,3 +416,17 @@ def test_uploads_are_shared_by_content_and_follow_in_place_changes():
     assert not np.array_equal(before, after)
     np.testing.assert_array_equal(render(b, spp=2, sampler="uniform", seed=1, res=(16, 12), threads=1),
                                   before)
+
+
+def test_camera_parameters_reach_the_device_by_name():
+    """A lens or shutter parameter is a field of the Camera model and of CameraData under one name,
+    and the upload copies it with nothing else to edit: every such float arrives as the model says."""
+    from drtlab.kernels.scene_upload import CAMERA_SCALARS, upload
+    assert {"aperture_radius", "focus_distance"} <= set(CAMERA_SCALARS)
+    scene = load_scene("dof")
+    sd = upload(scene, "cpu")
+    for name in CAMERA_SCALARS:
+        assert getattr(sd.camera, name) == np.float32(getattr(scene.camera, name)), name
+    assert sd.camera.aperture_radius > 0.0
+    with pytest.raises(ValueError, match="focus_distance"):
+        dataclasses.replace(scene.camera, focus_distance=0.0)
