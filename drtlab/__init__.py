@@ -88,7 +88,7 @@ def render_batch(*args, **kwargs):
 def load_scene(scene, overrides: dict | None = None):
     """A validated Scene from a built-in name, a .toml (or Mitsuba 3 .xml) path, or a dict shaped like
     a scene file, with dotted-key `overrides` ({"camera.fov": 30, "shapes[0].radius": 0.5})."""
-    from drtlab.kernels.scene_file import load_scene as _load_scene, scene_from_dict
+    from drtlab.kernels.scene_model.scene_file import load_scene as _load_scene, scene_from_dict
     if isinstance(scene, dict):
         return scene_from_dict(scene, overrides=overrides)
     return _load_scene(scene, overrides)

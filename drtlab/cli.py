@@ -18,7 +18,7 @@ from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 # ---------------------------------------------------------------------------------------------------
 
 def cmd_scenes(args) -> int:
-    from drtlab.kernels.scene_file import builtin_names, scene_settings
+    from drtlab.kernels.scene_model.scene_file import builtin_names, scene_settings
     scenes = [(name, scene_settings(name)) for name in builtin_names()]
     rows = [(name, f"{s['width']}x{s['height']}", f"{s['spp']} spp", s["integrator"],
              s["description"]) for name, s in scenes]
@@ -98,7 +98,7 @@ def _default_out(scene, args) -> Path:
     differ never overwrite each other. Whitted reads neither sampler nor seed."""
     from drtlab.estimators.registry import parse_integrator, parse_sampler
     from drtlab.experiments.paths import results_root
-    from drtlab.kernels.scene_file import builtin_names
+    from drtlab.kernels.scene_model.scene_file import builtin_names
     integ = parse_integrator(args.integrator or scene.integrator).name
     width, height = _render_size(scene, args)
     parts = [scene.name]
@@ -173,8 +173,8 @@ def cmd_render(args) -> int:
     from drtlab.kernels.imageio import write_png
     from drtlab.kernels import render as R
     from drtlab.kernels.render import check_image_size
-    from drtlab.kernels.scene_checks import image_warnings, scene_warnings
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_checks import image_warnings, scene_warnings
+    from drtlab.kernels.scene_model.scene_file import load_scene
     from drtlab.render_result import result_of
 
     scene = load_scene(args.scene, _overrides(args.set))

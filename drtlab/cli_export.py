@@ -1,5 +1,5 @@
 """`drtlab export SCENE --format mitsuba OUT.xml`: a scene as a Mitsuba 3 XML file
-(kernels/mitsuba_export.py). Bad input, and a scene with something Mitsuba 3 has no counterpart for,
+(kernels/scene_model/mitsuba_export.py). Bad input, and a scene with something Mitsuba 3 has no counterpart for,
 is one line naming the field and exit 2, before anything is written."""
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ FORMATS = ("mitsuba",)
 
 
 def cmd_export(args) -> int:
-    from drtlab.kernels.mitsuba_export import check_exportable, export_mitsuba
-    from drtlab.kernels.scene_file import load_scene, scene_data
+    from drtlab.kernels.scene_model.mitsuba_export import check_exportable, export_mitsuba
+    from drtlab.kernels.scene_model.scene_file import load_scene, scene_data
     out = Path(args.out).expanduser()
     if out.suffix.lower() != ".xml":
         raise InputError("OUT", f"must be a path ending in .xml, got {str(out)!r}")

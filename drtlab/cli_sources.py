@@ -24,7 +24,7 @@ def cmd_sources(args) -> int:
     from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT
     from drtlab.experiments.sources.decompose import variance_sources
     from drtlab.kernels.render import check_image_size
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene(args.scene)
     from drtlab.estimators.strategies import environment_only
     if scene.environment is None and environment_only(args.strategy):

@@ -112,8 +112,8 @@ def result_of(scene, stats, wall_seconds: float, seconds_budget: float | None = 
 
 
 def _scene(scene, overrides):
-    from drtlab.kernels.scene import Scene
-    from drtlab.kernels.scene_file import load_scene, scene_from_dict
+    from drtlab.kernels.scene_model.scene import Scene
+    from drtlab.kernels.scene_model.scene_file import load_scene, scene_from_dict
     if isinstance(scene, Scene):
         if overrides:
             from drtlab.errors import InputError

@@ -7,7 +7,7 @@ in variance. Fields are compile-time switches read by the kernel factory.
     light       how lights are sampled (LightSampling), or None: no light sampling
     light.environment  how next-event estimation samples an environment light (scenes without one
                 compile it out): "uniform" over the sphere, "cosine" about the shading normal,
-                "image": by the radiance image (piecewise-constant 2D, kernels/environment_map.py)
+                "image": by the radiance image (piecewise-constant 2D, kernels/scene_model/environment_map.py)
     microfacet  how "lobe" samples a GGX microfacet normal: "vndf", the distribution of normals
                 visible from wo (Dupuy & Benyoub 2023's spherical caps, the same density as Heitz
                 2018), or "d", the full distribution D weighted by cos(theta_m) (Walter et al. 2007);

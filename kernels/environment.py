@@ -9,7 +9,7 @@ and its Warp functions, built per strategy by `make_environment(strategy)` -> En
 n is the shading normal turned towards the outgoing direction (the cosine sampler's axis).
 The samplers (LightSampling.environment, estimators/strategies.py): "uniform" over the sphere,
 "cosine" about n (zero density below it: MIS's BSDF samples cover transmission), "image": the
-PiecewiseConstant2D tables of kernels/environment_map.py, rows then columns by binary search over
+PiecewiseConstant2D tables of kernels/scene_model/environment_map.py, rows then columns by binary search over
 their cdfs. The model, the lat-long convention and the tables' facts are in environment_map.py.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ import warp as wp
 from drtlab.estimators.domain_maps import (INV_2PI, INV_4PI, INV_PI, PI, frame_to_world,
                                            square_to_cosine_hemisphere, square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
-from drtlab.kernels.environment_map import EnvironmentMap, sampling_tables
+from drtlab.kernels.scene_model.environment_map import EnvironmentMap, sampling_tables
 
 # d omega = 2 pi^2 sin(theta) du dv over the lat-long square.
 LATLONG_JACOBIAN = wp.constant(2.0 * math.pi * math.pi)

@@ -5,8 +5,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from drtlab.kernels.material_kinds import kinds_where
-from drtlab.kernels.scene import Scene
+from drtlab.kernels.scene_model.material_kinds import kinds_where
+from drtlab.kernels.scene_model.scene import Scene
 
 # Faults a test may compile into a kernel to check that a statistical test rejects a wrong estimator.
 DROP_COSINE = "drop_cosine"         # diffuse/glossy f|cos| loses its cosine (light samples, scattering)

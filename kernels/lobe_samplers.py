@@ -27,7 +27,7 @@ import warp as wp
 
 from drtlab.errors import InputError
 from drtlab.estimators.plugins import check_warp_function
-from drtlab.kernels.material_kinds import kinds_where
+from drtlab.kernels.scene_model.material_kinds import kinds_where
 
 # Kinds a lobe sampler can serve: delta lobes have no density to sample, emitters do not scatter.
 SAMPLED_KINDS = kinds_where(lambda k: not (k.delta or k.emitter))

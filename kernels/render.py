@@ -22,7 +22,7 @@ from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS
                                      Features, features_of)
 from drtlab.kernels.filters import BOX, FILTERS
 from drtlab.kernels.launch_pool import launch_pool
-from drtlab.kernels.scene import Scene
+from drtlab.kernels.scene_model.scene import Scene
 from drtlab.warp_runtime import warp as _wp
 
 # Samples per pixel per launch: bounds a launch's duration (progress, responsiveness) and fixes the
@@ -126,7 +126,7 @@ def check_image_size(width: int, height: int, moments: bool = False, field: str 
 
 def _resolve_scene(scene, res) -> Scene:
     if not isinstance(scene, Scene):
-        from drtlab.kernels.scene_file import load_scene
+        from drtlab.kernels.scene_model.scene_file import load_scene
         scene = load_scene(scene)
     if res is not None:
         w, h = fields.resolution(res, "res", aspect=scene.height / scene.width)

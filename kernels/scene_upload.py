@@ -1,4 +1,4 @@
-"""`upload`: the scene model (kernels/scene.py) copied into the SceneData the kernels read
+"""`upload`: the scene model (kernels/scene_model/scene.py) copied into the SceneData the kernels read
 (kernels/device_scene.py).
 
 Besides the model's values it holds what kernels/intersection/quad_records.py derives once per scene for the ray tests
@@ -26,9 +26,9 @@ from drtlab.kernels.environment import environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_quad_simd, uses_sphere_bvh
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.filters import BOX, filter_cdf
-from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_CODE
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
-from drtlab.kernels.scene import Camera, Scene
+from drtlab.kernels.scene_model.scene import Camera, Scene
 from drtlab.warp_runtime import warp as initialised_warp
 
 

@@ -17,7 +17,7 @@ from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
                                       GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
-from drtlab.kernels.material_kinds import KINDS, MATERIAL_CODE
+from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.static_tag import variant_tag
 

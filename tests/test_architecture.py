@@ -107,3 +107,23 @@ def test_every_package_is_listed_for_a_non_editable_install():
     found = {_module(p) for folder in ("drtlab", *LAYERS) for p in (ROOT / folder).rglob("__init__.py")
              if ".venv" not in p.parts}
     assert found - listed == set(), f"packages missing from pyproject.toml: {sorted(found - listed)}"
+
+
+def test_the_scene_model_holds_no_warp_code():
+    """kernels/scene_model/ reads and checks scenes in numpy: no Warp, and of the rest of kernels/
+    only its Warp-free leaves, so a scene loads without the device layer."""
+    leaves = {"drtlab.kernels.colour", "drtlab.kernels.imageio", "drtlab.kernels.filters"}
+    bad = []
+    for path in (ROOT / "kernels" / "scene_model").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                names = [node.module]
+            else:
+                continue
+            bad += [(path.name, n) for n in names
+                    if n.split(".")[0] == "warp" or n == "drtlab.warp_runtime"
+                    or (n.startswith("drtlab.kernels.") and n not in leaves
+                        and not n.startswith("drtlab.kernels.scene_model"))]
+    assert bad == []

@@ -72,7 +72,7 @@ INTERVALS = ("study", "naive-z")
 
 def _inward_box_quads(half: float, material: str) -> list[dict]:
     """The 6 faces of [-half, half]^3 with edge_u x edge_v pointing into the box (they emit inwards)."""
-    from drtlab.kernels.procedural import inward_box_faces
+    from drtlab.kernels.scene_model.procedural import inward_box_faces
     return [{"kind": "quad", "material": material, "origin": [float(x) for x in origin],
              "edge_u": [float(x) for x in eu], "edge_v": [float(x) for x in ev]}
             for _, _, origin, eu, ev in inward_box_faces(np.full(3, -half), np.full(3, half))]
@@ -213,7 +213,7 @@ def renderer_audit(seeds_cells: int = 200, runs_per_cell: int = 5, spp=(4,), sam
     `seconds` (wall time of that entry, rendering and compiling included)}. `interval` and
     `reference_scale` exist for negative controls (module docstring)."""
     scene_d, exact = furnace_scene(res)
-    from drtlab.kernels.scene_file import scene_from_dict
+    from drtlab.kernels.scene_model.scene_file import scene_from_dict
     scene = scene_from_dict(scene_d, name=SCENE_KEY)
     pixels = int(res[0]) * int(res[1])
     runs = int(seeds_cells) * int(runs_per_cell)

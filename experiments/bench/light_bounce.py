@@ -41,7 +41,7 @@ def scenes() -> list[tuple[str, str, str | None, dict | None]]:
 def child(rule: int, spp: int, time_spp: int, reps: int) -> None:
     lights.SPHERICAL_MAX_BOUNCE = rule      # before any kernel is built
     from drtlab.kernels.render import render_with_stats
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     for label, name, integ, ov in scenes():
         sc = load_scene(name, ov)
         best = {smp: math.inf for smp in SAMPLERS}

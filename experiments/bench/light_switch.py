@@ -22,7 +22,7 @@ import numpy as np
 
 from drtlab.kernels import lights
 from drtlab.kernels.render import render_with_stats
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 # (side a, height h, camera distance behind the light's foot, look-at offset, camera height; in h)
 GEOMETRIES = [(a, 1.0, dz, look, cy) for a in (0.03, 0.1, 0.3, 1.0, 2.0, 4.0)

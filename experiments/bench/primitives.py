@@ -44,7 +44,7 @@ def _sphere_row(n: int, sampler: str, repeats: int) -> dict:
     import drtlab.kernels.features as features
     from drtlab.kernels.scene_upload import scene_extent
     from drtlab.kernels.intersection.bvh_build import build_bvh, sphere_boxes
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene("sphere-grid", {"shapes[1].count": n})
     spheres = [s for s in scene.shapes if s.kind == "sphere"]
     saved = features.SPHERE_BVH_MIN
@@ -65,7 +65,7 @@ def _triangle_row(s: int, sampler: str, repeats: int) -> dict:
     import tomllib
     from drtlab.kernels.scene_upload import scene_extent
     from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables
-    from drtlab.kernels.scene_file import BUILTIN_DIR, scene_from_dict
+    from drtlab.kernels.scene_model.scene_file import BUILTIN_DIR, scene_from_dict
     data = tomllib.loads((BUILTIN_DIR / "displaced-sphere.toml").read_text())
     data["shapes"] = [sh for sh in data["shapes"] if sh.get("name") != "lamp"]
     data["shapes"][2]["subdivisions"] = s

@@ -149,7 +149,7 @@ def _build_rays(name: str, n: int, seed: int = 1, quad_test: str = "simd"):
     from dataclasses import replace
     from drtlab.kernels.scene_upload import upload, uses_vector_quads
     from drtlab.kernels.features import features_of
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene(name)
     f = replace(features_of(scene, "path"),
                 quad_simd=quad_test == "simd" and uses_vector_quads(scene, "cpu"))
@@ -308,7 +308,7 @@ def cmd_compile(args) -> int:
         for ref in study.scenes:
             for sampler in (*study.samplers, GT_SAMPLER):
                 jobs[(ref.name, sampler, study.integrator)] = dict(ref.overrides)
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     if args.threads > 1:
         from drtlab.kernels.render import compile_variants
         c0 = time.process_time()
@@ -343,7 +343,7 @@ IMAGE_SAMPLERS = ("uniform", "stratified", "importance", "stratified+importance"
 def cmd_images(args) -> int:
     _setup()
     from drtlab.kernels.render import render
-    from drtlab.kernels.scene_file import builtin_names, load_scene
+    from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
     images = {}
     for name in builtin_names():
         integrators = sorted({load_scene(name).integrator, "path", "drt", "whitted"})

@@ -63,7 +63,7 @@ def _row(setting: str, value, st, call_s: float) -> dict:
 def scaling(scene_name: str, sampler: str, repeats: int, threads_all: int) -> dict:
     """Samples/s of `scene_name` against resolution, spp, max depth and thread count."""
     from drtlab.kernels.render import render_with_stats
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     base = load_scene(scene_name)
 
     def measure(setting, value, scene=base, res=SCALING_RES, spp=SCALING_SPP, threads=1):
@@ -88,7 +88,7 @@ def scene_rows(spp: int, sampler: str, repeats: int, threads_all: int) -> list[d
     """Per built-in scene: cold compile seconds and samples/s on 1 thread and on all cores."""
     from drtlab.estimators.registry import parse_sampler
     from drtlab.kernels.render import features_of, get_kernel, render_with_stats
-    from drtlab.kernels.scene_file import builtin_names, load_scene
+    from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
     rows = []
     spec = parse_sampler(sampler)
     first_of = {}       # kernel variant (code_key) -> the scene that compiled it

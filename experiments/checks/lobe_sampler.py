@@ -35,7 +35,7 @@ ALBEDO = (0.8, 0.6, 0.4)
 
 
 def _shape(kind: str) -> float:
-    from drtlab.kernels.material_kinds import KIND_BY_NAME
+    from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME
     k = KIND_BY_NAME[kind]
     return 20.0 if k.phong else 0.3 if k.microfacet else 0.0
 
@@ -90,7 +90,7 @@ def _albedo_line(built_in, kind: str, samples: dict, seed: int, per_line: float)
 
 
 def _hard_cases(mine, kind: str, seed: int) -> Line:
-    from drtlab.kernels.material_kinds import KIND_BY_NAME
+    from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME
     k = KIND_BY_NAME[kind]
     shapes = (1.0, 1e4) if k.phong else (1e-3, 1.0) if k.microfacet else (0.0,)
     iors = (1.01, 3.0) if k.ior else (1.5,)

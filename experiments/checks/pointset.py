@@ -56,7 +56,7 @@ def _purity(name: str) -> list[Line]:
 def furnace(sampler: str, seeds: list[int], threads=None, tile=None):
     from drtlab.experiments.audit.renderer import furnace_scene
     from drtlab.kernels.render import render_batch_with_stats
-    from drtlab.kernels.scene_file import scene_from_dict
+    from drtlab.kernels.scene_model.scene_file import scene_from_dict
     scene_dict, exact = furnace_scene(FURNACE_RES)
     b = render_batch_with_stats(scene_from_dict(scene_dict), seeds, spp=FURNACE_SPP, sampler=sampler,
                                 threads=threads, tile=tile, progress=False)

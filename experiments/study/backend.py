@@ -62,7 +62,7 @@ class Backend:
 def default_backend(device: str = "cpu") -> Backend:
     from drtlab.kernels import CODE_VERSION
     from drtlab.kernels.render import compile_variants, render_batch_with_stats, render_with_stats
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
 
     def render(scene, *, spp, sampler, integrator, seed, res, threads=None):
         return render_with_stats(scene, spp=spp, sampler=sampler, integrator=integrator, seed=seed,
@@ -86,5 +86,5 @@ def default_backend(device: str = "cpu") -> Backend:
 
 
 def default_scene_loader():
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     return load_scene

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from drtlab.kernels.material_kinds import kinds_where
+from drtlab.kernels.scene_model.material_kinds import kinds_where
 
 from drtlab import fields
 from drtlab.errors import InputError
@@ -102,7 +102,7 @@ def check_exponent(text: str, field_name: str = "--exponent") -> float:
 
 
 def check_roughness(text: str, field_name: str = "--roughness") -> float:
-    from drtlab.kernels.material_kinds import ROUGHNESS_MIN
+    from drtlab.kernels.scene_model.material_kinds import ROUGHNESS_MIN
     return _float(text, field_name, f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
                   lambda v: ROUGHNESS_MIN <= v <= 1.0)
 

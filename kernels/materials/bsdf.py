@@ -10,7 +10,7 @@ from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phon
                                            square_to_uniform_hemisphere, square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
-from drtlab.kernels.material_kinds import KINDS, MATERIAL_CODE, kinds_where
+from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE, kinds_where
 from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
                                                  interface, refract_dir)

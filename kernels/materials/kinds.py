@@ -1,7 +1,7 @@
 """Material kind codes (MaterialData.kind), defined by material_kinds.KINDS, as Warp constants."""
 import warp as wp
 
-from drtlab.kernels.material_kinds import MATERIAL_CODE, kinds_where
+from drtlab.kernels.scene_model.material_kinds import MATERIAL_CODE, kinds_where
 
 # Material kind codes (MaterialData.kind), defined by material_kinds.KINDS.
 DIFFUSE = wp.constant(MATERIAL_CODE["diffuse"])

@@ -12,7 +12,7 @@ from drtlab.estimators.integrators import INTEGRATORS
 from drtlab.estimators.registry import POINTSETS, PRESETS
 from drtlab.estimators.strategies import STRATEGIES
 from drtlab.cli import main
-from drtlab.kernels.scene_file import builtin_names
+from drtlab.kernels.scene_model.scene_file import builtin_names
 
 from cli_util import GOOD_SCENE, assert_one_line_error, run_bad
 

@@ -46,7 +46,7 @@ def test_static_scene_has_no_shutter_warning(good, tmp_path, capsys):
 
 
 def test_scene_format_states_the_loaders_shutter_default():
-    from drtlab.kernels.scene_file import scene_from_dict
+    from drtlab.kernels.scene_model.scene_file import scene_from_dict
     from repo_paths import REPO
     text = (REPO / "kernels" / "SCENE_FORMAT.md").read_text()
     line = next(x for x in text.splitlines() if x.startswith("shutter ="))
@@ -211,7 +211,7 @@ def test_scenes_and_samplers_align_long_names(capsys):
     from drtlab.estimators.integrators import INTEGRATORS
     from drtlab.estimators.registry import POINTSETS
     from drtlab.estimators.strategies import STRATEGIES
-    from drtlab.kernels.scene_file import builtin_names, load_scene
+    from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
     assert main(["scenes"]) == 0
     lines = capsys.readouterr().out.splitlines()
     names = builtin_names()

@@ -1,5 +1,5 @@
 """The documentation runs: every fenced block of README.md, every docs/*.md page (a new page is
-covered by being there), experiments/README.md and kernels/SCENE_FORMAT.md is executed or checked,
+covered by being there), experiments/README.md and kernels/scene_model/SCENE_FORMAT.md is executed or checked,
 at small settings, so that no example drifts from the code.
 
 Each block runs in its own scratch folder, which holds links to the repository's source folders
@@ -36,12 +36,12 @@ import numpy as np
 import pytest
 
 from drtlab.cli import build_parser, main
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 from repo_paths import REPO
 
 DOCS = ("README.md", *sorted(str(p.relative_to(REPO)) for p in (REPO / "docs").glob("*.md")),
-        "experiments/README.md", "kernels/SCENE_FORMAT.md")
+        "experiments/README.md", "kernels/scene_model/SCENE_FORMAT.md")
 # The guide's own pages: the newcomer's README and the manual in docs/.
 GUIDE = ("README.md", *(d for d in DOCS if d.startswith("docs/")))
 README_MAX_LINES = 200
@@ -241,8 +241,8 @@ def check_toml_block(text: str, where: str, tmp_path: Path) -> None:
 
 
 def check_xml_block(text: str, where: str, tmp_path: Path) -> None:
-    """A Mitsuba 3 scene: it loads through the importer (kernels/mitsuba_import.py), every shape kept."""
-    from drtlab.kernels.scene_file import load_scene
+    """A Mitsuba 3 scene: it loads through the importer (kernels/scene_model/mitsuba_import.py), every shape kept."""
+    from drtlab.kernels.scene_model.scene_file import load_scene
     path = tmp_path / "doc-scene.xml"
     path.write_text(text)
     scene = load_scene(path)
@@ -267,8 +267,8 @@ def _material_keys(T) -> set[str]:
 
 
 def check_scene_reference(ref: dict) -> None:
-    from drtlab.kernels import scene_tables as T
-    from drtlab.kernels.transforms import TRANSFORM_KEYS
+    from drtlab.kernels.scene_model import scene_tables as T
+    from drtlab.kernels.scene_model.transforms import TRANSFORM_KEYS
     assert set(ref["scene"]) == set(T.SCENE_KEYS)
     assert set(ref["camera"]) == set(T.CAMERA_KEYS)
     for kind, keys in T.SHAPE_KEYS.items():
@@ -279,7 +279,7 @@ def check_scene_reference(ref: dict) -> None:
     assert set(ref["shapes"][-1]["transform"]) <= set(TRANSFORM_KEYS)
     for light in ref["lights"]:
         assert set(light) == set(T.LIGHT_KEYS[light["kind"]])
-    from drtlab.kernels.environment_map import KEYS as ENVIRONMENT_KEYS
+    from drtlab.kernels.scene_model.environment_map import KEYS as ENVIRONMENT_KEYS
     assert set(ref["environment"]) == set().union(*ENVIRONMENT_KEYS.values())
     (material,) = ref["materials"].values()
     assert set(material) == _material_keys(T)
@@ -327,14 +327,14 @@ def test_every_doc_has_blocks_this_test_runs():
 
 
 def test_scene_table_lists_every_built_in_scene():
-    from drtlab.kernels.scene_file import builtin_names
+    from drtlab.kernels.scene_model.scene_file import builtin_names
     table = re.findall(r"^\| `([a-z0-9-]+)` \|", (REPO / "docs" / "scenes.md").read_text(), re.M)
     assert sorted(table) == sorted(builtin_names())
 
 
 def test_help_examples_name_real_scene_values():
     """`render --help`'s --set example must apply to the scene it names."""
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     render_cmd = build_parser()._subparsers._group_actions[0].choices["render"]
     text = " ".join(a.help for a in render_cmd._actions if a.dest == "set")
     for key, scene in re.findall(r"--set (\S+?)=\S+ \((\w[\w-]*)\)", text):
@@ -358,7 +358,7 @@ def test_a_stale_key_in_a_block_fails(scratch, capsys):
 
 
 def _reference_block() -> str:
-    return next(t for lang, _, t in blocks("kernels/SCENE_FORMAT.md")
+    return next(t for lang, _, t in blocks("kernels/scene_model/SCENE_FORMAT.md")
                 if lang == "toml" and t.lstrip().startswith("# reference"))
 
 

@@ -14,7 +14,7 @@ from drtlab.experiments.examples import python_study as example_python_study
 
 
 def test_import_drtlab_loads_no_warp():
-    code = "import sys, drtlab, drtlab.kernels.scene_file; print('warp' in sys.modules)"
+    code = "import sys, drtlab, drtlab.kernels.scene_model.scene_file; print('warp' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

@@ -3,7 +3,7 @@ experiments/stats/chi2/ (EnvironmentAdapter, LatLongDomain).
 
 Each test draws N = 10^6 directions with the Warp sampler and compares them by Pearson's test with
 the density claimed *independently of the Warp code*: for the image sampler the exact float64
-density of kernels/environment_map.py (texel func / mean func / (2 pi^2 sin theta)), for the uniform
+density of kernels/scene_model/environment_map.py (texel func / mean func / (2 pi^2 sin theta)), for the uniform
 and cosine samplers 1/(4 pi) and max(0, cos)/pi. The grid is the lat-long square with cells that
 are whole texels (4 x 4 cells per texel), where the midpoint rule integrates a piecewise-constant
 map's density exactly. alpha = 0.01, Sidak-corrected over the N_TESTS tests of this file (the
@@ -24,7 +24,7 @@ import pytest
 
 from drtlab.experiments.stats import chi2 as C
 from drtlab.experiments.stats.chi2.environment_adapter import EnvironmentAdapter, device_tables
-from drtlab.kernels.environment_map import (EnvironmentMap, direction_pdf, procedural,
+from drtlab.kernels.scene_model.environment_map import (EnvironmentMap, direction_pdf, procedural,
                                             sampling_tables)
 
 N = 1_000_000

@@ -68,7 +68,7 @@ from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.stratified import JITTER, grid_columns, place, stratum
 from drtlab.estimators.registry import all_sampler_names, parse_sampler
 from drtlab.experiments.stats.chi2 import sidak
-from drtlab.kernels.scene_file import builtin_names, load_scene
+from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
 from drtlab.kernels.features import FAULTS
 
 from stats_util import ALPHA, FULL, compare, render_estimate, tier

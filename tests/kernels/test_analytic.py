@@ -131,7 +131,7 @@ def test_closed_form_scenes_share_builtin_kernel_variants():
     # adds invisible feature shapes where needed), so testing them with every sampler costs renders,
     # not compiles.
     from drtlab.kernels.features import features_of
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     pairs = [(su.furnace_box(), "cornell-box"),
              (su.light_over_plane("sphere"), "aa-edges"),
              (su.light_over_plane("quad", size=0.8, quad_normal=(0.3, -1.0, 0.2)), "aa-edges"),

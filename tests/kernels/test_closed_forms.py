@@ -28,7 +28,7 @@ import pytest
 from scipy import stats
 
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 import closed_forms_util as cu
 from stats_util import ALPHA, compare, render_estimate, seed_for

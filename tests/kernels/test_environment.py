@@ -1,4 +1,4 @@
-"""The environment light (kernels/environment_map.py, environment.py, environment_lighting.py):
+"""The environment light (kernels/scene_model/environment_map.py, environment.py, environment_lighting.py):
 closed forms rendered by every environment sampler, the light choice among the environment and area
 lights, the [environment] table's errors, image files, and features off when absent.
 
@@ -28,7 +28,7 @@ from drtlab.experiments.stats.chi2 import sidak
 from drtlab.kernels.features import features_of
 from drtlab.kernels.imageio import write_exr
 from drtlab.kernels.render import render
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 import scene_util as su
 from stats_util import ALPHA, compare, render_estimate, tier
@@ -176,7 +176,7 @@ def test_negative_control_is_rejected():
 
 
 def test_image_file_is_found_beside_the_scene_file(tmp_path):
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     write_exr(tmp_path / "sky.exr", np.full((2, 4, 3), 0.5, dtype=np.float32))
     (tmp_path / "s.toml").write_text(
         '[scene]\ndescription = "d"\n[camera]\nposition = [0, 1, 5]\nlook_at = [0, 0, 0]\n'

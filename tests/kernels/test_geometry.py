@@ -11,7 +11,7 @@ import warp as wp
 
 from drtlab.kernels.intersection.primitives import hit_quad, hit_sphere
 from drtlab.warp_runtime import warp as _wp
-from drtlab.kernels.scene_tables import box_quads
+from drtlab.kernels.scene_model.scene_tables import box_quads
 
 TMAX = np.float32(1.0e30)
 REL = 1e-5

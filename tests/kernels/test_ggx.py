@@ -31,7 +31,7 @@ import pytest
 
 from drtlab.errors import InputError
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 import ggx_util as gu
 import scene_util as su

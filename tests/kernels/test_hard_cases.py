@@ -90,7 +90,7 @@ SKY = dict(kind="two_level", upper=[2.0, 2.0, 2.0], lower=[0.3, 0.3, 0.3])
 
 
 def _environment_sun():
-    from drtlab.kernels.environment_map import texels
+    from drtlab.kernels.scene_model.environment_map import texels
     h, w, sun, le = 128, 256, [1.0, 1.3, 0.4], 1.0e5
     row = int(texels(np.array([sun]), h, w)[0][0])
     env = dict(kind="two_level", upper=[0.5] * 3, lower=[0.1] * 3, resolution=[w, h],

@@ -8,7 +8,7 @@ import pytest
 
 import drtlab
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.material_kinds import KINDS
+from drtlab.kernels.scene_model.material_kinds import KINDS
 
 from bsdf_checks import assert_consistent
 

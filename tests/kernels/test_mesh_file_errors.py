@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from drtlab.errors import InputError
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 from mesh_util import mesh
 from scene_pieces import camera_dict, scene_dict

@@ -1,4 +1,4 @@
-"""Triangle meshes and accelerated primitives (kernels/mesh_file.py, mesh_accel.py, mesh_rays.py).
+"""Triangle meshes and accelerated primitives (kernels/scene_model/mesh_file.py, mesh_accel.py, mesh_rays.py).
 
 * Exactness: intersect() on scenes of two meshes (a non-convex displaced sphere with smooth normals
   and a terrain) against a float64 Moller-Trumbore reference computed from the float32 vertices the
@@ -42,7 +42,7 @@ from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.device_scene import MESH
 from drtlab.kernels.features import MESH_PDF_HIGH_10PCT, features_of
 from drtlab.kernels.render import render
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 from drtlab.warp_runtime import warp as _wp
 
 import scene_util as su
@@ -74,7 +74,7 @@ LEVEL = C.sidak(ALPHA, N_TESTS)
 @pytest.fixture(scope="module")
 def ground_file(tmp_path_factory):
     """A terrain as a PLY file without normals (flat shading), 128 triangles."""
-    from drtlab.kernels.procedural import terrain
+    from drtlab.kernels.scene_model.procedural import terrain
     v, f, _ = terrain([0.0, -0.5, 0.0], 6.0, 8, 0.3, 5)
     return write_mesh(tmp_path_factory.mktemp("ground") / "ground.ply", v, f)
 
@@ -431,7 +431,7 @@ def test_no_light_leaks_out_of_a_smooth_coarse_mesh():
 # ---------------------------------------------------------------------------------------------------
 
 def test_sphere_bvh_renders_the_loops_image(monkeypatch):
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene("sphere-grid", {"shapes[1].count": 6})
     images = {}
     for mode, threshold in (("loop", 10**9), ("bvh", 0)):

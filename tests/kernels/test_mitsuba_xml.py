@@ -15,8 +15,8 @@ import pytest
 
 import drtlab
 from drtlab.errors import InputError
-from drtlab.kernels.mitsuba_export import check_exportable, export_mitsuba
-from drtlab.kernels.scene_file import builtin_names, load_scene, scene_data
+from drtlab.kernels.scene_model.mitsuba_export import check_exportable, export_mitsuba
+from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene, scene_data
 
 from cli_util import assert_one_line_error
 

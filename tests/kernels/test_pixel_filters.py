@@ -28,7 +28,7 @@ from drtlab.experiments.stats.chi2 import sidak
 from drtlab.kernels.features import FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT
 from drtlab.kernels.filters import FILTERS, filter_cdf
 from drtlab.kernels.render import render, render_batch
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 from scene_pieces import camera_dict, quad, scene_dict
 from stats_util import ALPHA, Estimate, compare, region_values, seed_for

@@ -31,7 +31,7 @@ from scipy import stats
 from drtlab.errors import InputError
 from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.render import render
-from drtlab.kernels.scene_file import load_scene, scene_from_dict
+from drtlab.kernels.scene_model.scene_file import load_scene, scene_from_dict
 
 import plastic_util as pu
 import scene_util as su

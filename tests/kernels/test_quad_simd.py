@@ -21,7 +21,7 @@ from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.quad_records import quad_groups, vector_lanes
 from drtlab.kernels.intersection.quad_simd import LANES, quad_pack
 from drtlab.kernels.intersection.scene_rays import make_intersect
-from drtlab.kernels.scene_file import load_scene
+from drtlab.kernels.scene_model.scene_file import load_scene
 
 # Built-in scenes with 2-8 lanes, open boxes (cornell-box) and closed ones (dof, translucency).
 SCENES = ("aa-edges", "cornell-box", "veach-mis", "dof", "translucency", "motion-blur")

@@ -20,7 +20,7 @@ import drtlab
 import drtlab.kernels.render as render_mod
 from drtlab.kernels.imageio import read_exr
 from drtlab.kernels.render import render, render_with_stats
-from drtlab.kernels.scene_file import builtin_names, load_scene
+from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
 
 from repo_paths import REPO, PYTHON
 

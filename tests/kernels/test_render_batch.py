@@ -7,7 +7,7 @@ import pytest
 import drtlab
 from drtlab.errors import InputError
 from drtlab.kernels.render import render_batch_with_stats
-from drtlab.kernels.scene_file import load_scene
+from drtlab.kernels.scene_model.scene_file import load_scene
 
 CASES = [  # scene, sampler, integrator
     ("dof", "sobol+importance", None),                    # thin lens

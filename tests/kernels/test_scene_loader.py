@@ -12,15 +12,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from drtlab.errors import InputError
-from drtlab.kernels.scene_tables import box_quads
-from drtlab.kernels.scene_file import (
+from drtlab.kernels.scene_model.scene_tables import box_quads
+from drtlab.kernels.scene_model.scene_file import (
     BUILTIN_DIR,
     builtin_descriptions,
     builtin_names,
     load_scene,
     scene_from_dict,
 )
-from drtlab.kernels.scene import Scene
+from drtlab.kernels.scene_model.scene import Scene
 
 BUILTINS = ["aa-edges", "cornell-box", "displaced-sphere", "dof", "drt-showcase", "environment",
             "glossy", "glossy-ggx", "motion-blur", "soft-shadows", "sphere-grid", "translucency",
@@ -526,7 +526,7 @@ def test_fuzzed_scenes_raise_only_input_errors(changes):
 
 def test_scene_settings_are_the_loaded_scenes_settings():
     # `drtlab scenes` lists from scene_settings, which builds no shapes: its values must be the scene's.
-    from drtlab.kernels.scene_file import builtin_names, load_scene, scene_settings
+    from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene, scene_settings
     for name in builtin_names():
         settings, scene = scene_settings(name), load_scene(name)
         assert settings.keys() >= {"description", "width", "height", "spp", "integrator"}

@@ -34,7 +34,7 @@ from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.features import SPHERICAL_LINEAR, SPHERICAL_MIS_FIRST_VERTEX
 from drtlab.kernels.lights import (SPHERICAL_MAX, SPHERICAL_MAX_BOUNCE, SPHERICAL_MIN,
                                    SPHERICAL_MIN_ELEVATION, SPHERICAL_PAYS)
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 import closed_forms_util as cu
 from stats_util import ALPHA, compare, render_estimate

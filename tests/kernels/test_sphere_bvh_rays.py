@@ -17,7 +17,7 @@ from drtlab.kernels.scene_upload import upload
 from drtlab.kernels.features import features_of
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect
-from drtlab.kernels.scene_file import load_scene, scene_from_dict
+from drtlab.kernels.scene_model.scene_file import load_scene, scene_from_dict
 
 from scene_pieces import camera_dict, scene_dict
 

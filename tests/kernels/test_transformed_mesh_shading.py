@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 
 from drtlab.kernels.render import render
-from drtlab.kernels.scene_file import scene_from_dict
-from drtlab.kernels.transforms import parse_transform
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.transforms import parse_transform
 
 from mesh_util import mesh
 from scene_pieces import camera_dict, camera_rays, scene_dict

@@ -1,4 +1,4 @@
-"""Shape transforms (kernels/transforms.py, the `transform` table of SCENE_FORMAT.md): composition
+"""Shape transforms (kernels/scene_model/transforms.py, the `transform` table of SCENE_FORMAT.md): composition
 order, what each shape kind accepts, bad input (one InputError naming the field), and the
 cornell-box boxes written as transformed boxes. No renders: the cornell-box rewrite was checked to
 give bit-identical images (the uploaded float32 quads are identical)."""
@@ -12,8 +12,8 @@ import pytest
 
 from drtlab.errors import InputError
 from drtlab.kernels.intersection.quad_records import quad_groups
-from drtlab.kernels.scene_file import load_scene, scene_from_dict
-from drtlab.kernels.transforms import apply_transform, compose, mirrors, rotation, transform_vectors
+from drtlab.kernels.scene_model.scene_file import load_scene, scene_from_dict
+from drtlab.kernels.scene_model.transforms import apply_transform, compose, mirrors, rotation, transform_vectors
 
 NAN = float("nan")
 

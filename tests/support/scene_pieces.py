@@ -117,7 +117,7 @@ def sphere(center, radius, material, **kw) -> dict:
 def inward_box_quads(lo, hi, material, split_face: bool = False) -> list[dict]:
     """The 6 faces of [lo, hi]^3 as quads whose normals (edge_u x edge_v) point INTO the box, so an
     emissive material radiates inwards. `split_face` cuts the +z face in two along x (a shared edge)."""
-    from drtlab.kernels.procedural import inward_box_faces
+    from drtlab.kernels.scene_model.procedural import inward_box_faces
     ext = np.asarray(hi, float) - np.asarray(lo, float)
     out = []
     for a, side, origin, eu, ev in inward_box_faces(lo, hi):

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 
 import ggx_util
 from scene_pieces import camera_dict, camera_rays, gauss01, inward_box_quads, quad, scene_dict, sphere
@@ -402,7 +402,7 @@ def sphere_interior(*, rho=0.5, le=4.0, R=2.0, r=0.3, depth=5, res=(16, 12), sca
 
 
 # ---------------------------------------------------------------------------------------------------
-# Environment lights (kernels/environment_map.py)
+# Environment lights (kernels/scene_model/environment_map.py)
 # ---------------------------------------------------------------------------------------------------
 def two_level_irradiance(upper: float, lower: float, tilt_deg: float) -> float:
     """Irradiance on a plane whose normal makes the angle a with +y, under radiance `upper` above the

@@ -238,7 +238,7 @@ def _mitsuba_variants(args, ms):
 
 def _drtlab_scene(args, ms, mi, variants: list[str], settings: dict):
     """drtlab's scene and its translation check: Mitsuba's dict is the source of truth."""
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     W, H = args.width, args.height
     mi.set_variant(ms.LLVM_VARIANT)
     d = ms.scene_dict(mi, W, H, args.spp, args.max_depth)

@@ -71,8 +71,8 @@ def _command(args) -> int:
 def _scenes(args) -> list[dict]:
     """The scene list: {name, kind, drtlab (what drtlab loads), xml (what Mitsuba loads)}; checked
     before any render, so a bad --only is one line."""
-    from drtlab.kernels.mitsuba_export import check_exportable
-    from drtlab.kernels.scene_file import builtin_names, load_scene
+    from drtlab.kernels.scene_model.mitsuba_export import check_exportable
+    from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
     overrides = {"scene.resolution": list(args.builtin_res)}
     jobs = []
     for name in builtin_names():
@@ -139,8 +139,8 @@ def run(args, jobs: list[dict]) -> int:
 
 
 def _export(job: dict) -> None:
-    from drtlab.kernels.mitsuba_export import export_mitsuba
-    from drtlab.kernels.scene_file import load_scene, scene_data
+    from drtlab.kernels.scene_model.mitsuba_export import export_mitsuba
+    from drtlab.kernels.scene_model.scene_file import load_scene, scene_data
     job["xml"].parent.mkdir(parents=True, exist_ok=True)
     export_mitsuba(load_scene(job["drtlab"], job["overrides"]), job["xml"],
                    scene_data(job["drtlab"], job["overrides"]))
@@ -149,7 +149,7 @@ def _export(job: dict) -> None:
 def _drtlab_stack(job: dict, spp: int, seeds: list[int], threads: int) -> tuple[np.ndarray, dict]:
     from drtlab.estimators.defaults import DEFAULT_SAMPLER
     from drtlab.kernels.render import render_batch_with_stats
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene(job["drtlab"], job["overrides"])
     # Mitsuba splats a wide filter's samples into every pixel it covers: drtlab's +splat estimator
     # forms the same ratio image (filter importance sampling would be another, equally valid, image).

@@ -145,7 +145,7 @@ def _match_sets(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def translation_check(d: dict, scene, width: int, height: int) -> dict:
-    """Compare drtlab's scene (a `drtlab.kernels.scene.Scene`) with Mitsuba's dict, number for number.
+    """Compare drtlab's scene (a `drtlab.kernels.scene_model.scene.Scene`) with Mitsuba's dict, number for number.
 
     Returns {"ok": bool, "checks": [{"what", "deviation", "ok"}...]}: rectangles are [-1, 1]^2 at z = 0
     with normal +z and cubes [-1, 1]^3 before to_world; a drtlab quad's normal is edge_u x edge_v."""

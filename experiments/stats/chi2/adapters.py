@@ -13,7 +13,7 @@ from drtlab.estimators.hashing import hash_key, unit_float
 from drtlab.estimators.strategies import LightSampling, Strategy
 from drtlab.experiments.stats.chi2.harness import PdfFunc, SampleFunc
 from drtlab.kernels.features import Features
-from drtlab.kernels.material_kinds import MATERIAL_CODE, MATERIAL_KINDS
+from drtlab.kernels.scene_model.material_kinds import MATERIAL_CODE, MATERIAL_KINDS
 from drtlab.warp_runtime import warp as _wp
 
 
@@ -164,7 +164,7 @@ def _make_warps_kernel():
     return warps_kernel
 
 
-# The kernels' integer material kind of each kind name (one definition: kernels/material_kinds.py).
+# The kernels' integer material kind of each kind name (one definition: kernels/scene_model/material_kinds.py).
 KIND_INDEX = MATERIAL_CODE
 ALL_KINDS = frozenset(MATERIAL_KINDS)
 

@@ -176,7 +176,7 @@ class PlanarDomain(Domain):
 
 class LatLongDomain(Domain):
     """Directions as the environment's lat-long coordinates (v = theta / pi from +y, u = phi / 2 pi
-    from +x towards +z; kernels/environment_map.py): d omega = 2 pi^2 sin(pi v) dv du. A grid whose
+    from +x towards +z; kernels/scene_model/environment_map.py): d omega = 2 pi^2 sin(pi v) dv du. A grid whose
     cells are whole texels integrates a piecewise-constant map's density exactly."""
     dim = 3
 

@@ -2,7 +2,7 @@
 `make_environment`): one CPU kernel per sampler ("uniform", "cosine", "image") on the device tables
 of an EnvironmentMap, sampling env_sample(env, n, u) with the harness's `uniform` random numbers
 and evaluating env_pdf(env, n, d). `tables` replaces the image sampler's tables (a SamplingTables
-of kernels/environment_map.py, e.g. built without the sin(theta) weight: the negative control) while
+of kernels/scene_model/environment_map.py, e.g. built without the sin(theta) weight: the negative control) while
 the claimed density stays the exact one (environment_map.direction_pdf)."""
 
 from dataclasses import dataclass

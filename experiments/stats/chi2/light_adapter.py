@@ -188,8 +188,8 @@ def make_light_kernel(solid_angle: bool, power_pick, wrong_jacobian: bool,
 
 
 def upload_scene(scene_dict: dict):
-    """SceneData on the CPU for a scene dict (kernels/SCENE_FORMAT.md), and the Scene itself."""
+    """SceneData on the CPU for a scene dict (kernels/scene_model/SCENE_FORMAT.md), and the Scene itself."""
     from drtlab.kernels.scene_upload import upload
-    from drtlab.kernels.scene_file import scene_from_dict
+    from drtlab.kernels.scene_model.scene_file import scene_from_dict
     scene = scene_from_dict(scene_dict, name="chi2")
     return upload(scene, "cpu"), scene

@@ -20,7 +20,7 @@ def test_the_scene_folder_holds_the_test_scenes():
 
 @pytest.mark.parametrize("path", XML_SCENES, ids=lambda p: p.stem)
 def test_every_xml_test_scene_loads_small_in_drtlab(path):
-    from drtlab.kernels.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene
     s = load_scene(path)
     assert s.integrator == "path" and s.width * s.height <= 64 * 48 and s.shapes
 
@@ -30,7 +30,7 @@ def test_the_scene_list_is_the_exportable_built_ins_and_the_xml_files(tmp_path):
     args.builtin_res = (48, 48)
     jobs = crosscheck._scenes(args)
     built_in = [j["name"] for j in jobs if j["overrides"] is not None]
-    from drtlab.kernels.scene_file import builtin_names
+    from drtlab.kernels.scene_model.scene_file import builtin_names
     assert "cornell-box" in built_in
     assert "drt-showcase" in builtin_names() and "drt-showcase" not in built_in   # drt: Mitsuba lacks it
     assert [j["xml"] for j in jobs if j["overrides"] is None] == XML_SCENES

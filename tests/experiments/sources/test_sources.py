@@ -17,7 +17,7 @@ from drtlab.estimators.pointsets.pickfreeze import POINTSET as PICKFREEZE
 from drtlab.estimators.points import points
 from drtlab.experiments.stats.hypothesis_tests import sidak
 from drtlab.experiments.sources.decompose import variance_sources
-from drtlab.kernels.scene_file import scene_from_dict
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
 from scene_pieces import camera_dict, quad, scene_dict
 
 DIMS = 45                      # the camera's five and five bounces

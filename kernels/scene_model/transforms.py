@@ -8,7 +8,7 @@ Composition (one definition: `compose`): scale first, then the rotations in the 
 the translation, M = T R_k ... R_1 S, applied to column vectors (p' = M p). Rotations are right-handed
 (counter-clockwise looking down the axis towards the origin), as Mitsuba's `rotate`.
 
-Used by kernels/scene_tables.py for spheres and quads (boxes are expanded into quads first) and meant
+Used by kernels/scene_model/scene_tables.py for spheres and quads (boxes are expanded into quads first) and meant
 for any loader of other shapes (a triangle mesh: `apply_transform(m, vertices, normals)`, and reverse
 the winding when `mirrors(m)`). Everything is float64 numpy at load time; velocities are not
 transformed (they are world-space). Each problem raises one `InputError` naming the field.

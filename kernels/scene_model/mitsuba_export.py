@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.kernels.scene import Scene
+from drtlab.kernels.scene_model.scene import Scene
 
 PHONG_KINDS = ("glossy", "glossy_dielectric", "plastic")
 GGX_KINDS = ("ggx", "ggx_dielectric")

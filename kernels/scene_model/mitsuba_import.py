@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.kernels.mitsuba_materials import MaterialMapping
-from drtlab.kernels.mitsuba_shapes import ShapeMapping
-from drtlab.kernels.mitsuba_xml import Obj, Reader, Ref, chain_matrix
+from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
+from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
+from drtlab.kernels.scene_model.mitsuba_xml import Obj, Reader, Ref, chain_matrix
 
 INTEGRATORS, SENSORS = ("path", "direct"), ("perspective", "thinlens")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")

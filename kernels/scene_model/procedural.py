@@ -5,7 +5,7 @@ Each generator is a pure function of its parameters (the seed included) returnin
 (vertices, faces, normals): faces wound so that (b - a) x (c - a) points out of the displaced sphere
 and up from the terrain, and vertex normals computed from the faces (trimesh's area- and
 angle-weighted average), since a generated mesh has no file to take them from. Parameters are
-validated by kernels/mesh_file.py with the same one-line errors as every other scene value.
+validated by kernels/scene_model/mesh_file.py with the same one-line errors as every other scene value.
 """
 from __future__ import annotations
 

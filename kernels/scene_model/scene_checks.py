@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from drtlab.kernels.scene import Scene, Shape
+from drtlab.kernels.scene_model.scene import Scene, Shape
 
 
 def _corners(shape: Shape) -> np.ndarray:

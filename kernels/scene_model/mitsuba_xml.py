@@ -215,7 +215,7 @@ class Reader:
 
     def _operation(self, node: ET.Element, path: str):
         """One operation of a <transform>, as (kind, 4x4 matrix, parameters)."""
-        from drtlab.kernels.transforms import rotation, scaling, translation
+        from drtlab.kernels.scene_model.transforms import rotation, scaling, translation
         if node.tag == "translate":
             self._attributes(node, path, {"value", "x", "y", "z"})
             v = self._xyz(node, path, 0.0)

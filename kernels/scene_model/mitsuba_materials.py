@@ -1,11 +1,11 @@
 """Mitsuba 3 XML BSDFs (and a shape's area emitter) -> drtlab materials.
 
-A mixin of the importer (kernels/mitsuba_import.py), which gives it the property access (`get`,
+A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it the property access (`get`,
 `number`, `colour`, `string`, `done`, ...). One drtlab material per distinct (BSDF, emitter) pair.
 """
 from __future__ import annotations
 
-from drtlab.kernels.mitsuba_xml import IOR_PRESETS, Obj
+from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor")
 

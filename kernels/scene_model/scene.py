@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drtlab.kernels.environment_map import EnvironmentMap
+from drtlab.kernels.scene_model.environment_map import EnvironmentMap
 
 INTEGRATORS = ("whitted", "drt", "path")
 
@@ -59,7 +59,7 @@ class Material:
 
 @dataclass
 class TriangleMesh:
-    """A triangle mesh in world space (kernels/mesh_file.py loads and validates it): the front of a
+    """A triangle mesh in world space (kernels/scene_model/mesh_file.py loads and validates it): the front of a
     triangle (a, b, c) is the side of (b - a) x (c - a), which is also the side an emitter lights."""
     vertices: np.ndarray                        # (V, 3) float64
     faces: np.ndarray                           # (F, 3) int32 vertex indices
@@ -129,7 +129,7 @@ class Scene:
     shapes: list[Shape]
     point_lights: list[PointLight] = field(default_factory=list)
     directional_lights: list[DirectionalLight] = field(default_factory=list)
-    environment: EnvironmentMap | None = None   # the [environment] light (kernels/environment_map.py)
+    environment: EnvironmentMap | None = None   # the [environment] light (kernels/scene_model/environment_map.py)
     source: str = ""                            # built-in name or file path
     text: str = ""                              # the TOML text the scene came from
 

@@ -215,7 +215,7 @@ def _read_image(t: Table) -> tuple[np.ndarray, str]:
 
 
 def parse_environment(value: Any) -> EnvironmentMap:
-    """The [environment] table validated (kernels/SCENE_FORMAT.md): one InputError per bad key or
+    """The [environment] table validated (kernels/scene_model/SCENE_FORMAT.md): one InputError per bad key or
     value, naming it and what is allowed."""
     t = Table(value, "environment", "[environment]")
     kind = string(t.get("kind", REQUIRED, " | ".join(KINDS)), t.field("kind"), KINDS)

@@ -18,8 +18,8 @@ from typing import Any
 
 from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, show
-from drtlab.kernels.scene import Scene
-from drtlab.kernels.scene_tables import TOP_LEVEL_KEYS, build_scene, parse_settings
+from drtlab.kernels.scene_model.scene import Scene
+from drtlab.kernels.scene_model.scene_tables import TOP_LEVEL_KEYS, build_scene, parse_settings
 
 BUILTIN_DIR = Path(__file__).parent / "scenes"
 
@@ -29,7 +29,7 @@ BUILTIN_DIR = Path(__file__).parent / "scenes"
 # ---------------------------------------------------------------------------------------------------
 
 def builtin_names() -> list[str]:
-    """Names of the built-in scenes (the stems of kernels/scenes/*.toml), sorted."""
+    """Names of the built-in scenes (the stems of kernels/scene_model/scenes/*.toml), sorted."""
     return sorted(p.stem for p in BUILTIN_DIR.glob("*.toml"))
 
 
@@ -40,7 +40,7 @@ def builtin_descriptions() -> dict[str, str]:
 
 def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene:
     """Load a built-in scene by name, or a .toml (or Mitsuba 3 .xml) file by path, applying
-    dotted-key `overrides` (to the drtlab scene an .xml file becomes: kernels/mitsuba_import.py).
+    dotted-key `overrides` (to the drtlab scene an .xml file becomes: kernels/scene_model/mitsuba_import.py).
 
     `overrides` maps dotted keys to values, e.g. {"scene.resolution": [32, 24],
     "materials.gloss1.exponent": 10, "shapes[0].radius": 0.5}; they are applied to the parsed TOML
@@ -51,7 +51,7 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
                                   f"scene file, got {type(name_or_path).__name__}")
     path, name, source = _resolve(name_or_path)
     if _is_xml(path):
-        from drtlab.kernels.mitsuba_import import scene_dict
+        from drtlab.kernels.scene_model.mitsuba_import import scene_dict
         data, text = scene_dict(path)
         _apply_overrides(data, overrides or {})
         return _build_xml(data, name, source, text + _overrides_suffix(overrides), path)
@@ -69,7 +69,7 @@ def scene_data(name_or_path: str | Path, overrides: dict | None = None) -> dict:
     as written, before the loader normalises it)."""
     path, _, _ = _resolve(name_or_path)
     if _is_xml(path):
-        from drtlab.kernels.mitsuba_import import scene_dict
+        from drtlab.kernels.scene_model.mitsuba_import import scene_dict
         data = scene_dict(path)[0]
     else:
         data = _parse_toml(_read_text(path), path)
@@ -83,7 +83,7 @@ def scene_settings(name_or_path: str | Path) -> dict:
     imports trimesh (0.65 s of `drtlab scenes`)."""
     path, _, _ = _resolve(name_or_path)
     if _is_xml(path):
-        from drtlab.kernels.mitsuba_import import scene_dict
+        from drtlab.kernels.scene_model.mitsuba_import import scene_dict
         return parse_settings(scene_dict(path)[0]["scene"])
     return parse_settings(_parse_toml(_read_text(path), path).get("scene", REQUIRED))
 

@@ -1,6 +1,6 @@
 """Triangle-mesh shapes of a scene file: `kind = "mesh"` with `file = "x.obj" | "x.ply"` (read by
-trimesh) or `generate = NAME` (kernels/procedural.py), validated into a `TriangleMesh`
-(kernels/scene.py). See SCENE_FORMAT.md, "Triangle meshes".
+trimesh) or `generate = NAME` (kernels/scene_model/procedural.py), validated into a `TriangleMesh`
+(kernels/scene_model/scene.py). See SCENE_FORMAT.md, "Triangle meshes".
 
 Validation is as strict as for every other shape, because a broken mesh silently changes what a study
 measures: a missing or unreadable file, a mesh without triangles, NaN/Inf vertices or normals, a
@@ -18,9 +18,9 @@ import numpy as np
 
 from drtlab.errors import InputError
 from drtlab.fields import MAX_SEED, Table, integer, number, numbers, show, string
-from drtlab.kernels.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
-from drtlab.kernels.scene import Shape, TriangleMesh
-from drtlab.kernels.transforms import apply_transform, mirrors, parse_transform
+from drtlab.kernels.scene_model.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
+from drtlab.kernels.scene_model.scene import Shape, TriangleMesh
+from drtlab.kernels.scene_model.transforms import apply_transform, mirrors, parse_transform
 
 MESH_FORMATS = (".obj", ".ply")
 MESH_SOURCE_KEYS = ("file", "generate")
@@ -40,7 +40,7 @@ DEGENERATE_AREA = 1e-12
 
 def parse_mesh_shape(t: Table, name: str, material: int, velocity: np.ndarray) -> Shape:
     """shapes[i] with kind = "mesh" -> Shape(kind="mesh"); relative `file` paths were anchored at the
-    scene file's folder by the loader (kernels/scene_file.py)."""
+    scene file's folder by the loader (kernels/scene_model/scene_file.py)."""
     has = [k for k in MESH_SOURCE_KEYS if t.has(k)]
     if len(has) != 1:
         raise InputError(t.field(has[1] if len(has) == 2 else "file"),
@@ -95,7 +95,7 @@ def _param(t: Table, key: str, default: Any, kind) -> Any:
 
 
 def _transformed(mesh: TriangleMesh, value: Any, field: str) -> TriangleMesh:
-    """The mesh under its shape's `transform` (kernels/transforms.py): vertices and normals mapped,
+    """The mesh under its shape's `transform` (kernels/scene_model/transforms.py): vertices and normals mapped,
     the winding reversed under a mirror so that each triangle keeps its front side."""
     m, _ = parse_transform(value, field)
     if mesh.normals is None:

@@ -1,7 +1,7 @@
 """Mitsuba 3 XML shapes and emitters -> the drtlab scene dict's shapes, lights and environment.
 
-A mixin of the importer (kernels/mitsuba_import.py), which gives it the property access (`get`,
-`number`, `colour`, `string`, `done`, ...) and the material mapping (kernels/mitsuba_materials.py).
+A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it the property access (`get`,
+`number`, `colour`, `string`, `done`, ...) and the material mapping (kernels/scene_model/mitsuba_materials.py).
 """
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.kernels.mesh_file import file_has_vertex_normals
-from drtlab.kernels.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
+from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
+from drtlab.kernels.scene_model.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
 
 SHAPES = ("rectangle", "cube", "sphere", "obj", "ply")
 EMITTERS = ("area", "point", "directional", "constant")

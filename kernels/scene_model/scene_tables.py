@@ -1,5 +1,5 @@
 """The tables of a scene file, one validator each: [scene], [camera], [materials.*], [[shapes]],
-[[lights]], [environment] (kernels/environment_map.py) -> the in-memory `Scene` (kernels/scene.py). Every check raises one `InputError` naming the
+[[lights]], [environment] (kernels/scene_model/environment_map.py) -> the in-memory `Scene` (kernels/scene_model/scene.py). Every check raises one `InputError` naming the
 offending value's dotted path.
 
 Beyond SCENE_FORMAT.md this loader requires `kind` on every shape and light and the position/intensity
@@ -16,20 +16,20 @@ from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as number,
                            scene_numbers as numbers, show, string)
-from drtlab.kernels.environment_map import parse_environment
+from drtlab.kernels.scene_model.environment_map import parse_environment
 from drtlab.kernels.filters import BOX, FILTER_NAMES
-from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
-from drtlab.kernels.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
+from drtlab.kernels.scene_model.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
-from drtlab.kernels.transforms import parse_transform, transform_quad, transform_sphere
-from drtlab.kernels.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
+from drtlab.kernels.scene_model.transforms import parse_transform, transform_quad, transform_sphere
+from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
 TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environment")
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
               "rr_depth", "background")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
                "focal_length", "image_distance", "shutter", "filter")
-# What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/mesh_file.py).
+# What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/scene_model/mesh_file.py).
 SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
 SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
 SHAPE_KEYS = {
@@ -277,7 +277,7 @@ def _parse_shapes(value: Any, materials: list[Material]) -> list[Shape]:
 
 
 def _transformed(i: int, value: dict, shapes: list[Shape], materials: list[Material]) -> list[Shape]:
-    """The shapes of shapes[i] under its optional `transform` (kernels/transforms.py), applied to
+    """The shapes of shapes[i] under its optional `transform` (kernels/scene_model/transforms.py), applied to
     their defining points: sphere centres (a similarity also scales the radius), quad origins and
     edges (a box's six quads). Other kinds (meshes) apply it to their vertices in their own parser.
     Velocities stay world-space."""
