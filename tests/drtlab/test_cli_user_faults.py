@@ -48,7 +48,7 @@ def test_static_scene_has_no_shutter_warning(good, tmp_path, capsys):
 def test_scene_format_states_the_loaders_shutter_default():
     from drtlab.kernels.scene_model.scene_file import scene_from_dict
     from repo_paths import REPO
-    text = (REPO / "kernels" / "SCENE_FORMAT.md").read_text()
+    text = (REPO / "kernels" / "scene_model" / "SCENE_FORMAT.md").read_text()
     line = next(x for x in text.splitlines() if x.startswith("shutter ="))
     documented = eval(line.split("=", 1)[1].split("#")[0])
     scene = scene_from_dict({"scene": {"description": "d"},
