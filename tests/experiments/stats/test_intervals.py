@@ -6,7 +6,11 @@ Synthetic per-run values with mean exactly 1, each a law a renderer's per-run MS
             plus a rare very bright sample (probability q per sample, 90% of the variance): most
             runs are small, a few huge;
   gamma2:   a chi-square(4) / 4 law (an MSE dominated by two pixels' worth of error);
-  lognormal: sigma 0.5 (moderate skew).
+  lognormal: sigma 0.5 (moderate skew);
+  and the other per-run columns of the report, which share this interval: flip, an image's mean
+  HDR-FLIP in [0, 1] (a Beta law of mean 0.2 and CV 0.1, scaled to mean 1), flip_noisy (mean 0.05,
+  CV 0.5), de00, a mean CIEDE2000 (a gamma law of CV 0.5); FLIP is scored on a cell's first
+  `flip_runs` runs, so down to 2.
 Coverage test: with T trials the count of covering intervals is Binomial(T, 0.95) if the interval is
 calibrated; a one-sided binomial test (scipy.stats.binomtest, alternative "less") rejects that at
 level ALPHA = 0.001. The log-t interval must not be rejected on any of these laws; the plain
@@ -42,6 +46,9 @@ LAWS = {
     "bright": bright,
     "gamma2": lambda rng, n: rng.chisquare(4, n) / 4,
     "lognormal": lambda rng, n: rng.lognormal(-0.125, 0.5, n),
+    "flip": lambda rng, n: rng.beta(79.8, 319.2, n) / 0.2,
+    "flip_noisy": lambda rng, n: rng.beta(3.75, 71.25, n) / 0.05,
+    "de00": lambda rng, n: rng.gamma(4.0, 0.25, n),
 }
 
 
@@ -70,6 +77,26 @@ def test_log_t_interval_covers_the_mean(law, n):
         assert r["lo"] == pytest.approx(math.sqrt(ci["lo"])) and r["mean"] == pytest.approx(math.sqrt(ci["mean"]))
     assert covered == covered_rmse
     assert calibrated(covered, TRIALS), covered / TRIALS
+
+
+@pytest.mark.parametrize("law, n", [("flip", 2), ("flip", 4), ("flip_noisy", 4), ("de00", 4), ("de00", 8)])
+def test_the_report_s_other_per_run_intervals_cover(law, n):
+    """FLIP and CIEDE2000 columns: the same log-t interval, judged by the interval audit's band (its
+    coverage not significantly below 0.92, binomial test at ALPHA); negative control: the normal
+    quantile in place of Student's t (the audit's own), rejected on the same samples at 2 and 4 runs."""
+    rng = np.random.default_rng([14, n, len(law)])
+    covered = covered_z = 0
+    z = stats.norm.ppf(0.975)
+    for _ in range(TRIALS):
+        v = LAWS[law](rng, n)
+        ci = positive_mean_ci(v)
+        covered += ci["lo"] <= 1.0 <= ci["hi"]
+        m, se = np.log(np.mean(v)), np.std(v, ddof=1) / np.mean(v) / math.sqrt(n)
+        covered_z += math.exp(m - z * se) <= 1.0 <= math.exp(m + z * se)
+    band = stats.binomtest(covered, TRIALS, 0.92, alternative="less").pvalue >= ALPHA
+    assert band, covered / TRIALS
+    if n <= 4 and law != "de00":
+        assert stats.binomtest(covered_z, TRIALS, 0.92, alternative="less").pvalue < ALPHA, covered_z / TRIALS
 
 
 @pytest.mark.parametrize("law", ["bright", "gamma2"])
