@@ -50,6 +50,7 @@ NO_SCATTER_KINDS = kinds_where(lambda k: k.emitter)  # sample_bsdf never returns
 LOBE_KINDS = kinds_where(lambda k: not (k.delta or k.emitter))
 USES_EXPONENT = kinds_where(lambda k: k.phong)
 USES_ROUGHNESS = kinds_where(lambda k: k.microfacet)
+USES_ALBEDO_MEAN = kinds_where(lambda k: k.albedo_shape)     # their shape is the albedo's mean
 USES_IOR = kinds_where(lambda k: k.ior and k.name in LOBE_KINDS)
 # Lobes below the surface too: a full circle.
 TRANSMITS = kinds_where(lambda k: k.transmits and k.name in LOBE_KINDS)
@@ -227,6 +228,8 @@ def analyse(kind: str, *, exponent: float = 20.0, ior: float = 1.5,
     check_kind(kind)
     if kind in USES_ROUGHNESS:
         exponent = float(roughness)          # the kernels' lobe shape parameter (the microfacet alpha)
+    if kind in USES_ALBEDO_MEAN:
+        exponent = float(np.mean(albedo))
     ad = C.BSDFAdapter(strategy != "uniform", "d" if strategy == "importance-ggxd" else "vndf")
     m = len(incident)
     level = C.sidak(FAMILY_ALPHA, m)
@@ -283,7 +286,7 @@ def analyse(kind: str, *, exponent: float = 20.0, ior: float = 1.5,
         }
         # The chi-square test of the same samples against the same claimed pdf.
         domain, ires = _chi2_domain(C, kind, strategy, claimed_n, wo)
-        r = C.run_chi2(domain, lambda n, sd, s=s: (s.wi, s.valid), pdf,
+        r = C.run_chi2(domain, lambda n, sd, s=s, v=v: (s.wi, v), pdf,     # a mirror lobe is no density
                        name=f"{kind} {strategy} theta_i={theta:g}", sample_count=int(samples),
                        res=(101, 202), ires=ires, seed=s_seed, test_count=m, alpha=FAMILY_ALPHA)
         w = np.where(s.valid[:, None], s.weight.astype(np.float64), 0.0)

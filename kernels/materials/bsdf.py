@@ -91,6 +91,13 @@ def _present(kinds: frozenset) -> SimpleNamespace:
     return SimpleNamespace(**{k: k in kinds for k in SWITCH_KINDS})
 
 
+def _delta_models(models: tuple) -> tuple:
+    """((kind code, delta_reflection), ...) of the model kinds with a mirror lobe beside their
+    density (smooth_plastic.py): sample_bsdf picks it with its probability (1/2 under the uniform
+    strategy), and pdf_bsdf is the density of the rest times one minus that."""
+    return tuple((code, m.delta_reflection) for code, m, _ in models if hasattr(m, "delta_reflection"))
+
+
 def _sphere_codes(models: tuple) -> tuple:
     """The codes of the transmitting model kinds: a uniform proposal draws them over the sphere."""
     return tuple(code for code, _, transmits in models if transmits)
@@ -145,6 +152,7 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
     """pdf_bsdf (the density sample_bsdf proposes with) of `all_kinds`."""
     K = _present(_built_in(all_kinds, plug))
     SPHERE_MODELS = _sphere_codes(models)
+    DELTA_MODELS = _delta_models(models)
     LOBE = lobe
     PLUG = plug
 
@@ -155,7 +163,7 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
         cos_o = wp.dot(n, wo)
         cos_i = wp.dot(n, wi)
         p = float(0.0)
-        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS)))  # noqa: F841 (static_tag.py)
+        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
         if wp.static(not LOBE):
             if kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
                 p = INV_4PI
@@ -212,6 +220,12 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
             for i in range(wp.static(len(PLUG))):
                 if kind == wp.static(PLUG[i][0]):
                     p = wp.static(PLUG[i][2])(exponent, ior, n, wo, wi)
+        for i in range(wp.static(len(DELTA_MODELS))):
+            if kind == wp.static(DELTA_MODELS[i][0]):
+                pd = float(0.5)
+                if wp.static(LOBE):
+                    pd = wp.static(DELTA_MODELS[i][1])(exponent, ior, n, wo)[0]
+                p = p * (1.0 - pd)
         return p
 
     return pdf_bsdf
@@ -224,6 +238,7 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
     K = _present(_built_in(all_kinds, plug))
     PLUG = plug
     SPHERE_MODELS = _sphere_codes(models)
+    DELTA_MODELS = _delta_models(models)
     LOBE = lobe
 
     @wp.func
@@ -231,7 +246,7 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                     wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
         s = Scatter()
         s.valid = 0
-        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS)))  # noqa: F841 (static_tag.py)
+        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
         s.delta = 0
         cos_o = wp.dot(n, wo)
         nf = n
@@ -266,6 +281,18 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                 return s
         if kind == EMITTER:
             return s
+        for i in range(wp.static(len(DELTA_MODELS))):
+            if kind == wp.static(DELTA_MODELS[i][0]):
+                dr = wp.static(DELTA_MODELS[i][1])(exponent, ior, n, wo)
+                pd = float(0.5)
+                if wp.static(LOBE):
+                    pd = dr[0]
+                if u_lobe < pd:
+                    s.wi = 2.0 * co * nf - wo
+                    s.weight = wp.vec3(dr[1] / pd)
+                    s.delta = 1
+                    s.valid = 1
+                    return s
         # Non-delta kinds: propose a direction, then weight = f|cos| / pdf evaluated separately.
         wi = wp.vec3(0.0)
         if wp.static(not LOBE):

@@ -31,6 +31,8 @@ class MaterialKind:
     emitter: bool = False       # black: it only emits, and scatters nothing
     model: str = ""             # its module in kernels/materials/ (eval_bsdf, sample, pdf); "" for
                                 # the kinds in bsdf.py's switches
+    albedo_shape: bool = False  # the kernels' shape argument is the albedo's mean (Mitsuba's plastics
+                                # weigh their lobe choice by it, and pdf_bsdf has no albedo)
 
     @property
     def ior(self) -> bool:
@@ -55,8 +57,9 @@ class MaterialKind:
     @property
     def shape_key(self) -> str | None:
         """The Material field the kernels receive as the lobe's shape parameter (their `exponent`
-        argument): the Phong exponent, or GGX's alpha; None for kinds without a lobe shape."""
-        return "exponent" if self.phong else "roughness" if self.microfacet else None
+        argument): the Phong exponent, GGX's alpha, or the albedo's mean; None for kinds without."""
+        return ("exponent" if self.phong else "roughness" if self.microfacet
+                else "albedo_mean" if self.albedo_shape else None)
 
 
 # New kinds go at the end: a kind's code is its place here, and the codes of the existing ones stay
@@ -74,6 +77,8 @@ KINDS = (
     MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
     MaterialKind("ggx_separable", microfacet=True, checker=True, model="ggx_separable"),
     MaterialKind("ggx_dielectric_separable", microfacet=True, transmits=True, model="ggx_dielectric_separable"),
+    MaterialKind("smooth_plastic", coat=True, albedo_shape=True, model="smooth_plastic"),
+    MaterialKind("smooth_plastic_nonlinear", coat=True, albedo_shape=True, model="smooth_plastic_nonlinear"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
-BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor")
+BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic")
 
 
 class MaterialMapping:
@@ -44,9 +44,9 @@ class MaterialMapping:
             if len(nested) != 1:
                 self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
                                     "same on both sides)")
-            if nested[0].type not in ("diffuse", "conductor", "roughconductor"):
+            if nested[0].type not in ("diffuse", "conductor", "roughconductor", "plastic"):
                 self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
-                                            "(diffuse, conductor, roughconductor)")
+                                            "(diffuse, conductor, roughconductor, plastic)")
             self.done(o)
             return self.bsdf(nested[0])
         for child in self.nested(o):
@@ -64,11 +64,11 @@ class MaterialMapping:
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
             if kind == "roughconductor":
                 spec.update(zip(("kind", "roughness"), self.roughness(o)))
+        elif kind == "plastic":
+            spec = self.plastic(o)
         else:
             ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
-            if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
-                self.r.fail(o.props["specular_reflectance"].path, "must be 1 (drtlab's dielectric "
-                                                                  "reflects white)")
+            self.white_coat(o, "dielectric")
             spec = {"kind": "dielectric", "ior": ior[0] / ior[1],
                     "albedo": self.colour(o, "specular_transmittance", 1.0)}
             if kind == "roughdielectric":
@@ -79,6 +79,23 @@ class MaterialMapping:
                 spec.update(kind="ggx_dielectric_separable", roughness=alpha)
         self.done(o)
         return spec
+
+    def white_coat(self, o: Obj, what: str) -> None:
+        if self.colour(o, "specular_reflectance", 1.0) != [1.0] * 3:
+            self.r.fail(o.props["specular_reflectance"].path, f"must be 1 (drtlab's {what} reflects "
+                                                              "white)")
+
+    def plastic(self, o: Obj) -> dict:
+        """Mitsuba's smooth `plastic`: `smooth_plastic` (or its `nonlinear` twin), eta = int_ior /
+        ext_ior > 1 (the kind's coat), a white coat."""
+        eta = self.ior(o, "int_ior", "polypropylene") / self.ior(o, "ext_ior", "air")
+        if eta <= 1.0:
+            self.r.fail((o.props.get("int_ior") or o).path, f"int_ior / ext_ior must be > 1 (a coat "
+                        f"denser than outside), got {eta:g}")
+        self.white_coat(o, "plastic coat")
+        nonlinear = self.get(o, "nonlinear", ("boolean",), False)
+        return {"kind": "smooth_plastic_nonlinear" if nonlinear else "smooth_plastic",
+                "albedo": self.colour(o, "diffuse_reflectance", 0.5), "ior": eta}
 
     def roughness(self, o: Obj) -> tuple[str, float]:
         """(drtlab kind, isotropic alpha) of a rough conductor: `beckmann`, `ggx_separable` (Mitsuba's

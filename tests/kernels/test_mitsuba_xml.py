@@ -226,7 +226,7 @@ def test_integrators(tmp_path, integrator, want):
     ('<shape type="sphere"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughconductor)", "anisotropic"),
     ('<shape type="sphere"><bsdf type="roughdielectric"/></shape>', "bsdf(roughdielectric)", "rough Beckmann glass"),
-    ('<shape type="sphere"><bsdf type="plastic"/></shape>', "bsdf(plastic)", "Phong"),
+    ('<shape type="sphere"><bsdf type="roughplastic"/></shape>', "bsdf(roughplastic)", "transmittance"),
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
      "bsdf(diffuse)/texture(checkerboard)", "textures"),
     ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>',

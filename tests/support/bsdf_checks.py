@@ -7,10 +7,11 @@ from scipy import stats
 from drtlab.experiments.stats import chi2 as C
 
 
-def assert_consistent(s: C.BSDFSamples, label: str, tol: float = 1e-4):
-    """No delta lobe; each valid sample's pdf is pdf_bsdf's and its weight eval_bsdf / pdf."""
+def assert_consistent(s: C.BSDFSamples, label: str, tol: float = 1e-4, delta: bool = False):
+    """No delta lobe (unless `delta`: a mirror beside the density, smooth_plastic.py); each valid
+    non-delta sample's pdf is pdf_bsdf's and its weight eval_bsdf / pdf."""
     v = s.valid & ~s.delta
-    assert v.any() and not s.delta.any(), label
+    assert v.any() and (delta or not s.delta.any()), label
     assert C.relative_error(s.pdf[v], s.pdf_eval[v]).max() <= tol, f"{label}: pdf vs pdf_bsdf"
     err = C.relative_error(s.weight[v], s.f_eval[v] / s.pdf[v][:, None])
     assert err.max() <= tol, f"{label}: weight vs eval_bsdf / pdf"
