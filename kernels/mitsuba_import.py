@@ -22,8 +22,7 @@ SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler
 # Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
 WHY_NOT = {
     "plastic": "drtlab's plastic is a Phong coat over a coupled diffuse base, not Mitsuba's model",
-    "roughplastic": "drtlab has no rough plastic of Mitsuba's form", "disk": "drtlab has no disk",
-    "envmap": "its lat-long orientation and bilinear lookup are not drtlab's piecewise-constant map",
+    "roughplastic": "drtlab has no rough plastic of Mitsuba's form",
     "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's (sigma 0.5, radius 1.5); "
                 "supported: box, mitchell"}
 
