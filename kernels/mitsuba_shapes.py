@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.kernels.imageio import image_size
 from drtlab.kernels.mesh_file import file_has_vertex_normals
 from drtlab.kernels.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
 from drtlab.kernels.procedural import DISK_SEGMENTS
@@ -127,6 +128,10 @@ class ShapeMapping:
             self.r.fail(o.props["filename"].path, f"must name an .exr or .hdr image, got '{name}'")
         if not path.is_file():
             self.r.fail(o.props["filename"].path, f"image file '{name}' does not exist")
+        size = image_size(path)
+        if size is not None and (size[0] < 2 or size[1] < 3):
+            self.r.fail(o.props["filename"].path, f"'{name}' has {size[0]} x {size[1]} texels; at "
+                                                  "least 2 x 3 are supported (Mitsuba pads smaller maps)")
         self.ignore(o, "mis_compensation")        # sampling only: the expected image is the same
         # Mitsuba turns directions by the linear part alone; its lookup needs unit vectors.
         rot = chain_matrix(self.get(o, "to_world", ("transform",), []))[:3, :3]

@@ -197,6 +197,11 @@ def test_refused_envmaps(tmp_path, name, extra, words):
     assert "\n" not in str(e.value) and words in str(e.value)
 
 
+def test_maps_mitsuba_pads_are_refused(tmp_path):
+    with pytest.raises(InputError, match="has 8 x 2 texels; at least 2 x 3"):
+        envmap_scene(tmp_path, np.ones((2, 8, 3)))
+
+
 @pytest.mark.parametrize("table, field", [
     ({"to_world": [[2, 0, 0], [0, 1, 0], [0, 0, 1]]}, "environment.to_world"),
     ({"to_world": [[0, 1, 0], [1, 0, 0], [0, 0, 1]]}, "environment.to_world"),      # a mirror
