@@ -247,3 +247,15 @@ def test_flip_normals_only_on_rectangle_or_disk(tmp_path):
                                     '<boolean name="flip_normals" value="true"/></shape></scene>')
     with pytest.raises(InputError, match="only on a rectangle or a disk"):
         load_scene(tmp_path / "s.xml")
+
+
+def test_generated_disk_segments_are_checked():
+    from drtlab.kernels.scene_file import scene_from_dict
+    base = {"scene": {"description": "d"}, "camera": {"position": [0, 1, 5], "look_at": [0, 0, 0]},
+            "materials": {"m": {}}}
+    shape = {"kind": "mesh", "material": "m", "generate": "disk", "radius": 2.0, "segments": 3}
+    scene = scene_from_dict({**base, "shapes": [shape]})
+    assert math.isclose(scene.shapes[0].area(), 3.0 * math.sqrt(3.0), rel_tol=1e-12)   # 3 sqrt(3) r^2 / 4
+    with pytest.raises(InputError, match=r"in \[3, 65536\]") as e:
+        scene_from_dict({**base, "shapes": [{**shape, "segments": 2}]})
+    assert e.value.field == "shapes[0].segments"
