@@ -2,7 +2,8 @@
 and its Warp functions, built per strategy by `make_environment(strategy)` -> Environment:
     env_pick(env) -> the probability that next-event estimation samples the environment rather
         than an area light (by power or uniformly over lights, as the strategy picks lights)
-    env_radiance(env, d) -> the radiance a ray leaving the scene along d sees (its texel)
+    env_radiance(env, d) -> the radiance a ray leaving the scene along d sees (its texel, or
+        bilinear as Mitsuba 3's envmap; in the map's frame when it is rotated)
     env_sample(env, n, u) -> EnvSample: a direction by the strategy's `environment` sampler, its
         radiance and solid-angle pdf (without the pick)
     env_pdf(env, n, d) -> env_sample's solid-angle density of d (without the pick)
@@ -39,6 +40,10 @@ class EnvironmentData:
     height: int
     pick_power: float                          # P(environment) when lights are picked by power
     pick_uniform: float                        # ... and when picked uniformly: 1 / (area lights + 1)
+    rotated: int                               # 1: to_world turns the map (else both identity)
+    to_world: wp.mat33                         # the map's frame -> world
+    to_local: wp.mat33                         # its transpose
+    bilinear: int                              # 1: lookup = "bilinear" (environment_map.py)
 
 
 @wp.struct
@@ -56,6 +61,8 @@ def environment_data(env: EnvironmentMap | None, area_powers: np.ndarray, radius
     pi r^2 * integral of luminance over the sphere, against each area light's pi A luminance."""
     e = EnvironmentData()
     n_area = len(area_powers)
+    e.rotated = e.bilinear = 0
+    e.to_world = e.to_local = wp.mat33(np.eye(3, dtype=np.float32))
     if env is None:
         e.radiance = arr([], wp.vec3, (1, 3))
         for name in ("texel_pdf", "marginal", "conditional"):
@@ -63,7 +70,12 @@ def environment_data(env: EnvironmentMap | None, area_powers: np.ndarray, radius
         e.width = e.height = 0
         e.pick_power = e.pick_uniform = 0.0
         return e
-    t = sampling_tables(env.image)
+    t = sampling_tables(env.image, lookup=env.lookup)
+    e.bilinear = int(env.lookup == "bilinear")
+    if env.to_world is not None:
+        e.rotated = 1
+        e.to_world = wp.mat33(env.to_world.astype(np.float32))
+        e.to_local = wp.mat33(env.to_world.T.astype(np.float32))
     e.radiance = arr(env.image.reshape(-1, 3), wp.vec3, (1, 3))
     e.texel_pdf = arr(t.texel_pdf.ravel(), float, (1,))
     e.marginal = arr(t.marginal, float, (1,))
@@ -95,12 +107,50 @@ def texel_index(env: EnvironmentData, d: wp.vec3) -> int:
 
 
 @wp.func
+def local(env: EnvironmentData, d: wp.vec3) -> wp.vec3:
+    if env.rotated == 1:
+        return env.to_local * d
+    return d
+
+
+@wp.func
+def bilinear(env: EnvironmentData, d: wp.vec3) -> wp.vec3:
+    """Mitsuba 3's envmap lookup of a map-frame direction (environment_map.py): columns at their
+    centres and periodic, rows at v = r / (H - 1)."""
+    w = env.width
+    u = wp.atan2(d[2], d[0]) * INV_2PI
+    u = u - wp.floor(u)
+    x = u * float(w) - 0.5
+    xf = wp.floor(x)
+    fx = x - xf
+    c0 = int(xf)
+    if c0 < 0:
+        c0 += w
+    c1 = c0 + 1
+    if c1 >= w:
+        c1 -= w
+    y = wp.acos(wp.clamp(d[1], -1.0, 1.0)) * INV_PI * float(env.height - 1)
+    r0 = wp.min(int(y), env.height - 2)
+    fy = y - float(r0)
+    top = env.radiance[r0 * w + c0] * (1.0 - fx) + env.radiance[r0 * w + c1] * fx
+    r1 = (r0 + 1) * w
+    bottom = env.radiance[r1 + c0] * (1.0 - fx) + env.radiance[r1 + c1] * fx
+    return top * (1.0 - fy) + bottom * fy
+
+
+@wp.func
 def env_radiance(env: EnvironmentData, d: wp.vec3) -> wp.vec3:
+    if env.rotated == 1 or env.bilinear == 1:
+        dl = local(env, d)
+        if env.bilinear == 1:
+            return bilinear(env, dl)
+        return env.radiance[texel_index(env, dl)]
     return env.radiance[texel_index(env, d)]
 
 
 @wp.func
-def image_pdf(env: EnvironmentData, d: wp.vec3) -> float:
+def image_pdf(env: EnvironmentData, world: wp.vec3) -> float:
+    d = local(env, world)
     # From the horizontal components: 1 - y^2 loses all precision near the poles in float32.
     sin_t = wp.sqrt(d[0] * d[0] + d[2] * d[2])
     if sin_t <= 0.0:
@@ -139,7 +189,10 @@ def sample_image(env: EnvironmentData, u: wp.vec2) -> wp.vec3:
     theta = (float(r) + dv) / float(h) * PI
     phi = (float(c) + du) / float(w) * 2.0 * PI
     s = wp.sin(theta)
-    return wp.vec3(s * wp.cos(phi), wp.cos(theta), s * wp.sin(phi))
+    d = wp.vec3(s * wp.cos(phi), wp.cos(theta), s * wp.sin(phi))
+    if env.rotated == 1:
+        return env.to_world * d
+    return d
 
 
 def make_environment(strategy: Strategy) -> Environment:

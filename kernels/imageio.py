@@ -94,3 +94,14 @@ def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
         raise OSError(f"cannot read {path}: truncated or corrupt ({spec.width}x{spec.height} x "
                       f"{spec.nchannels} channels in its header; {first})")
     return pixels, meta, stored
+
+
+def image_size(path) -> tuple[int, int] | None:
+    """(width, height) from an image file's header, or None when it cannot be opened."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        return None
+    spec = inp.spec()
+    inp.close()
+    return int(spec.width), int(spec.height)

@@ -5,15 +5,23 @@ Warp side is kernels/environment.py).
 Lat-long convention (the image's rows top to bottom, columns left to right):
     v = theta / pi, theta the angle from +y (row 0 looks up);  u = phi / (2 pi), phi = atan2(z, x)
     in [0, 2 pi) (column 0 starts at +x, turning towards +z);  d = (sin t cos p, cos t, sin t sin p).
-Radiance is piecewise constant: a direction sees the texel it falls in (no filtering), so the image
-is exactly the function that is sampled and integrated (the closed forms hold to float precision).
+Radiance is piecewise constant by default (`lookup = "texel"`): a direction sees the texel it falls
+in (no filtering), so the image is exactly the function that is sampled and integrated (the closed
+forms hold to float precision). An image map may instead be looked up as Mitsuba 3's envmap does
+(`lookup = "bilinear"`): bilinear between samples at the column centres u = (c + 1/2) / W (periodic
+in u) and at the rows' v = r / (H - 1) (row 0 at +y, the last at -y; clamped). An image map may be
+turned by `to_world` (a rotation: the map's frame -> world; directions are looked up at
+to_world^T d).
 
 Importance sampling is pbrt's PiecewiseConstant2D over (u, v) in [0, 1)^2 of
 func = luminance(texel) * sin(theta at the row's centre): a marginal distribution over rows and one
 conditional distribution over columns per row, each a cdf with a leading 0 (a row or image whose
 func is all 0 gets a uniform cdf, as pbrt-v4's PiecewiseConstant1D does). A texel's density over
 (u, v) is func / mean(func); over solid angle it is that / (2 pi^2 sin theta), d omega =
-2 pi^2 sin theta du dv. An all-black image samples func = sin(theta), i.e. about uniformly.
+2 pi^2 sin theta du dv. An all-black image samples func = sin(theta), i.e. about uniformly. A bilinear map samples the
+same tables of the texels' 3 x 3 maximum (rows clamped, columns periodic): every texel the bilinear
+radiance reaches is sampled (so next-event estimation alone stays unbiased), and the pdf that MIS
+reads is the density of what is sampled.
 """
 from __future__ import annotations
 
@@ -26,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import REQUIRED, Table, scene_numbers as numbers, scene_number as number, show, string
+from drtlab.fields import (REQUIRED, Table, scene_numbers as numbers, scene_number as number, show,
+                           string)
 
 KINDS = ("constant", "two_level", "gradient", "image")
 PROCEDURAL_KEYS = ("resolution", "sun_direction", "sun_radiance")
@@ -34,8 +43,10 @@ KEYS = {
     "constant": ("kind", "radiance", "scale") + PROCEDURAL_KEYS,
     "two_level": ("kind", "upper", "lower", "scale") + PROCEDURAL_KEYS,
     "gradient": ("kind", "zenith", "horizon", "nadir", "scale") + PROCEDURAL_KEYS,
-    "image": ("kind", "file", "scale"),
+    "image": ("kind", "file", "scale", "lookup", "to_world"),
 }
+LOOKUPS = ("texel", "bilinear")
+ROTATION_TOLERANCE = 1e-6   # |R R^T - I| and |det R - 1| of an accepted to_world
 DEFAULT_RESOLUTION = (64, 32)
 MAX_TEXELS = 1 << 22
 
@@ -46,6 +57,8 @@ class EnvironmentMap:
     kind: str
     image: np.ndarray
     source: str = ""                    # the file it came from, or the kind
+    lookup: str = "texel"               # LOOKUPS: the texel a direction falls in, or bilinear
+    to_world: np.ndarray | None = None  # (3, 3) rotation, the map's frame -> world; None: identity
     _digest: str = field(default="", repr=False)
 
     @property
@@ -59,8 +72,20 @@ class EnvironmentMap:
     def digest(self) -> str:
         """Hash of the radiance: what a scene's content_hash cannot see in the TOML of a file map."""
         if not self._digest:
-            self._digest = hashlib.sha256(np.ascontiguousarray(self.image).tobytes()).hexdigest()
+            h = hashlib.sha256(np.ascontiguousarray(self.image).tobytes())
+            if self.lookup != "texel" or self.to_world is not None:
+                h.update(self.lookup.encode())
+                h.update(np.ascontiguousarray(self.frame()).tobytes())
+            self._digest = h.hexdigest()
         return self._digest
+
+    def frame(self) -> np.ndarray:
+        """to_world, the identity when none was given."""
+        return np.eye(3) if self.to_world is None else self.to_world
+
+    def local(self, dirs: np.ndarray) -> np.ndarray:
+        """World directions in the map's frame (to_world^T d)."""
+        return np.asarray(dirs, dtype=np.float64) @ self.frame()
 
     def luminance_integral(self) -> float:
         """Integral over the sphere of the luminance, in W / (m^2) per unit radiance: the
@@ -122,30 +147,39 @@ def _cdf(func: np.ndarray) -> np.ndarray:
     return out
 
 
-def sampling_func(image: np.ndarray, sin_weight: bool = True) -> np.ndarray:
+def sampling_func(image: np.ndarray, sin_weight: bool = True, lookup: str = "texel") -> np.ndarray:
     """The function importance sampling follows: luminance times sin(theta) at the row centres
-    (sin_weight=False drops the Jacobian: the chi-square test's negative control)."""
+    (sin_weight=False drops the Jacobian: the chi-square test's negative control); for a bilinear
+    lookup the luminance's 3 x 3 maximum, which covers the texels the bilinear radiance reaches."""
     from drtlab.kernels.colour import luminance
     h = image.shape[0]
     func = np.maximum(luminance(image), 0.0)
+    if lookup == "bilinear":
+        from scipy.ndimage import maximum_filter
+        wrapped = np.concatenate([func[:, -1:], func, func[:, :1]], axis=1)
+        func = maximum_filter(wrapped, size=3, mode="nearest")[:, 1:-1]
     s = np.sin((np.arange(h) + 0.5) / h * math.pi)[:, None]
     if not np.any(func > 0.0):
         func = np.ones_like(func)          # black: sample (about) uniformly over the sphere
     return func * s if sin_weight else func
 
 
-def sampling_tables(image: np.ndarray, sin_weight: bool = True) -> SamplingTables:
-    func = sampling_func(image, sin_weight)
+def sampling_tables(image: np.ndarray, sin_weight: bool = True,
+                    lookup: str = "texel") -> SamplingTables:
+    func = sampling_func(image, sin_weight, lookup)
     mean = float(func.mean())
     return SamplingTables(texel_pdf=func / mean, marginal=_cdf(func.sum(axis=1)),
                           conditional=_cdf(func))
 
 
-def direction_pdf(image: np.ndarray, dirs: np.ndarray, sin_weight: bool = True) -> np.ndarray:
+def direction_pdf(image: np.ndarray, dirs: np.ndarray, sin_weight: bool = True,
+                  env: EnvironmentMap | None = None) -> np.ndarray:
     """The exact solid-angle density of importance sampling at `dirs` (float64): the chi-square
-    test's claimed pdf, independent of the Warp code."""
+    test's claimed pdf, independent of the Warp code; `env` gives its lookup and to_world."""
     h, w = image.shape[:2]
-    pdf_uv = sampling_tables(image, sin_weight).texel_pdf
+    pdf_uv = sampling_tables(image, sin_weight, env.lookup if env else "texel").texel_pdf
+    if env is not None:
+        dirs = env.local(dirs)
     row, col = texels(dirs, h, w)
     d = np.asarray(dirs, dtype=np.float64)
     d = d / np.linalg.norm(d, axis=-1, keepdims=True)
@@ -214,6 +248,23 @@ def _read_image(t: Table) -> tuple[np.ndarray, str]:
     return px, path
 
 
+def _rotation(t: Table) -> np.ndarray | None:
+    v = t.get("to_world", None, "")
+    if v is None:
+        return None
+    what = ("must be a rotation matrix: 3 rows of 3 finite numbers, orthonormal with determinant +1 "
+            "(the map's frame -> world)")
+    try:
+        m = np.array([numbers(row, t.field("to_world"), 3) for row in v], dtype=np.float64)
+    except (InputError, TypeError):
+        m = None
+    if (m is None or m.shape != (3, 3) or not np.allclose(m @ m.T, np.eye(3), rtol=0.0,
+                                                          atol=ROTATION_TOLERANCE)
+            or not abs(np.linalg.det(m) - 1.0) < ROTATION_TOLERANCE):
+        raise InputError(t.field("to_world"), f"{what}, got {show(v)}")
+    return m
+
+
 def parse_environment(value: Any) -> EnvironmentMap:
     """The [environment] table validated (kernels/scene_model/SCENE_FORMAT.md): one InputError per bad key or
     value, naming it and what is allowed."""
@@ -223,7 +274,11 @@ def parse_environment(value: Any) -> EnvironmentMap:
     scale = number(t.get("scale", 1.0, ""), t.field("scale"), ">= 0", lambda x: x >= 0.0)
     if kind == "image":
         image, source = _read_image(t)
-        return EnvironmentMap(kind, image * scale, source)
+        lookup = string(t.get("lookup", "texel", ""), t.field("lookup"), LOOKUPS)
+        if lookup == "bilinear" and image.shape[0] < 2:
+            raise InputError(t.field("lookup"), f"'bilinear' needs an image of at least 2 rows (one "
+                                                f"at each pole), {source} has {image.shape[0]}")
+        return EnvironmentMap(kind, image * scale, source, lookup, _rotation(t))
     width, height = _resolution(t)
     if kind == "constant":
         colours = dict(radiance=_color(t, "radiance", [1, 1, 1]))

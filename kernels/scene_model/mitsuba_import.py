@@ -22,8 +22,7 @@ SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler
 # Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
 WHY_NOT = {
     "roughplastic": "its coat's transmittance is a per-material table Mitsuba integrates numerically, "
-                    "which drtlab's kernels do not carry", "disk": "drtlab has no disk",
-    "envmap": "its lat-long orientation and bilinear lookup are not drtlab's piecewise-constant map",
+                    "which drtlab's kernels do not carry",
     "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's (sigma 0.5, radius 1.5); "
                 "supported: box, mitchell"}
 

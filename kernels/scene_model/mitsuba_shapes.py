@@ -2,6 +2,12 @@
 
 A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it the property access (`get`,
 `number`, `colour`, `string`, `done`, ...) and the material mapping (kernels/scene_model/mitsuba_materials.py).
+
+A disk becomes a triangle fan (kernels/scene_model/procedural.py `disk`, DISK_SEGMENTS triangles: its area
+within 1e-5 of the circle's). An envmap becomes an image environment with Mitsuba's bilinear lookup
+and its lat-long frame: Mitsuba's map frame has u = atan2(x, -z) / 2 pi (u = 0 towards -z, turning
+towards +x) and v = acos(y) / pi, drtlab's u = atan2(z, x) / 2 pi; MITSUBA_TO_DRTLAB takes a
+direction of Mitsuba's frame to the one of drtlab's frame with the same (u, v).
 """
 from __future__ import annotations
 
@@ -9,11 +15,17 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.kernels.imageio import image_size
 from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
+from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
 
-SHAPES = ("rectangle", "cube", "sphere", "obj", "ply")
-EMITTERS = ("area", "point", "directional", "constant")
+SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "disk")
+EMITTERS = ("area", "point", "directional", "constant", "envmap")
+MITSUBA_TO_DRTLAB = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+ENVMAP_FORMATS = (".exr", ".hdr")
+# Mitsuba's disk flips its normal by to_world @ scale(1, 1, -1) (src/shapes/disk.cpp).
+FLIP_Z = ("scale", np.diag([1.0, 1.0, -1.0, 1.0]), [1.0, 1.0, -1.0])
 
 
 class ShapeMapping:
@@ -42,10 +54,15 @@ class ShapeMapping:
             shape.update(kind="quad", origin=chain_point(chain, [-1.0, -1.0, 0]).tolist(),
                          edge_u=u.tolist(), edge_v=v.tolist())
         else:
-            if flip:
+            if flip and kind != "disk":
                 self.r.fail(o.props["flip_normals"].path, f"true is not supported on a {kind} "
-                                                          "(drtlab's faces out), only on a rectangle")
-            if kind == "cube":
+                                                          "(drtlab's faces out), only on a rectangle "
+                                                          "or a disk")
+            if kind == "disk":
+                # In the z = 0 plane the flip moves no vertex; the mirror reverses the winding.
+                chain = ([FLIP_Z] if flip else []) + list(chain)
+                shape.update(kind="mesh", generate="disk", segments=DISK_SEGMENTS)
+            elif kind == "cube":
                 shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
             elif kind == "sphere":
                 shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
@@ -81,10 +98,12 @@ class ShapeMapping:
 
     def emitter(self, o: Obj) -> None:
         kind = self.kind(o, EMITTERS[1:])
+        if kind in ("constant", "envmap") and "environment" in self.data:
+            self.r.fail(o.path, "a second environment emitter (constant or envmap)")
         if kind == "constant":
-            if "environment" in self.data:
-                self.r.fail(o.path, "a second constant emitter")
             self.data["environment"] = {"kind": "constant", "radiance": self.colour(o, "radiance", 1.0)}
+        elif kind == "envmap":
+            self.data["environment"] = self.envmap(o)
         else:
             chain = self.get(o, "to_world", ("transform",), None)
             key, value = ("position", "intensity") if kind == "point" else ("direction", "irradiance")
@@ -98,3 +117,27 @@ class ShapeMapping:
                 {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
         self.done(o)
 
+
+    def envmap(self, o: Obj) -> dict:
+        name = self.string(o, "filename", None)
+        if name is None:
+            self.r.fail(o.path, "envmap needs a filename (an .exr or .hdr lat-long image)")
+        path = Path(name).expanduser()
+        path = path if path.is_absolute() else self.r.folder / path
+        if path.suffix.lower() not in ENVMAP_FORMATS:
+            self.r.fail(o.props["filename"].path, f"must name an .exr or .hdr image, got '{name}'")
+        if not path.is_file():
+            self.r.fail(o.props["filename"].path, f"image file '{name}' does not exist")
+        size = image_size(path)
+        if size is not None and (size[0] < 2 or size[1] < 3):
+            self.r.fail(o.props["filename"].path, f"'{name}' has {size[0]} x {size[1]} texels; at "
+                                                  "least 2 x 3 are supported (Mitsuba pads smaller maps)")
+        self.ignore(o, "mis_compensation")        # sampling only: the expected image is the same
+        # Mitsuba turns directions by the linear part alone; its lookup needs unit vectors.
+        rot = chain_matrix(self.get(o, "to_world", ("transform",), []))[:3, :3]
+        if not (np.allclose(rot @ rot.T, np.eye(3), atol=1e-6) and np.linalg.det(rot) > 0.0):
+            self.r.fail(o.props["to_world"].path, "must be a rotation (and any translation) for an "
+                                                  f"envmap, got the linear part {np.round(rot, 6).tolist()}")
+        return {"kind": "image", "file": str(path), "lookup": "bilinear",
+                "scale": self.number(o, "scale", 1.0, lambda x: x >= 0, ">= 0"),
+                "to_world": (rot @ MITSUBA_TO_DRTLAB.T).tolist()}

@@ -1,5 +1,6 @@
 """Procedural shape sources, so that scenes with many primitives need no download: triangle meshes
 made by `generate = NAME` in a mesh shape (GENERATORS), and the `sphere_grid` shape (many spheres).
+`disk` is Mitsuba 3's disk (kernels/scene_model/mitsuba_shapes.py) as a triangle fan.
 
 Each generator is a pure function of its parameters (the seed included) returning world-space
 (vertices, faces, normals): faces wound so that (b - a) x (c - a) points out of the displaced sphere
@@ -16,6 +17,10 @@ import numpy as np
 MAX_SUBDIVISIONS = 8
 MAX_RESOLUTION = 1024
 MAX_GRID = 320              # sphere_grid: count x count spheres (~10^5; each one a Shape)
+MAX_SEGMENTS = 1 << 16
+# A fan of 1024 triangles has the circle's area to 6.3e-6 (relative): below the 1e-5 a Mitsuba disk
+# may differ by.
+DISK_SEGMENTS = 1024
 
 
 def _waves(seed: int, count: int, dims: int):
@@ -72,6 +77,24 @@ def terrain(center, size: float, resolution: int, height: float, seed: int):
     return vertices, faces, _normals(vertices, faces)
 
 
+def disk(radius: float, segments: int):
+    """The disk of `radius` about the origin in the plane z = 0, facing +z, as a fan of `segments`
+    triangles (a regular polygon inscribed in the circle; flat: no vertex normals)."""
+    a = np.arange(int(segments)) * (2.0 * np.pi / int(segments))
+    ring = np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)]) * radius
+    vertices = np.vstack([np.zeros((1, 3)), ring])
+    i = np.arange(1, int(segments) + 1)
+    # (ring_i - 0) x (ring_i+1 - 0) points +z: counter-clockwise seen from +z.
+    faces = np.column_stack([np.zeros_like(i), i, i % int(segments) + 1])
+    return vertices, faces, None
+
+
+def disk_area_deficit(segments: int) -> float:
+    """1 - (the fan's area) / (the circle's): 1 - N sin(2 pi / N) / (2 pi), about (2 pi / N)^2 / 6."""
+    x = 2.0 * np.pi / segments
+    return float(1.0 - np.sinc(x / np.pi) if x > 1e-3 else x * x / 6.0 - x ** 4 / 120.0)
+
+
 # name -> (function, {parameter: (default, kind)}); kind: "vec3", "positive", "nonneg", "count", "seed".
 GENERATORS = {
     "displaced_sphere": (displaced_sphere, {
@@ -82,6 +105,8 @@ GENERATORS = {
         "center": ([0.0, 0.0, 0.0], "vec3"), "size": (10.0, "positive"),
         "resolution": (32, ("count", 1, MAX_RESOLUTION)), "height": (1.0, "nonneg"),
         "seed": (0, "seed")}),
+    "disk": (disk, {
+        "radius": (1.0, "positive"), "segments": (DISK_SEGMENTS, ("count", 3, MAX_SEGMENTS))}),
 }
 
 

@@ -41,17 +41,30 @@ def emitters_facing_nothing(scene: Scene) -> list[str]:
     return found
 
 
+def tessellated_disks(scene: Scene) -> list[str]:
+    """A line for the first disk (`generate = "disk"`, Mitsuba's disk): a triangle fan, whose area
+    and outline are the circle's only to a bound."""
+    from drtlab.kernels.scene_model.procedural import disk_area_deficit
+    disks = [s for s in scene.shapes if s.kind == "mesh" and s.mesh.source.startswith("disk(")]
+    if not disks:
+        return []
+    n = len(disks[0].mesh.faces)
+    more = f" (and {len(disks) - 1} more disks)" if len(disks) > 1 else ""
+    return [f"disk '{disks[0].name}'{more} is tessellated into {n} triangles: its area is the "
+            f"circle's to {disk_area_deficit(n):.1e} (relative, smaller)"]
+
+
 def scene_warnings(scene: Scene) -> list[str]:
-    """Findings about a scene before it renders, one line in all: shapes that move while the shutter
-    is closed (the default [0, 0]), which render the static image a user who set a velocity does
-    not expect."""
+    """Findings about a scene before it renders: shapes that move while the shutter is closed (the
+    default [0, 0]), which render the static image a user who set a velocity does not expect; a
+    disk rendered as a triangle fan."""
     moving = [s.name for s in scene.shapes if np.any(s.velocity != 0.0)]
     open_, close = scene.camera.shutter
     if moving and not close > open_:
-        return [f"shape '{moving[0]}'{f' and {len(moving) - 1} more' if len(moving) > 1 else ''} "
+        return tessellated_disks(scene) + [f"shape '{moving[0]}'{f' and {len(moving) - 1} more' if len(moving) > 1 else ''} "
                 f"has a velocity but camera.shutter = [{open_:g}, {close:g}] is closed, so nothing "
                 "moves; set camera.shutter = [0.0, 1.0] for motion blur"]
-    return []
+    return tessellated_disks(scene)
 
 
 def image_warnings(scene: Scene, image: np.ndarray) -> list[str]:

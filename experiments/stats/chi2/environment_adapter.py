@@ -1,7 +1,7 @@
 """The chi-square harness's adapter of the environment light's samplers (kernels/environment.py
 `make_environment`): one CPU kernel per sampler ("uniform", "cosine", "image") on the device tables
 of an EnvironmentMap, sampling env_sample(env, n, u) with the harness's `uniform` random numbers
-and evaluating env_pdf(env, n, d). `tables` replaces the image sampler's tables (a SamplingTables
+and evaluating env_pdf(env, n, d) and env_radiance(env, d) (`radiance`: the lookup). `tables` replaces the image sampler's tables (a SamplingTables
 of kernels/scene_model/environment_map.py, e.g. built without the sin(theta) weight: the negative control) while
 the claimed density stays the exact one (environment_map.direction_pdf)."""
 
@@ -73,6 +73,10 @@ class EnvironmentAdapter:
             return self._launch(1, env, n_axis, 0, 0, pts)[1].astype(np.float64)
         return pdf
 
+    def radiance(self, env, dirs) -> np.ndarray:
+        """env_radiance at `dirs` (n, 3): what a ray leaving the scene along each sees."""
+        return self._launch(1, env, (0.0, 1.0, 0.0), 0, 0, dirs)[3].astype(np.float64)
+
 
 def _make_env_kernel(sampler: str):
     wp = _wp()
@@ -81,7 +85,7 @@ def _make_env_kernel(sampler: str):
 
     env_fns = make_environment(Strategy("chi2", "the environment adapter's sampler", "lobe",
                                         LightSampling("solid_angle", "power", environment=sampler)))
-    env_sample, env_pdf = env_fns.env_sample, env_fns.env_pdf
+    env_sample, env_pdf, env_radiance = env_fns.env_sample, env_fns.env_pdf, env_fns.env_radiance
 
     @wp.kernel(enable_backward=False, module="unique")
     def env_kernel(mode: int, env: EnvironmentData, n: wp.vec3, seed: wp.uint32,
@@ -97,6 +101,8 @@ def _make_env_kernel(sampler: str):
             out_valid[tid] = es.valid
             out_rad[tid] = es.radiance
         else:
-            out_pdf[tid] = env_pdf(env, n, wp.normalize(pts[tid]))
+            d = wp.normalize(pts[tid])
+            out_pdf[tid] = env_pdf(env, n, d)
+            out_rad[tid] = env_radiance(env, d)
 
     return env_kernel
