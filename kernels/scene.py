@@ -26,6 +26,8 @@ class Camera:
     focus_distance: float = 1.0         # distance along the view axis of the plane in focus
     shutter: tuple[float, float] = (0.0, 0.0)
     filter: str = "box"                 # pixel reconstruction filter, a name in kernels/filters.py
+    filter_stddev: float = 0.0          # its stddev (filters.STDDEV_FILTERS); 0: the filter's default
+    filter_clip: bool = False           # the filter truncated to the film (no samples beyond its edge)
 
     @property
     def has_lens(self) -> bool:
