@@ -91,6 +91,7 @@ BH_COEFFS = (0.35875, 0.48829, 0.14128, 0.01168)
 MITSUBA_GAUSSIAN = "mitsuba_gaussian"
 MITSUBA_STDDEV = 0.5            # Mitsuba's default stddev; its radius is MITSUBA_RADIUS_STDDEVS of them
 MITSUBA_RADIUS_STDDEVS = 4.0
+STDDEV_MIN, STDDEV_MAX = 0.25, 4.0      # pixels: filter_stddev's range (radius 1 to 16)
 
 
 def _normal(x):

@@ -17,7 +17,7 @@ from drtlab.errors import InputError
 from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as number,
                            scene_numbers as numbers, show, string)
 from drtlab.kernels.environment_map import parse_environment
-from drtlab.kernels.filters import BOX, FILTER_NAMES, STDDEV_FILTERS
+from drtlab.kernels.filters import BOX, FILTER_NAMES, STDDEV_FILTERS, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
 from drtlab.kernels.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
@@ -148,7 +148,8 @@ def _parse_camera(value: Any) -> Camera:
         if pixel_filter not in STDDEV_FILTERS:
             raise InputError(t.field("filter_stddev"), f"is for filter {' or '.join(STDDEV_FILTERS)} "
                                                        f"(the others' shapes are fixed), not {pixel_filter!r}")
-        stddev = number(stddev, t.field("filter_stddev"), "in [0.125, 4] pixels", lambda x: 0.125 <= x <= 4.0)
+        stddev = number(stddev, t.field("filter_stddev"), f"in [{STDDEV_MIN}, {STDDEV_MAX}] pixels",
+                        lambda x: STDDEV_MIN <= x <= STDDEV_MAX)
     clip = boolean(t.get("filter_clip", False, ""), t.field("filter_clip"))
     return Camera(position=position, look_at=look_at, up=up, vfov_deg=fov, aperture_radius=aperture,
                   focus_distance=focus, shutter=shutter, filter=pixel_filter,

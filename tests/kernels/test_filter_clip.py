@@ -199,3 +199,79 @@ def test_cut_renders_match_the_cut_closed_form_and_not_the_uncut_one(sampler, sp
     assert not c.rejected, c.summary()
     # Negative control: the same renders against Mitsuba's sample_border = true pixels.
     assert column_comparison(imgs, edge_truth(False)).rejected
+
+
+# ---------------------------------------------------------------------------------------------------
+# Mitsuba 3 XML films
+# ---------------------------------------------------------------------------------------------------
+
+FILM = """<scene version="3.0.0">
+<sensor type="perspective"><float name="fov" value="40"/>
+  <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+  {film}
+</sensor>
+<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+</scene>"""
+
+
+def film_camera(tmp_path, film: str):
+    from drtlab.kernels.scene_file import load_scene
+    (tmp_path / "s.xml").write_text(FILM.format(film=film))
+    c = load_scene(tmp_path / "s.xml").camera
+    return c.filter, c.filter_stddev, c.filter_clip
+
+
+HDR = '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>{}</film>'
+BORDER = '<boolean name="sample_border" value="{}"/>'
+
+
+@pytest.mark.parametrize("film,want", [
+    ("", (MITSUBA_GAUSSIAN, 0.0, True)),                                  # no film: Mitsuba's default
+    (HDR.format(""), (MITSUBA_GAUSSIAN, 0.0, True)),                      # no rfilter: its Gaussian
+    (HDR.format(BORDER.format("true")), (MITSUBA_GAUSSIAN, 0.0, False)),
+    (HDR.format('<rfilter type="gaussian"><float name="stddev" value="0.25"/></rfilter>'),
+     (MITSUBA_GAUSSIAN, 0.25, True)),
+    (HDR.format(BORDER.format("false") + '<rfilter type="gaussian"/>'), (MITSUBA_GAUSSIAN, 0.0, True)),
+    (HDR.format(BORDER.format("false") + '<rfilter type="mitchell"/>'), ("mitchell", 0.0, True)),
+    (HDR.format(BORDER.format("true") + '<rfilter type="mitchell"/>'), ("mitchell", 0.0, False)),
+    (HDR.format(BORDER.format("false") + '<rfilter type="box"/>'), ("box", 0.0, False)),
+    (HDR.format(BORDER.format("true") + '<rfilter type="box"/>'), ("box", 0.0, False)),
+])
+def test_mitsuba_films_select_the_filter_and_its_cut(tmp_path, film, want):
+    assert film_camera(tmp_path, film) == want
+
+
+def test_refused_filters_and_stddev_name_their_path(tmp_path):
+    from drtlab.errors import InputError
+    for film, what in ((HDR.format('<rfilter type="lanczos"/>'), "supported: box, gaussian, mitchell"),
+                       (HDR.format('<rfilter type="gaussian"><float name="stddev" value="8"/></rfilter>'),
+                        "rfilter(gaussian)/float[@name=stddev]: must be in [0.25, 4.0] pixels")):
+        with pytest.raises(InputError) as e:
+            film_camera(tmp_path, film)
+        assert what in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def test_scene_file_keys_and_their_errors():
+    from drtlab.errors import InputError
+    cam = camera_dict((0, 0, 5), (0, 0, 0), 40)
+    base = scene_dict("k", cam, {"m": {"kind": "diffuse"}}, [quad((0, 0, 0), (1, 0, 0), (0, 1, 0), "m")])
+    for extra, field in (({"filter": "gaussian", "filter_stddev": 0.5}, "camera.filter_stddev"),
+                         ({"filter": MITSUBA_GAUSSIAN, "filter_stddev": 0.1}, "camera.filter_stddev"),
+                         ({"filter": MITSUBA_GAUSSIAN, "filter_clip": 1}, "camera.filter_clip")):
+        d = {**base, "camera": {**cam, **extra}}
+        with pytest.raises(InputError) as e:
+            scene_from_dict(d)
+        assert e.value.field == field, (extra, e.value)
+
+
+@pytest.mark.parametrize("extra", [{"filter_stddev": 0.75, "filter_clip": True}, {"filter_clip": False}])
+def test_export_then_import_keeps_the_filter(tmp_path, extra):
+    from drtlab.kernels.mitsuba_export import export_mitsuba
+    from drtlab.kernels.scene_file import load_scene
+    cam = {**camera_dict((0, 0, 5), (0, 0, 0), 40), "filter": MITSUBA_GAUSSIAN, **extra}
+    d = scene_dict("x", cam, {"m": {"kind": "diffuse"}}, [quad((0, 0, 0), (1, 0, 0), (0, 1, 0), "m")])
+    a = scene_from_dict(d)
+    export_mitsuba(a, tmp_path / "x.xml")
+    b = load_scene(tmp_path / "x.xml").camera
+    assert (b.filter, b.filter_stddev, b.filter_clip) == (a.camera.filter, a.camera.filter_stddev,
+                                                          a.camera.filter_clip)
