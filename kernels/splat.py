@@ -11,7 +11,10 @@ threads and tiles cannot change the image. The pixel is the ratio of the two sum
 What it estimates: the pixel's samples are uniform in its own square, so over the grown image the
 samples cover the filter's support uniformly and both sums, divided by the samples per pixel, are
 unbiased for integral f L and integral f: their ratio is consistent for the filter-weighted pixel
-(kernels/filters.py), with a bias of order 1/spp (a ratio of two noisy sums).
+(kernels/filters.py), with a bias of order 1/spp (a ratio of two noisy sums). With the filter cut
+at the film's edge (Features.filter_clip, Mitsuba's films without sample_border) the image is not
+grown: a border pixel's neighbours beyond the image have no samples, so both sums cover only the
+film and the ratio is consistent for the cut filter's pixel, exactly Mitsuba's ImageBlock estimate.
 """
 from __future__ import annotations
 
