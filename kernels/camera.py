@@ -55,7 +55,7 @@ def make_camera(f: Features, pointset: PointSet, pixel_filter: PixelFilter | Non
         u = get2d(seed, pix, idx, wp.uint32(wp.static(dims.PIXEL)), spp)
         w = float(1.0)
         if wp.static(FIS):
-            s = filter_sample(sd, u)
+            s = filter_sample(sd, u, px, py)
             u = wp.vec2(0.5 + s[0], 0.5 + s[1])
             w = s[2]
         lens = wp.vec2(0.0, 0.0)

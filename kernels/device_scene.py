@@ -126,6 +126,9 @@ class FilterData:
     """A non-box pixel filter's sampling table (kernels/filters.py: filter_cdf; its size, the radius
     and the integral are compile-time constants of the filter's variant); unused by the box."""
     cdf: wp.array(dtype=float)      # bins + 1 values, 0 ... 1
+    # Truncated to the film (filters.clip_table): per pixel 0 .. margin - 1 from the edge, the CDF at
+    # the cut on the left and on the right, and the integral beyond the cut; one unused row otherwise.
+    clip: wp.array(dtype=wp.vec3)
 
 
 @wp.struct

@@ -112,6 +112,8 @@ class Features:
     environment: bool = False  # an [environment] light (kernels/environment.py; absent: compiled out)
     filter: str = "box"     # pixel filter (kernels/filters.py); box: no filter code at all
     splat: bool = False     # the splatting estimator of a non-box filter (else filter importance sampling)
+    filter_stddev: float = 0.0  # the filter's stddev (kernels/filters.get_filter); 0: its default
+    filter_clip: bool = False   # the filter truncated to the film (Camera.filter_clip)
     quad_simd: bool = False  # quads by the CPU's vector test (QUAD_SIMD_MAX), else grouped scalar tests
 
     def __post_init__(self):
@@ -146,6 +148,12 @@ class Features:
         """Point or directional lights, evaluated exactly at every non-delta surface."""
         return self.point_lights or self.dir_lights
 
+    @property
+    def filter_def(self):
+        """The pixel filter's definition (kernels/filters.py: Filter), its stddev applied."""
+        from drtlab.kernels.filters import get_filter
+        return get_filter(self.filter, self.filter_stddev)
+
     def code_key(self) -> Features:
         """The features the generated code depends on: a lens, motion, checker textures and a
         background are runtime switches in the kernels (RUNTIME_SWITCHES), not variant selectors."""
@@ -156,7 +164,9 @@ class Features:
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd") if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
-        key += f"+{self.filter}" + ("-splat" if self.splat else "") if self.filter != "box" else ""
+        key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
+                + ("-clip" if self.filter_clip else "") + ("-splat" if self.splat else "")
+                if self.filter != "box" else "")
         key += "+moments" if self.moments else ""
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
 
@@ -180,7 +190,15 @@ def features_of(scene: Scene, integrator: str) -> Features:
         sphere_bvh=uses_sphere_bvh(scene),
         environment=scene.environment is not None,
         filter=scene.camera.filter,
+        filter_stddev=scene.camera.filter_stddev,
+        filter_clip=scene.camera.filter_clip,
     )
+
+
+def grown_margin(f: Features) -> int:
+    """Pixels beyond each image edge whose samples splatting traces: the filter's margin, or none
+    when the estimator is not splatting or the filter is cut at the film's edge (filter_clip)."""
+    return f.filter_def.margin if f.splat and f.filter != "box" and not f.filter_clip else 0
 
 
 def uses_sphere_bvh(scene: Scene) -> bool:

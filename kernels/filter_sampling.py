@@ -6,8 +6,11 @@ pixel is today's square, with no filter code compiled in). A filter's radius, ta
 are compile-time constants (a variant per filter), so the profile's constants fold away and the
 table search is a fixed number of steps:
     profile(x) -> f1(x)                     the separable profile, 0 outside the radius
-    sample(sd, u) -> vec3(dx, dy, w)        an offset from the pixel centre drawn from the table of
-                                            |f1| x |f1| and its weight f / (p integral f)
+    sample(sd, u, px, py) -> vec3(dx, dy, w)  an offset from the centre of pixel (px, py) drawn
+                                            from the table of |f1| x |f1| and its weight
+                                            f / (p integral f); with filter_clip, per axis from the
+                                            table restricted to the film (the inverse CDF of
+                                            [C(lo), C(hi)]) and weighed by f / (p_cut integral_cut f)
     reach(u) -> Reach                       for a sample at u within its pixel, f1 at its offsets
                                             from the centres of the 2 margin + 1 pixels in each
                                             direction around it (the gather multiplies them)
@@ -21,8 +24,8 @@ import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT, Features
-from drtlab.kernels.filters import (BH_COEFFS, BOX, FILTERS, GAUSSIAN_SIGMA, MITCHELL_B, MITCHELL_C,
-                                    filter_cdf)
+from drtlab.kernels.filters import (BH_COEFFS, BOX, GAUSSIAN_SIGMA, MITCHELL_B, MITCHELL_C,
+                                    MITSUBA_GAUSSIAN, MITSUBA_RADIUS_STDDEVS, filter_cdf)
 
 
 class PixelFilter(NamedTuple):
@@ -43,6 +46,15 @@ def _profile(name: str, radius: float) -> wp.Function:
         def gaussian(x: float) -> float:
             return wp.max(0.0, (wp.exp(-inv_two_var * x * x) - at_radius) * norm)
         return gaussian
+    if name == MITSUBA_GAUSSIAN:
+        stddev = radius / MITSUBA_RADIUS_STDDEVS
+        inv_two_var_m = wp.constant(float(0.5 / stddev ** 2))
+        at_radius_m = wp.constant(float(math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2)))
+
+        @wp.func
+        def mitsuba_gaussian(x: float) -> float:
+            return wp.max(0.0, wp.exp(-inv_two_var_m * x * x) - at_radius_m)
+        return mitsuba_gaussian
     if name == "mitchell":
         b, c = float(MITCHELL_B), float(MITCHELL_C)
         # Mitchell-Netravali's two cubics in t = |2x / radius|: coefficients of t^3, t^2, t, 1, over 6.
@@ -82,9 +94,12 @@ def _profile(name: str, radius: float) -> wp.Function:
 def make_pixel_filter(f: Features) -> PixelFilter | None:
     if f.filter == BOX:
         return None
-    filt = FILTERS[f.filter]
+    filt = f.filter_def
     profile = _profile(f.filter, filt.radius)
-    bins = len(filter_cdf(f.filter)) - 1
+    bins = len(filter_cdf(filt)) - 1
+    CLIP = f.filter_clip and filt.margin > 0
+    MARGIN = filt.margin
+    integral1 = wp.constant(float(filt.integral1))
     STEPS = int(math.log2(bins))
     assert 1 << STEPS == bins, "the table search halves a power-of-two table"
     r = wp.constant(float(filt.radius))
@@ -95,6 +110,20 @@ def make_pixel_filter(f: Features) -> PixelFilter | None:
     K = 2 * filt.margin + 1
     reach_type = wp.types.vector(length=K, dtype=wp.float32)
     first = wp.constant(float(-filt.margin - 0.5))
+
+    @wp.func
+    def cut(sd: SceneData, p: int, n: int) -> wp.vec3:
+        # Pixel p of n along an axis: (C(lo), C(hi), integral of f1 over [lo, hi]), the support
+        # cut where the film ends (p pixels to its left edge, n - 1 - p to its right).
+        c = wp.vec3(0.0, 1.0, integral1)
+        if p < wp.static(MARGIN):
+            row = sd.filter.clip[p]
+            c = wp.vec3(row[0], c[1], c[2] - row[2])
+        right = n - 1 - p
+        if right < wp.static(MARGIN):
+            row = sd.filter.clip[right]
+            c = wp.vec3(c[0], row[1], c[2] - row[2])
+        return c
 
     @wp.func
     def sample_1d(sd: SceneData, u: float) -> wp.vec2:
@@ -112,13 +141,21 @@ def make_pixel_filter(f: Features) -> PixelFilter | None:
         return wp.vec2(-r + bin_width * (float(lo) + t), mass / bin_width)
 
     @wp.func
-    def sample(sd: SceneData, u: wp.vec2) -> wp.vec3:
+    def sample(sd: SceneData, u: wp.vec2, px: int, py: int) -> wp.vec3:
+        inv_int = inv_integral
+        if wp.static(CLIP):
+            # The table restricted to [lo, hi]: u spans [C(lo), C(hi)], the density grows by
+            # 1 / (C(hi) - C(lo)), and the filter is normalised over the cut support.
+            cx = cut(sd, px, sd.width)
+            cy = cut(sd, py, sd.height)
+            u = wp.vec2(cx[0] + u[0] * (cx[1] - cx[0]), cy[0] + u[1] * (cy[1] - cy[0]))
+            inv_int = (cx[1] - cx[0]) * (cy[1] - cy[0]) / (cx[2] * cy[2])
         sx = sample_1d(sd, u[0])
         sy = sample_1d(sd, u[1])
         fv = profile(sx[0]) * profile(sy[0])
         if wp.static(NO_SIGN):
             fv = wp.abs(fv)
-        w = fv / (sx[1] * sy[1]) * inv_integral
+        w = fv / (sx[1] * sy[1]) * inv_int
         return wp.vec3(sx[0] * spread, sy[0] * spread, w)
 
     @wp.func

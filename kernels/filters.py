@@ -11,6 +11,13 @@ f(x, y) = f1(x) f1(y), with the radius and parameters of pbrt-v4's (`src/pbrt/fi
     blackman_harris   radius 2 (pbrt-v4 has none: Sunflow's default size 4), the 4-term window
                       f1(x) = a0 - a1 cos(2 pi t) + a2 cos(4 pi t) - a3 cos(6 pi t), t = (x + r) / 2r;
                       non-negative (6e-5 at the ends), so it has no negative lobes
+    mitsuba_gaussian  Mitsuba 3's default (src/rfilters/gaussian.cpp): stddev s (camera `filter_stddev`,
+                      default 0.5), radius 4 s, f1(x) = max(0, exp(-x^2 / 2s^2) - exp(-8)) (its CPU
+                      build evaluates a degree-9 Remez fit of that exponential, within 4.1e-4 of it)
+
+Truncated to the film (camera `filter_clip`, Mitsuba's films without sample_border): a pixel within
+the margin of the border sees only the image plane inside the film, so its filter is f restricted to
+the film, normalised by the integral of that restriction (`clip_table`).
 
 Filter importance sampling (Ernst et al. 2006; pbrt-v4's FilterSampler, but with separable 1D
 tables): the pixel dimensions are mapped through the inverse CDF of a piecewise-constant density
@@ -64,6 +71,15 @@ class Filter:
     def integral(self) -> float:
         return self.integral1 ** 2
 
+    def truncated_integral1(self, lo: float, hi: float) -> float:
+        """Integral of f1 over [lo, hi] within the support (scipy's adaptive quadrature, split at
+        the profile's kinks so that it is exact to rounding)."""
+        from scipy.integrate import quad
+        lo, hi = max(lo, -self.radius), min(hi, self.radius)
+        kinks = [k for k in (-self.radius / 2, 0.0, self.radius / 2) if lo < k < hi]
+        return quad(lambda x: float(self.f1(x)), lo, hi, points=kinks or None, epsabs=0.0, epsrel=1e-13,
+                    limit=200)[0]
+
     def value(self, x, y):
         """f(x, y) in float64."""
         return self.f1(x) * self.f1(y)
@@ -72,6 +88,10 @@ class Filter:
 GAUSSIAN_SIGMA = 0.5
 MITCHELL_B = MITCHELL_C = 1.0 / 3.0
 BH_COEFFS = (0.35875, 0.48829, 0.14128, 0.01168)
+MITSUBA_GAUSSIAN = "mitsuba_gaussian"
+MITSUBA_STDDEV = 0.5            # Mitsuba's default stddev; its radius is MITSUBA_RADIUS_STDDEVS of them
+MITSUBA_RADIUS_STDDEVS = 4.0
+STDDEV_MIN, STDDEV_MAX = 0.25, 4.0      # pixels: filter_stddev's range (radius 1 to 16)
 
 
 def _normal(x):
@@ -101,9 +121,20 @@ def _blackman_harris(x, r):
     return a0 - a1 * np.cos(t) + a2 * np.cos(2 * t) - a3 * np.cos(3 * t)
 
 
-_PROFILES = {"gaussian": _gaussian, "mitchell": _mitchell, "blackman_harris": _blackman_harris,
+def _mitsuba_gaussian(x, r):
+    s = r / MITSUBA_RADIUS_STDDEVS
+    return np.maximum(0.0, np.exp(-0.5 * (np.asarray(x) / s) ** 2) - math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2))
+
+
+def _mitsuba_gaussian_integral(r):
+    s = r / MITSUBA_RADIUS_STDDEVS
+    return (s * math.sqrt(2.0 * math.pi) * math.erf(MITSUBA_RADIUS_STDDEVS / math.sqrt(2.0))
+            - 2.0 * r * math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2))
+
+
+_PROFILES = {"gaussian": _gaussian, MITSUBA_GAUSSIAN: _mitsuba_gaussian, "mitchell": _mitchell, "blackman_harris": _blackman_harris,
              BOX: lambda x, r: np.ones_like(np.asarray(x, dtype=np.float64))}
-_INTEGRALS = {"gaussian": _gaussian_integral, "mitchell": lambda r: r / 2.0,
+_INTEGRALS = {"gaussian": _gaussian_integral, MITSUBA_GAUSSIAN: _mitsuba_gaussian_integral, "mitchell": lambda r: r / 2.0,
               "blackman_harris": lambda r: 2.0 * r * BH_COEFFS[0], BOX: lambda r: 2.0 * r}
 
 FILTERS = {f.name: f for f in (
@@ -111,16 +142,28 @@ FILTERS = {f.name: f for f in (
     Filter("gaussian", 1.5, "Gaussian, sigma 0.5, minus its value at the radius (pbrt-v4)"),
     Filter("mitchell", 2.0, "Mitchell-Netravali B = C = 1/3, negative lobes (pbrt-v4)"),
     Filter("blackman_harris", 2.0, "4-term Blackman-Harris window, non-negative"),
+    Filter(MITSUBA_GAUSSIAN, MITSUBA_RADIUS_STDDEVS * MITSUBA_STDDEV,
+           "Mitsuba 3's Gaussian, stddev `filter_stddev` (0.5), radius 4 stddev, minus its value there"),
 )}
 FILTER_NAMES = tuple(FILTERS)
+# The filters with a `filter_stddev` (the others' shapes are fixed).
+STDDEV_FILTERS = (MITSUBA_GAUSSIAN,)
+
+
+def get_filter(name: str, stddev: float = 0.0) -> Filter:
+    """The filter `name`; a STDDEV_FILTERS one with `stddev` > 0 gets the radius of that stddev."""
+    if stddev > 0.0 and name in STDDEV_FILTERS:
+        return Filter(name, MITSUBA_RADIUS_STDDEVS * float(stddev), FILTERS[name].description)
+    return FILTERS[name]
 
 
 @lru_cache(maxsize=None)
-def filter_cdf(name: str, bins: int = TABLE_BINS) -> np.ndarray:
+def filter_cdf(filt: Filter | str, bins: int = TABLE_BINS) -> np.ndarray:
     """(bins + 1,) float32 CDF of the piecewise-constant density proportional to |f1| on `bins`
     equal bins of [-radius, radius]: each bin's mass is its integral of |f1| (Gauss-Legendre, 16
     nodes per bin, float64); cdf[0] = 0 and cdf[bins] = 1 exactly."""
-    filt = FILTERS[name]
+    filt = FILTERS[filt] if isinstance(filt, str) else filt
+    name = filt.name
     nodes, weights = np.polynomial.legendre.leggauss(16)
     edges = np.linspace(-filt.radius, filt.radius, bins + 1)
     half = 0.5 * (edges[1:] - edges[:-1])
@@ -132,3 +175,18 @@ def filter_cdf(name: str, bins: int = TABLE_BINS) -> np.ndarray:
     if np.any(np.diff(cdf) <= 0):
         raise RuntimeError(f"filter {name}: a table bin has no mass (the sampler needs every bin > 0)")
     return cdf
+
+
+@lru_cache(maxsize=None)
+def clip_table(filt: Filter, bins: int = TABLE_BINS) -> np.ndarray:
+    """(margin, 3) float32: for a pixel k = 0 .. margin - 1 pixels from the film's edge, whose filter
+    is cut at k + 0.5 from its centre on that side: the sampling table's CDF at -(k + 0.5) and at
+    +(k + 0.5) (piecewise linear in the float32 table, as the device reads it: the sampler draws from
+    the table restricted to the film) and the exact integral of f1 beyond the cut, over
+    [-radius, -(k + 0.5)] (f1 is even, so either side)."""
+    cdf = filter_cdf(filt, bins).astype(np.float64)
+    edges = np.linspace(-filt.radius, filt.radius, bins + 1)
+    cuts = np.arange(filt.margin) + 0.5
+    rows = [(np.interp(-c, edges, cdf), np.interp(c, edges, cdf), filt.truncated_integral1(-filt.radius, -c))
+            for c in cuts]
+    return np.asarray(rows, dtype=np.float32).reshape(filt.margin, 3)

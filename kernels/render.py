@@ -19,8 +19,8 @@ from drtlab.errors import InputError
 from drtlab.kernels.scene_upload import upload, uses_vector_quads
 from drtlab.kernels.variants import get_gather, get_kernel, variant_key
 from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
-                                     Features, features_of)
-from drtlab.kernels.filters import BOX, FILTERS
+                                     Features, features_of, grown_margin)
+from drtlab.kernels.filters import BOX
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene_model.scene import Scene
 from drtlab.warp_runtime import warp as _wp
@@ -104,14 +104,17 @@ MAX_PIXELS = 2**28      # a Warp launch's thread count and array shape stay far 
 
 
 def check_image_size(width: int, height: int, moments: bool = False, field: str = "res",
-                     repetitions: int = 1, splat_samples: int = 0, margin: int = 0) -> None:
+                     repetitions: int = 1, splat_samples: int = 0, margin: int = 0,
+                     reach: int | None = None) -> None:
     """Refuse, before compiling or rendering, an image (or a batch of `repetitions` images) whose
     buffers cannot fit in this machine (splatting also keeps `splat_samples` samples of every pixel
-    of the image grown by `margin`: radiance and 2 (2 margin + 1) profile values, float32)."""
+    of the image grown by `margin`: radiance and 2 (2 reach + 1) profile values, float32, `reach`
+    the filter's margin, `margin` unless the filter is cut at the film's edge)."""
+    reach = margin if reach is None else reach
     pixels = width * height * repetitions
     need = pixels * (_BYTES_PER_PIXEL + (48 if moments else 0))
     if splat_samples:
-        need += (width + 2 * margin) * (height + 2 * margin) * repetitions * (4 * (3 + 4 * margin + 2) * splat_samples + 8)
+        need += (width + 2 * margin) * (height + 2 * margin) * repetitions * (4 * (3 + 4 * reach + 2) * splat_samples + 8)
     try:
         memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):
@@ -230,10 +233,11 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
         features = replace(features, moments=True)
     R, W, H = len(seeds), scene.width, scene.height
     # Splatting traces the image grown by the filter's margin and keeps a pass's samples.
-    m = FILTERS[features.filter].margin if features.splat else 0
+    m = grown_margin(features)
+    K = 2 * features.filter_def.margin + 1 if features.splat else 1
     pass_samples = min(PASS_SAMPLES, spp) if features.splat else 0
     check_image_size(W, H, moments=bool(variance), repetitions=R, splat_samples=pass_samples,
-                     margin=m)
+                     margin=m, reach=(K - 1) // 2)
     kernel, compile_s = get_kernel(features, spec, device)
     gather = None
     if features.splat:
@@ -246,7 +250,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
     sums.total = wp.zeros(R * W * H, dtype=wp.vec3d, device=device)
     sums.squares = wp.zeros(R * W * H if variance else 1, dtype=wp.vec3d, device=device)
     grown = R * (W + 2 * m) * (H + 2 * m) * pass_samples if features.splat else 1
-    sums.splat_f = wp.zeros(grown * 2 * (2 * m + 1) if features.splat else 1, dtype=float, device=device)
+    sums.splat_f = wp.zeros(grown * 2 * K if features.splat else 1, dtype=float, device=device)
     sums.splat_L = wp.zeros(grown, dtype=wp.vec3, device=device)
     sums.weight = wp.zeros(R * W * H if features.splat else 1, dtype=wp.float64, device=device)
     tiles = _tiles(W + 2 * m, H + 2 * m, tile, device)

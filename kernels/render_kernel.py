@@ -27,9 +27,8 @@ from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.direct import make_direct
 from drtlab.estimators import dimensions as dims
 from drtlab.kernels.environment_lighting import make_environment_lighting
-from drtlab.kernels.features import REPEAT_CAMERA, Features
+from drtlab.kernels.features import REPEAT_CAMERA, Features, grown_margin
 from drtlab.kernels.filter_sampling import make_pixel_filter
-from drtlab.kernels.filters import FILTERS
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.scene_rays import make_intersect
 from drtlab.kernels.lights import make_lights
@@ -70,8 +69,9 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     sample_ray = make_camera(f, pointset, pixel_filter)
     FIS = pixel_filter is not None and not f.splat
     SPLAT = pixel_filter is not None and f.splat
-    MARGIN = FILTERS[f.filter].margin if SPLAT else 0
-    K = 2 * MARGIN + 1
+    K = 2 * f.filter_def.margin + 1 if SPLAT else 1
+    # The grid's growth beyond the image: none when the filter is cut at the film's edge.
+    MARGIN = grown_margin(f)
     reach = pixel_filter.reach if SPLAT else None
     get2d = pointset.get2d
     trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
@@ -92,7 +92,8 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
         px = x0 + local % tile_w
         py = y0 + local / tile_w
         # Splatting renders the image grown by the filter's margin (tiles of the grown grid, pixels
-        # keyed in it): the samples of pixels outside the image reach the pixels at its border.
+        # keyed in it): the samples of pixels outside the image reach the pixels at its border
+        # (unless the filter is cut at the film's edge: then no sample lies beyond it).
         grown_w = sd.width + 2 * wp.static(MARGIN)
         grown_h = sd.height + 2 * wp.static(MARGIN)
         if px >= grown_w or py >= grown_h:

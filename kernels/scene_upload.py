@@ -25,7 +25,7 @@ from drtlab.kernels.colour import luminance
 from drtlab.kernels.environment import environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_quad_simd, uses_sphere_bvh
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
-from drtlab.kernels.filters import BOX, filter_cdf
+from drtlab.kernels.filters import BOX, clip_table, filter_cdf, get_filter
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
 from drtlab.kernels.scene_model.scene import Camera, Scene
@@ -259,8 +259,11 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     c.shutter_close = float(cam.shutter[1])
 
 
-def _put_filter(sd: SceneData, name: str, arr: Callable) -> None:
-    sd.filter.cdf = arr(filter_cdf(name) if name != BOX else np.array([0.0, 1.0]), float, (2,))
+def _put_filter(sd: SceneData, camera, arr: Callable) -> None:
+    filt = get_filter(camera.filter, camera.filter_stddev)
+    sd.filter.cdf = arr(filter_cdf(filt) if filt.name != BOX else np.array([0.0, 1.0]), float, (2,))
+    clip = clip_table(filt) if camera.filter_clip and filt.margin else np.zeros((1, 3))
+    sd.filter.clip = arr(clip, wp.vec3, (1, 3))
 
 
 def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device: str,
@@ -339,7 +342,7 @@ def _upload(scene: Scene, device: str) -> SceneData:
     sd.environment = environment_data(scene.environment, np.asarray(power),
                                       0.5 * extent, arr)
     _put_camera(sd, scene)
-    _put_filter(sd, scene.camera.filter, arr)
+    _put_filter(sd, scene.camera, arr)
     sd.background = wp.vec3(*_f3(scene.background))
     sd.eps = float(1e-6 * extent)
     sd.width = int(scene.width)

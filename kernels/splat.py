@@ -11,22 +11,25 @@ threads and tiles cannot change the image. The pixel is the ratio of the two sum
 What it estimates: the pixel's samples are uniform in its own square, so over the grown image the
 samples cover the filter's support uniformly and both sums, divided by the samples per pixel, are
 unbiased for integral f L and integral f: their ratio is consistent for the filter-weighted pixel
-(kernels/filters.py), with a bias of order 1/spp (a ratio of two noisy sums).
+(kernels/filters.py), with a bias of order 1/spp (a ratio of two noisy sums). With the filter cut
+at the film's edge (Features.filter_clip, Mitsuba's films without sample_border) the image is not
+grown: a border pixel's neighbours beyond the image have no samples, so both sums cover only the
+film and the ratio is consistent for the cut filter's pixel, exactly Mitsuba's ImageBlock estimate.
 """
 from __future__ import annotations
 
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.features import Features
-from drtlab.kernels.filters import FILTERS
+from drtlab.kernels.features import Features, grown_margin
 from drtlab.kernels.render_kernel import PixelSums
 
 
 def make_gather(f: Features):
     """The gather kernel of `f.filter` (it depends on nothing else of the scene or the sampler)."""
-    MARGIN = FILTERS[f.filter].margin
+    MARGIN = f.filter_def.margin
     K = 2 * MARGIN + 1
+    GROW = grown_margin(f)
 
     @wp.kernel(enable_backward=False, module="unique")
     def gather_tile(sd: SceneData, count: int, x0: int, y0: int, tile_w: int, tile_h: int,
@@ -38,16 +41,25 @@ def make_gather(f: Features):
         qy = y0 + local / tile_w
         if qx >= sd.width or qy >= sd.height:
             return
-        grown_w = sd.width + 2 * wp.static(MARGIN)
-        grown_h = sd.height + 2 * wp.static(MARGIN)
+        grown_w = sd.width + 2 * wp.static(GROW)
+        grown_h = sd.height + 2 * wp.static(GROW)
         fl = wp.vec3d(wp.float64(0.0), wp.float64(0.0), wp.float64(0.0))
         fw = wp.float64(0.0)
         for j in range(wp.static(K)):
             for i in range(wp.static(K)):
                 # Source pixel q + (i - margin, j - margin), at (qx + i, qy + j) in the grown grid;
                 # its samples' profile values at q's column and row are their i-th and j-th.
-                src = (rep * grown_h + qy + j) * grown_w + qx + i
-                for k in range(count):
+                sx = qx + i - wp.static(MARGIN - GROW)
+                sy = qy + j - wp.static(MARGIN - GROW)
+                n = count
+                if wp.static(GROW < MARGIN):
+                    # Cut at the film's edge: the grid is the image, and beyond it are no samples.
+                    if sx < 0 or sy < 0 or sx >= grown_w or sy >= grown_h:
+                        n = 0
+                        sx = 0
+                        sy = 0
+                src = (rep * grown_h + sy) * grown_w + sx
+                for k in range(n):
                     s = src * count + k
                     w = sums.splat_f[s * wp.static(2 * K) + i] * sums.splat_f[s * wp.static(2 * K) + wp.static(K) + j]
                     if w != 0.0:

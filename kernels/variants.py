@@ -77,9 +77,11 @@ def _compiled_once(key, build, device: str):
 
 
 def get_gather(features: Features, device: str):
-    """The splatting gather kernel of `features.filter` (kernels/splat.py); one per filter."""
+    """The splatting gather kernel of `features.filter` (kernels/splat.py); one per filter (its stddev
+    and whether it is cut at the film's edge)."""
     def build():
         from drtlab.kernels.splat import make_gather
         return make_gather(features)
 
-    return _compiled_once(("gather", features.filter, device), build, device)
+    return _compiled_once(("gather", features.filter, features.filter_stddev, features.filter_clip, device),
+                          build, device)

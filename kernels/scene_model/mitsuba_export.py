@@ -35,9 +35,10 @@ def check_exportable(scene: Scene) -> None:
     if np.any(scene.background != 0.0):
         raise InputError("scene.background", "an unsampled background has no Mitsuba 3 counterpart; "
                                              "use [environment] kind = \"constant\" (Mitsuba's constant emitter)")
-    if scene.camera.filter not in ("box", "mitchell"):
+    if scene.camera.filter not in ("box", "mitchell", "mitsuba_gaussian"):
         raise InputError("camera.filter", f"'{scene.camera.filter}' is not exported (Mitsuba's filter "
-                                          "of that name differs or is missing; exportable: box, mitchell)")
+                                          "of that name differs or is missing; exportable: box, mitchell, "
+                                          "mitsuba_gaussian)")
     for m in scene.materials:
         if m.kind in PHONG_KINDS:
             raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' has a modified-Phong lobe, which "
@@ -148,9 +149,11 @@ def _sensor(root, scene: Scene) -> None:
     film = ET.SubElement(sensor, "film", type="hdrfilm")
     ET.SubElement(film, "integer", name="width", value=str(scene.width))
     ET.SubElement(film, "integer", name="height", value=str(scene.height))
-    if c.filter == "mitchell":          # Mitsuba's own, once samples beyond the border count too
-        ET.SubElement(film, "boolean", name="sample_border", value="true")
-    ET.SubElement(film, "rfilter", type=c.filter)
+    if c.filter != "box":       # Mitsuba's own; samples beyond the border count unless cut there
+        ET.SubElement(film, "boolean", name="sample_border", value="false" if c.filter_clip else "true")
+    rfilter = ET.SubElement(film, "rfilter", type="gaussian" if c.filter == "mitsuba_gaussian" else c.filter)
+    if c.filter_stddev:
+        _num(rfilter, "float", "stddev", c.filter_stddev)
 
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:

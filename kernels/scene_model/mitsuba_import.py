@@ -15,6 +15,7 @@ import numpy as np
 
 from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
 from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
+from drtlab.kernels.filters import MITSUBA_GAUSSIAN, MITSUBA_STDDEV, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, Reader, Ref, chain_matrix
 
 INTEGRATORS, SENSORS = ("path", "direct"), ("perspective", "thinlens")
@@ -22,9 +23,7 @@ SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler
 # Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
 WHY_NOT = {
     "roughplastic": "its coat's transmittance is a per-material table Mitsuba integrates numerically, "
-                    "which drtlab's kernels do not carry",
-    "gaussian": "Mitsuba's Gaussian (stddev 0.5, radius 2) is not drtlab's (sigma 0.5, radius 1.5); "
-                "supported: box, mitchell"}
+                    "which drtlab's kernels do not carry"}
 
 
 def scene_dict(path: Path) -> tuple[dict, str]:
@@ -161,7 +160,9 @@ class _Importer(ShapeMapping, MaterialMapping):
                 sampler = child
             else:
                 self.r.fail(child.path, f"<{child.tag}> in a sensor is not supported")
-        width, height, pixel_filter = self.film(film) if film else (768, 576, "box")
+        # No film: Mitsuba's default hdrfilm, 768 x 576 with its Gaussian and no border samples.
+        width, height, film_filter = (self.film(film) if film else
+                                      (768, 576, {"filter": MITSUBA_GAUSSIAN, "filter_clip": True}))
         s = self.data["scene"]
         s["resolution"] = [width, height]
         s["spp"] = self.sampler(sampler) if sampler else 4
@@ -169,8 +170,7 @@ class _Importer(ShapeMapping, MaterialMapping):
         chain = self.get(o, "to_world", ("transform",), [])
         self.camera_frame(o, chain, cam)
         cam["fov"] = self.vertical_fov(o, width / height)
-        if pixel_filter != "box":
-            cam["filter"] = pixel_filter
+        cam.update(film_filter)
         self.ignore(o, "near_clip", "far_clip", "shutter_open", "shutter_close", "shutter_open_time")
         if kind == "thinlens":
             if "aperture_radius" not in o.props:
@@ -230,7 +230,8 @@ class _Importer(ShapeMapping, MaterialMapping):
             fov = math.degrees(2.0 * math.atan(diagonal / math.sqrt(1.0 + 1.0 / (aspect * aspect)) * 0.5))
         return math.degrees(2.0 * math.atan(math.tan(0.5 * math.radians(fov)) / aspect))
 
-    def film(self, o: Obj) -> tuple[int, int, str]:
+    def film(self, o: Obj) -> tuple[int, int, dict]:
+        """(width, height, the camera's filter keys) of an hdrfilm."""
         self.kind(o, ("hdrfilm",))
         size = [int(self.number(o, k, d, lambda n: n == int(n) and n >= 1, "an integer >= 1"))
                 for k, d in (("width", 768), ("height", 576))]
@@ -238,27 +239,35 @@ class _Importer(ShapeMapping, MaterialMapping):
                         ("crop_offset_y", 0)):
             self.number(o, k, full, lambda n, full=full: n == full, f"{full} (drtlab renders the whole film)")
         self.ignore(o, "file_format", "pixel_format", "component_format", "banner")
+        # Mitsuba samples only the film unless sample_border: a pixel near the edge then weighs the
+        # samples inside the film alone, its filter cut there (drtlab's filter_clip).
         border = self.get(o, "sample_border", ("boolean",), False)
         filters = self.nested(o)
-        if not filters:
-            self.r.fail(o.path, "no <rfilter> means Mitsuba's Gaussian filter, which drtlab lacks; "
-                                "add <rfilter type=\"box\"/>")
-        pixel_filter = "box"
+        # No <rfilter>: Mitsuba's default, its Gaussian of stddev 0.5.
+        cam = {"filter": MITSUBA_GAUSSIAN}
         for f in filters:
             if f.tag != "rfilter":
                 self.r.fail(f.path, f"<{f.tag}> in a film is not supported")
-            if self.kind(f, ("box", "mitchell")) == "mitchell":
+            kind = self.kind(f, ("box", "gaussian", "mitchell"))
+            if kind == "box":
+                cam = {}
+            elif kind == "gaussian":
+                stddev = self.number(f, "stddev", MITSUBA_STDDEV, lambda x: STDDEV_MIN <= x <= STDDEV_MAX,
+                                     f"in [{STDDEV_MIN}, {STDDEV_MAX}] pixels")
+                cam = {"filter": MITSUBA_GAUSSIAN}
+                if stddev != MITSUBA_STDDEV:
+                    cam["filter_stddev"] = float(stddev)
+            else:
                 # Mitsuba splats each sample over radius 2, normalised by the weights: drtlab's
-                # mitchell (B = C = 1/3) once samples beyond the border count too, as drtlab's do.
+                # mitchell (B = C = 1/3).
                 for name in ("B", "C"):
                     self.number(f, name, 1 / 3, lambda x: abs(x - 1 / 3) < 1e-6, "1/3 (drtlab's mitchell)")
-                if not border:
-                    self.r.fail(f.path, "mitchell needs <boolean name=\"sample_border\" value=\"true\"/> "
-                                        "in the film (drtlab's border pixels have full support)")
-                pixel_filter = "mitchell"
+                cam = {"filter": "mitchell"}
             self.done(f)
+        if cam and not border:
+            cam["filter_clip"] = True
         self.done(o)
-        return size[0], size[1], pixel_filter
+        return size[0], size[1], cam
 
     def sampler(self, o: Obj) -> int:
         self.kind(o, SAMPLERS)

@@ -27,6 +27,8 @@ class Camera:
                                         # the kernels divide by it, pinhole or not)
     shutter: tuple[float, float] = (0.0, 0.0)
     filter: str = "box"                 # pixel reconstruction filter, a name in kernels/filters.py
+    filter_stddev: float = 0.0          # its stddev (filters.STDDEV_FILTERS); 0: the filter's default
+    filter_clip: bool = False           # the filter truncated to the film (no samples beyond its edge)
 
     def __post_init__(self):
         if not self.focus_distance > 0.0:

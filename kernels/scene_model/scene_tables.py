@@ -17,7 +17,7 @@ from drtlab.errors import InputError
 from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as number,
                            scene_numbers as numbers, show, string)
 from drtlab.kernels.scene_model.environment_map import parse_environment
-from drtlab.kernels.filters import BOX, FILTER_NAMES
+from drtlab.kernels.filters import BOX, FILTER_NAMES, STDDEV_FILTERS, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
 from drtlab.kernels.scene_model.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
@@ -28,7 +28,7 @@ TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environme
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
               "rr_depth", "background")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
-               "focal_length", "image_distance", "shutter", "filter")
+               "focal_length", "image_distance", "shutter", "filter", "filter_stddev", "filter_clip")
 # What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/scene_model/mesh_file.py).
 SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
 SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
@@ -143,8 +143,17 @@ def _parse_camera(value: Any) -> Camera:
     aperture, focus = _parse_lens(t)
     shutter = _parse_shutter(t.get("shutter", [0.0, 0.0], ""), t.field("shutter"))
     pixel_filter = string(t.get("filter", BOX, ""), t.field("filter"), FILTER_NAMES)
+    stddev = t.get("filter_stddev", None, "")
+    if stddev is not None:
+        if pixel_filter not in STDDEV_FILTERS:
+            raise InputError(t.field("filter_stddev"), f"is for filter {' or '.join(STDDEV_FILTERS)} "
+                                                       f"(the others' shapes are fixed), not {pixel_filter!r}")
+        stddev = number(stddev, t.field("filter_stddev"), f"in [{STDDEV_MIN}, {STDDEV_MAX}] pixels",
+                        lambda x: STDDEV_MIN <= x <= STDDEV_MAX)
+    clip = boolean(t.get("filter_clip", False, ""), t.field("filter_clip"))
     return Camera(position=position, look_at=look_at, up=up, vfov_deg=fov, aperture_radius=aperture,
-                  focus_distance=focus, shutter=shutter, filter=pixel_filter)
+                  focus_distance=focus, shutter=shutter, filter=pixel_filter,
+                  filter_stddev=float(stddev or 0.0), filter_clip=clip and pixel_filter != BOX)
 
 
 def _parallel(a: np.ndarray, b: np.ndarray) -> bool:

@@ -249,10 +249,9 @@ def test_refused_elements_name_their_path(tmp_path, body, where, what):
 
 
 @pytest.mark.parametrize("change,what", [
-    (('<rfilter type="box" name="filter"/>', '<rfilter type="gaussian"/>'), "Gaussian"),
-    (('<rfilter type="box" name="filter"/>', ''), 'add <rfilter type="box"/>'),
-    (('<rfilter type="box" name="filter"/>', '<rfilter type="mitchell"/>'), "sample_border"),
-    (('<rfilter type="box" name="filter"/>', '<rfilter type="tent"/>'), "supported: box, mitchell"),
+    (('<rfilter type="box" name="filter"/>', '<rfilter type="gaussian"><float name="stddev" value="0.1"/>'
+      '</rfilter>'), "rfilter(gaussian)/float[@name=stddev]: must be in [0.25, 4.0]"),
+    (('<rfilter type="box" name="filter"/>', '<rfilter type="tent"/>'), "supported: box, gaussian, mitchell"),
     (('value="40.0"', 'value="abc"'), "float[@name=fov]: could not parse"),
     (('value="40.0"', 'value="nan"'), "finite"),
     (('value="3"/>', 'value="$spp"/>'), "undefined parameter $spp"),

@@ -204,7 +204,7 @@ def test_profile_integrals_and_tables(name):
     if name != "box":
         cdf = filter_cdf(name)
         assert cdf[0] == 0.0 and cdf[-1] == 1.0 and np.all(np.diff(cdf) > 0)
-    assert filt.margin == {"box": 0, "gaussian": 1, "mitchell": 2, "blackman_harris": 2}[name]
+    assert filt.margin == {"box": 0, "gaussian": 1, "mitchell": 2, "blackman_harris": 2, "mitsuba_gaussian": 2}[name]
 
 
 # ---------------------------------------------------------------------------------------------------

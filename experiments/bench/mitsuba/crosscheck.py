@@ -152,7 +152,9 @@ def _drtlab_stack(job: dict, spp: int, seeds: list[int], threads: int) -> tuple[
     from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene(job["drtlab"], job["overrides"])
     # Mitsuba splats a wide filter's samples into every pixel it covers: drtlab's +splat estimator
-    # forms the same ratio image (filter importance sampling would be another, equally valid, image).
+    # forms the same ratio, its 1/spp bias included. Filter importance sampling converges to the same
+    # image (unbiased), but at 32 spp it rarely reaches a bright detail in the filter's far tail, so its
+    # pixels there are heavy-tailed and their seed-to-seed standard errors too small.
     sampler = DEFAULT_SAMPLER + ("" if scene.camera.filter == "box" else "+splat")
     b = render_batch_with_stats(scene, seeds, spp=spp, sampler=sampler, threads=threads, progress=False)
     return b.images, {"sampler": sampler, "integrator": b.integrator, "max_depth": scene.max_depth,
