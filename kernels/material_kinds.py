@@ -31,6 +31,8 @@ class MaterialKind:
     emitter: bool = False       # black: it only emits, and scatters nothing
     model: str = ""             # its module in kernels/materials/ (eval_bsdf, sample, pdf); "" for
                                 # the kinds in bsdf.py's switches
+    conductor: bool = False     # a metal of complex index `eta` + i `k` (per channel): its facets
+                                # reflect albedo times the conductor Fresnel (conductor.py)
 
     @property
     def ior(self) -> bool:
@@ -50,7 +52,8 @@ class MaterialKind:
         return (("kind",) + (() if self.emitter else ("albedo",))
                 + (("albedo2", "checker") if self.checker else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
-                + (("ior",) if self.ior else ()) + ("emission",))
+                + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
+                + ("emission",))
 
     @property
     def shape_key(self) -> str | None:
@@ -74,6 +77,10 @@ KINDS = (
     MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
     MaterialKind("ggx_separable", microfacet=True, checker=True, model="ggx_separable"),
     MaterialKind("ggx_dielectric_separable", microfacet=True, transmits=True, model="ggx_dielectric_separable"),
+    MaterialKind("beckmann_dielectric", microfacet=True, transmits=True, model="beckmann_dielectric"),
+    MaterialKind("conductor", delta=True, conductor=True),
+    MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann"),
+    MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_separable"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)
