@@ -88,6 +88,8 @@ class MaterialData:
     exponent: wp.array(dtype=float)            # the lobe shape: Phong exponent or GGX alpha
     ior: wp.array(dtype=float)
     emission: wp.array(dtype=wp.vec3)
+    eta: wp.array(dtype=wp.vec3)               # a conductor's complex index eta + i k, per channel
+    k: wp.array(dtype=wp.vec3)
 
 
 @wp.struct

@@ -180,6 +180,8 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.exponent = arr([_shape_parameter(x) for x in materials], float, (1,))
     m.ior = arr([x.ior for x in materials], float, (1,))
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
+    m.eta = arr([x.eta for x in materials], wp.vec3, (1, 3))
+    m.k = arr([x.k for x in materials], wp.vec3, (1, 3))
 
 
 def emitter_powers(scene: Scene) -> list[float]:

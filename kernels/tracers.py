@@ -18,8 +18,8 @@ from drtlab.kernels.features import (DROP_COSINE, PDF_HIGH_10PCT, REPEAT_DRAW, R
                                      Features)
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
-from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR, Bsdf,
-                                      emitted, surface_albedo)
+from drtlab.kernels.materials import (CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR,
+                                      Bsdf, emitted, surface_albedo)
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
@@ -55,6 +55,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
     TWICE_SAMPLE_BSDF = REPEAT_SAMPLE_BSDF in f.faults
     TWICE_DRAW = REPEAT_DRAW in f.faults
     MESHES = f.meshes
+    HAS_CONDUCTOR = "conductor" in f.kinds      # a delta kind besides mirror and dielectric
     # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
     # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
     LOBE_CHOICE = bool(f.kinds & LOBE_CHOICE_KINDS)
@@ -120,7 +121,12 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             albedo = surface_albedo(sd, m, h.uv)
             exponent = sd.materials.exponent[m]
             ior = sd.materials.ior[m]
+            cond_eta = sd.materials.eta[m]
+            cond_k = sd.materials.k[m]
             is_delta = kind == MIRROR or kind == DIELECTRIC
+            if wp.static(HAS_CONDUCTOR):
+                if kind == CONDUCTOR:
+                    is_delta = True
             # The BSDF sees the shading normal (a mesh's interpolated one); offsets and the side
             # test stay geometric (geometry.shading_consistent).
             ns = h.n
@@ -134,13 +140,13 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                                    spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
                                spp)
-                    L += next_event(sd, beta, kind, albedo, exponent, ior, h, wo, ul, up, depth,
+                    L += next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, h, wo, ul, up, depth,
                                     dt)
                     if wp.static(TWICE_NEXT_EVENT):
-                        L += 1.0e-30 * next_event(sd, beta, kind, albedo, exponent, ior, h, wo,
+                        L += 1.0e-30 * next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, h, wo,
                                                   1.0 - ul, wp.vec2(up[1], up[0]), depth, dt)
                 if wp.static(DELTA_LIGHTS):
-                    L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior,
+                    L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior, cond_eta, cond_k,
                                                              h.p, h.n, ns, wo, dt))
             u_lobe = float(0.0)
             if wp.static(LOBE_CHOICE):
@@ -149,9 +155,9 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if wp.static(TWICE_DRAW):
                 L += wp.vec3(1.0e-30 * get2d(seed, pix, idx + wp.uint32(1),
                                              base + wp.uint32(wp.static(dims.DIRECTION)), spp)[0])
-            s = sample_bsdf(kind, albedo, exponent, ior, ns, wo, u_lobe, u_dir)
+            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, ns, wo, u_lobe, u_dir)
             if wp.static(TWICE_SAMPLE_BSDF):
-                L += 1.0e-30 * sample_bsdf(kind, albedo, exponent, ior, ns, wo, u_lobe,
+                L += 1.0e-30 * sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, ns, wo, u_lobe,
                                            wp.vec2(u_dir[1], u_dir[0])).weight
             if s.valid == 0:
                 break

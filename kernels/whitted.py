@@ -2,7 +2,7 @@
 
 `make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
 and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
-light a surface by light_centres(sd, kind, albedo, exponent, ior, p, n, ns, wo): each seen as a point
+light a surface by light_centres(sd, kind, albedo, exponent, ior, cond_eta, cond_k, p, n, ns, wo): each seen as a point
 source at its centre (a mesh light: at its area-weighted centroid; n geometric, ns shading normal,
 as in kernels/direct.py).
 """
@@ -15,9 +15,10 @@ from drtlab.kernels.environment import env_radiance
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
-from drtlab.kernels.materials import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
+from drtlab.kernels.materials import (CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
                                       GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
+from drtlab.kernels.materials.conductor import fresnel_conductor
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.static_tag import variant_tag
 
@@ -29,6 +30,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     SPLITS = f.whitted_splits
     MESHES = f.meshes
     ENV = f.environment
+    HAS_CONDUCTOR = "conductor" in f.kinds      # the smooth one: a mirror of Fresnel reflectance
     # The kind table's model kinds (MaterialKind.model): a reflecting one ends the ray with its
     # direct light, as ggx; a transmitting one splits as a smooth dielectric, as ggx_dielectric.
     MODEL_ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and not k.transmits and k.name in f.kinds)
@@ -41,7 +43,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
 
     @wp.func
     def light_centres(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                      p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
+                      cond_eta: wp.vec3, cond_k: wp.vec3, p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
         # Whitted's shadow rays to area-light centres: each light acts as a point source with its
         # radiant intensity towards p (sphere: Le * pi r^2; one-sided quad: Le * A * cos; a mesh:
         # its one-sided flat part |N| cos plus its closed part (A - |N|) / 4, N = sum of area x
@@ -75,7 +77,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     intensity = (wp.max(0.0, -wp.dot(na, wi))
                                  + 0.25 * wp.max(0.0, sd.meshes.area[s] - wp.length(na)))
             if intensity > 0.0:
-                fc = eval_bsdf(kind, albedo, exponent, ior, ns, wo, wi)
+                fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
@@ -139,15 +141,21 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     direct = wp.vec3(0.0)
                     if wp.static(AREA_CENTRES):
                         direct += light_centres(sd, kind, albedo, sd.materials.exponent[m],
-                                                sd.materials.ior[m], h.p, h.n, ns, wo)
+                                                sd.materials.ior[m], sd.materials.eta[m],
+                                                sd.materials.k[m], h.p, h.n, ns, wo)
                     if wp.static(DELTA_LIGHTS):
                         direct += direct_delta_lights(sd, kind, albedo, sd.materials.exponent[m],
-                                                      sd.materials.ior[m], h.p, h.n, ns, wo, 0.0)
+                                                      sd.materials.ior[m], sd.materials.eta[m],
+                                                      sd.materials.k[m], h.p, h.n, ns, wo, 0.0)
                     L += wp.cw_mul(beta, direct)
                     break
                 wi = 2.0 * co * nf - wo
                 if kind == MIRROR:
                     beta = wp.cw_mul(beta, albedo)
+                if wp.static(HAS_CONDUCTOR):
+                    if kind == CONDUCTOR:
+                        beta = wp.cw_mul(beta, wp.cw_mul(albedo, fresnel_conductor(
+                            co, sd.materials.eta[m], sd.materials.k[m])))
                 if wp.static(SPLITS > 0):
                     splits = kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC
                     _split_variant = wp.static(variant_tag(MODEL_SPLITS))  # noqa: F841 (static_tag.py)

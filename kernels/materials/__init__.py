@@ -3,9 +3,13 @@
 
 `make_bsdf(features, strategy)` returns Bsdf, Warp functions of the features' material kinds that
 can be called on their own (the tracer, MIS and the chi-square tests use the same ones):
-    eval_bsdf(kind, albedo, exponent, ior, n, wo, wi) -> f(wo, wi) |cos theta_i|  (non-delta kinds)
+    eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi) -> f(wo, wi) |cos theta_i|
+                                                      (non-delta kinds)
     pdf_bsdf(kind, exponent, ior, n, wo, wi)          -> solid-angle density of sample_bsdf
-    sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter (weight = f|cos|/pdf)
+    sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, u_lobe, u) -> Scatter
+                                                      (weight = f|cos|/pdf)
+`cond_eta`, `cond_k`: a conductor kind's complex index of refraction (conductor.py), unread by
+the other kinds.
 `strategy.lobe` True samples cosine / Phong lobes / Fresnel, False samples uniform hemisphere
 (sphere for glossy transmission) and picks reflect/refract with probability 1/2.
 `plastic` is a diffuse base under a glossy dielectric coat; its model is `eval_plastic`'s docstring.
@@ -17,6 +21,6 @@ picks how the lobe strategy draws their microfacet normals (visible normals or D
 """
 from drtlab.kernels.materials.bsdf import Bsdf, Scatter, make_bsdf  # noqa: F401
 from drtlab.kernels.materials.kinds import (  # noqa: F401
-    DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY, GLOSSY_DIELECTRIC, LOBE_CHOICE_KINDS, MIRROR,
+    CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY, GLOSSY_DIELECTRIC, LOBE_CHOICE_KINDS, MIRROR,
     PLASTIC)
 from drtlab.kernels.materials.surface import checkered, emitted, surface_albedo  # noqa: F401

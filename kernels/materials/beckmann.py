@@ -40,6 +40,16 @@ def beckmann_g1(alpha: float, c: float) -> float:
 
 
 @wp.func
+def beckmann_normal(alpha: float, nf: wp.vec3, u: wp.vec2) -> wp.vec3:
+    """A microfacet normal drawn with density D(m) cos theta_m about nf."""
+    t2 = -alpha * alpha * wp.log(1.0 - u[0])
+    c = 1.0 / wp.sqrt(1.0 + t2)
+    s = wp.sqrt(wp.max(1.0 - c * c, 0.0))
+    sc = sincos_turns(u[1])
+    return frame_to_world(wp.vec3(s * sc[0], s * sc[1], c), nf)
+
+
+@wp.func
 def _half(nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
     h = wo + wi
     ll = wp.length(h)
@@ -68,11 +78,7 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
            u: wp.vec2) -> wp.vec3:
     nf = facing(n, wo)
-    t2 = -shape * shape * wp.log(1.0 - u[0])
-    c = 1.0 / wp.sqrt(1.0 + t2)
-    s = wp.sqrt(wp.max(1.0 - c * c, 0.0))
-    sc = sincos_turns(u[1])
-    wm = frame_to_world(wp.vec3(s * sc[0], s * sc[1], c), nf)
+    wm = beckmann_normal(shape, nf, u)
     om = wp.dot(wo, wm)
     if om <= 0.0:
         return wp.vec3(0.0)

@@ -15,8 +15,9 @@ from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
                                                  interface, refract_dir)
 from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
-from drtlab.kernels.materials.kinds import (DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
-                                            GLOSSY_DIELECTRIC, MIRROR, PLASTIC)
+from drtlab.kernels.materials.conductor import fresnel_conductor, half_fresnel
+from drtlab.kernels.materials.kinds import (CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC,
+                                            GLOSSY, GLOSSY_DIELECTRIC, MIRROR, PLASTIC)
 from drtlab.kernels.materials.plastic import eval_plastic, plastic_coat_probability
 
 
@@ -38,9 +39,10 @@ SWITCH_KINDS = kinds_where(lambda k: not k.model and not k.emitter)
 
 
 class Bsdf(NamedTuple):
-    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, n, wo, wi) -> f|cos|
+    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi) -> f|cos|
     pdf_bsdf: wp.Function       # (kind, exponent, ior, n, wo, wi) -> sample_bsdf's density
-    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, n, wo, u_lobe, u) -> Scatter
+    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, u_lobe, u)
+                                # -> Scatter
 
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
@@ -54,12 +56,12 @@ def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
 
 
 def _models(kinds: frozenset) -> tuple:
-    """((kind code, module, transmits), ...) of the present kinds the kind table gives a model
-    module (MaterialKind.model): their eval_bsdf, and their lobe sampling unless a strategy's lobe
-    sampler replaces it."""
+    """((kind code, module, transmits, conductor), ...) of the present kinds the kind table gives a
+    model module (MaterialKind.model): their eval_bsdf (times the conductor Fresnel for a conductor
+    kind), and their lobe sampling unless a strategy's lobe sampler replaces it."""
     import importlib
     return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"),
-                  k.transmits) for k in KINDS if k.model and k.name in kinds)
+                  k.transmits, k.conductor) for k in KINDS if k.model and k.name in kinds)
 
 
 def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
@@ -76,7 +78,7 @@ def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
         out = [(MATERIAL_CODE[s.kind], s.sample, s.pdf, s.kind in LOBE_CHOICE_KINDS, s.fingerprint)
                for s in samplers_of(strategy) if s.kind in kinds]
     taken = {p[0] for p in out}
-    out += [(code, m.sample, m.pdf, code in LOBE_CHOICE_CODES, m) for code, m, _ in models if code not in taken]
+    out += [(code, m.sample, m.pdf, code in LOBE_CHOICE_CODES, m) for code, m, *_ in models if code not in taken]
     return tuple(out)
 
 
@@ -100,7 +102,7 @@ def _delta_models(models: tuple) -> tuple:
 
 def _sphere_codes(models: tuple) -> tuple:
     """The codes of the transmitting model kinds: a uniform proposal draws them over the sphere."""
-    return tuple(code for code, _, transmits in models if transmits)
+    return tuple(code for code, _, transmits, _ in models if transmits)
 
 
 def _make_eval(kinds: frozenset, models: tuple):
@@ -109,8 +111,8 @@ def _make_eval(kinds: frozenset, models: tuple):
     K = _present(kinds)
 
     @wp.func
-    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                  wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
+                  n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
         """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
         r = wp.vec3(0.0)
         cos_o = wp.dot(n, wo)
@@ -143,6 +145,8 @@ def _make_eval(kinds: frozenset, models: tuple):
         for i in range(wp.static(len(MODELS))):
             if kind == wp.static(MODELS[i][0]):
                 r = wp.static(MODELS[i][1].eval_bsdf)(albedo, exponent, ior, n, wo, wi)
+                if wp.static(MODELS[i][3]):
+                    r = wp.cw_mul(r, half_fresnel(cond_eta, cond_k, wo, wi))
         return r
 
     return eval_bsdf
@@ -242,8 +246,8 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
     LOBE = lobe
 
     @wp.func
-    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                    wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
+                    n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
         s = Scatter()
         s.valid = 0
         _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
@@ -257,6 +261,13 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
             if kind == MIRROR:
                 s.wi = 2.0 * co * nf - wo
                 s.weight = albedo
+                s.delta = 1
+                s.valid = 1
+                return s
+        if wp.static(K.conductor):
+            if kind == CONDUCTOR:
+                s.wi = 2.0 * co * nf - wo
+                s.weight = wp.cw_mul(albedo, fresnel_conductor(co, cond_eta, cond_k))
                 s.delta = 1
                 s.valid = 1
                 return s
@@ -354,7 +365,7 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                     wi = wp.static(PLUG[i][1])(albedo, exponent, ior, n, wo, ul, u)
         pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
         if pdf > 0.0:
-            fc = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+            fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi)
             if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                 s.wi = wi
                 s.pdf = pdf

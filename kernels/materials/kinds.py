@@ -13,6 +13,7 @@ EMITTER = wp.constant(MATERIAL_CODE["emitter"])
 PLASTIC = wp.constant(MATERIAL_CODE["plastic"])
 GGX = wp.constant(MATERIAL_CODE["ggx"])
 GGX_DIELECTRIC = wp.constant(MATERIAL_CODE["ggx_dielectric"])
+CONDUCTOR = wp.constant(MATERIAL_CODE["conductor"])
 
 # The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
 LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))

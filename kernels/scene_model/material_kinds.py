@@ -33,6 +33,8 @@ class MaterialKind:
                                 # the kinds in bsdf.py's switches
     albedo_shape: bool = False  # the kernels' shape argument is the albedo's mean (Mitsuba's plastics
                                 # weigh their lobe choice by it, and pdf_bsdf has no albedo)
+    conductor: bool = False     # a metal of complex index `eta` + i `k` (per channel): its facets
+                                # reflect albedo times the conductor Fresnel (conductor.py)
 
     @property
     def ior(self) -> bool:
@@ -52,7 +54,8 @@ class MaterialKind:
         return (("kind",) + (() if self.emitter else ("albedo",))
                 + (("albedo2", "checker") if self.checker else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
-                + (("ior",) if self.ior else ()) + ("emission",))
+                + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
+                + ("emission",))
 
     @property
     def shape_key(self) -> str | None:
@@ -79,6 +82,10 @@ KINDS = (
     MaterialKind("ggx_dielectric_separable", microfacet=True, transmits=True, model="ggx_dielectric_separable"),
     MaterialKind("smooth_plastic", coat=True, albedo_shape=True, model="smooth_plastic"),
     MaterialKind("smooth_plastic_nonlinear", coat=True, albedo_shape=True, model="smooth_plastic_nonlinear"),
+    MaterialKind("beckmann_dielectric", microfacet=True, transmits=True, model="beckmann_dielectric"),
+    MaterialKind("conductor", delta=True, conductor=True),
+    MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann"),
+    MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_separable"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

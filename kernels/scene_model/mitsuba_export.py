@@ -22,7 +22,12 @@ from drtlab.kernels.scene_model.scene import Scene
 PHONG_KINDS = ("glossy", "glossy_dielectric", "plastic")
 GGX_KINDS = ("ggx", "ggx_dielectric")
 # drtlab's kinds that are Mitsuba's roughconductor (material "none"), by its `distribution`.
-ROUGH_CONDUCTORS = {"beckmann": "beckmann", "ggx_separable": "ggx"}
+ROUGH_CONDUCTORS = {"beckmann": "beckmann", "ggx_separable": "ggx", "beckmann_conductor": "beckmann",
+                    "ggx_conductor": "ggx"}
+# The conductors with a complex index of refraction (`eta`, `k` written as Mitsuba's rgb values).
+METALS = ("conductor", "beckmann_conductor", "ggx_conductor")
+# ... and its roughdielectric.
+ROUGH_DIELECTRICS = {"beckmann_dielectric": "beckmann", "ggx_dielectric_separable": "ggx"}
 # The procedural environment's default lat-long size: what an imported constant emitter becomes.
 DEFAULT_ENV_SHAPE = (32, 64)
 
@@ -158,17 +163,17 @@ def _sensor(root, scene: Scene) -> None:
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:
     """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
-    one-sided; beckmann and ggx_separable are Mitsuba's roughconductor, ggx_dielectric_separable its
-    roughdielectric); material name -> its id."""
+    one-sided; beckmann, ggx_separable and the rough metals are Mitsuba's roughconductor, beckmann_dielectric and
+    ggx_dielectric_separable its roughdielectric); material name -> its id."""
     ids: dict[str, str] = {}
     for k, m in enumerate(scene.materials):
         ident = m.name if _is_id(m.name) and m.name not in ids.values() else f"material{k}"
         ids[m.name] = ident
-        if m.kind in ("dielectric", "ggx_dielectric_separable"):
+        if m.kind in ("dielectric",) + tuple(ROUGH_DIELECTRICS):
             rough = m.kind != "dielectric"
             b = ET.SubElement(root, "bsdf", type="roughdielectric" if rough else "dielectric", id=ident)
             if rough:
-                _num(b, "string", "distribution", "ggx")
+                _num(b, "string", "distribution", ROUGH_DIELECTRICS[m.kind])
                 _num(b, "float", "alpha", m.roughness)
             _num(b, "float", "int_ior", m.ior)
             _num(b, "float", "ext_ior", 1.0)
@@ -179,11 +184,14 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _vec(b, "rgb", "reflectance", np.zeros(3))
             continue
         outer = ET.SubElement(root, "bsdf", type="twosided", id=ident)
-        if m.kind in ("mirror",) + tuple(ROUGH_CONDUCTORS):
-            b = ET.SubElement(outer, "bsdf", type="conductor" if m.kind == "mirror" else "roughconductor")
+        if m.kind in ("mirror", "conductor") + tuple(ROUGH_CONDUCTORS):
+            b = ET.SubElement(outer, "bsdf", type="roughconductor" if m.kind in ROUGH_CONDUCTORS else "conductor")
             if m.kind in ROUGH_CONDUCTORS:
                 _num(b, "string", "distribution", ROUGH_CONDUCTORS[m.kind])
                 _num(b, "float", "alpha", m.roughness)
+            if m.kind in METALS:
+                _vec(b, "rgb", "eta", m.eta)
+                _vec(b, "rgb", "k", m.k)
             _vec(b, "rgb", "specular_reflectance", m.albedo)
         else:
             b = ET.SubElement(outer, "bsdf", type="diffuse")

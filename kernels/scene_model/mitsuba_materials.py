@@ -5,6 +5,7 @@ A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it 
 """
 from __future__ import annotations
 
+from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic")
@@ -56,14 +57,13 @@ class MaterialMapping:
         if kind == "diffuse":
             spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
         elif kind in ("conductor", "roughconductor"):
-            self.string(o, "material", "none", ("none",))
-            for name in ("eta", "k"):
-                if name in o.props:
-                    self.r.fail(o.props[name].path, "a complex index of refraction is not supported "
-                                                    "(drtlab's conductors reflect a constant colour)")
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
             if kind == "roughconductor":
                 spec.update(zip(("kind", "roughness"), self.roughness(o)))
+            eta, k = self.complex_ior(o)
+            if (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
+                metal = {"mirror": "conductor", "beckmann": "beckmann_conductor", "ggx_separable": "ggx_conductor"}
+                spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
         elif kind == "plastic":
             spec = self.plastic(o)
         else:
@@ -73,10 +73,8 @@ class MaterialMapping:
                     "albedo": self.colour(o, "specular_transmittance", 1.0)}
             if kind == "roughdielectric":
                 rough, alpha = self.roughness(o)
-                if rough != "ggx_separable":        # Beckmann, Mitsuba's default here too
-                    self.r.fail((o.props.get("distribution") or o).path, "'beckmann' is not supported "
-                                "for a roughdielectric (supported: ggx): drtlab has no rough Beckmann glass")
-                spec.update(kind="ggx_dielectric_separable", roughness=alpha)
+                glass = {"beckmann": "beckmann_dielectric", "ggx_separable": "ggx_dielectric_separable"}
+                spec.update(kind=glass[rough], roughness=alpha)
         self.done(o)
         return spec
 
@@ -96,6 +94,25 @@ class MaterialMapping:
         nonlinear = self.get(o, "nonlinear", ("boolean",), False)
         return {"kind": "smooth_plastic_nonlinear" if nonlinear else "smooth_plastic",
                 "albedo": self.colour(o, "diffuse_reflectance", 0.5), "ior": eta}
+
+    def complex_ior(self, o: Obj) -> tuple[list[float], list[float]]:
+        """(eta, k) of a conductor as Mitsuba 3 reads them: `eta`/`k` (defaults 0 and 1: reflects
+        all), or a named `material`, whose RGB values its RGB variants use (mitsuba_conductor_ior)."""
+        names = ("none",) + tuple(CONDUCTOR_IOR)
+        material = self.string(o, "material", "none", names)
+        if material != "none":
+            for name in ("eta", "k"):
+                if name in o.props:
+                    self.r.fail(o.props[name].path, f"give either material ({material!r}) or eta and k, "
+                                                    "not both (as Mitsuba 3)")
+            return [list(v) for v in CONDUCTOR_IOR[material]]
+        out = []
+        for name, default in (("eta", 0.0), ("k", 1.0)):
+            v = self.colour(o, name, default)
+            if min(v) < 0:
+                self.r.fail(o.props[name].path, f"must be >= 0 in every channel, got {v}")
+            out.append(v)
+        return out[0], out[1]
 
     def roughness(self, o: Obj) -> tuple[str, float]:
         """(drtlab kind, isotropic alpha) of a rough conductor: `beckmann`, `ggx_separable` (Mitsuba's

@@ -53,6 +53,10 @@ class Material:
     ior: float = 1.5                            # dielectric, glossy_dielectric, plastic's coat
                                                 # (outside is vacuum)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))  # emitted radiance
+    # A conductor's complex index of refraction eta + i k per channel (conductor kinds); the
+    # default, 0 + 1i, reflects everything at every angle (Mitsuba's material "none").
+    eta: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    k: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     @property
     def emissive(self) -> bool:

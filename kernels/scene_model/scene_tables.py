@@ -258,6 +258,9 @@ def _parse_material(name: str, value: Any) -> Material:
     if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 1 (the coat's index of refraction)",
                        lambda x: x > 1.0)
+    if spec.conductor:
+        m.eta = _color(t.get("eta", [0, 0, 0], ""), t.field("eta"))
+        m.k = _color(t.get("k", [1, 1, 1], ""), t.field("k"))
     if t.has("albedo2"):
         m.albedo2 = _albedo(t.data["albedo2"], t.field("albedo2"))
         m.checker = _checker(t.get("checker", [8, 8], ""), t.field("checker"))

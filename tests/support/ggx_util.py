@@ -69,6 +69,15 @@ class GGX:
     transmits: bool = False
     separable: bool = False         # negative control: G1(wo) G1(wi) instead of height-correlated
 
+    def d(self, c) -> np.ndarray:
+        return d_ggx(self.alpha, c)
+
+    def normal_angles(self, t):
+        """(cos, sin) of the normal at t in [0, 1] of the measure D(m) cos(theta_m) dm = dt dphi / (2 pi)."""
+        a2 = self.alpha * self.alpha
+        q = (1.0 - t) + a2 * t
+        return np.sqrt((1.0 - t) / q), np.sqrt(a2 * t / q)
+
     def g2(self, co, ci):
         if self.separable:
             return 1.0 / ((1.0 + lam(self.alpha, co)) * (1.0 + lam(self.alpha, ci)))
@@ -98,7 +107,7 @@ class GGX:
         if not self.transmits:
             ok &= refl
         F = fresnel(np.clip(om, 0, 1), eta) if self.transmits else np.ones_like(om)
-        dg = d_ggx(self.alpha, m @ nf) * self.g2(co, ci) / co
+        dg = self.d(m @ nf) * self.g2(co, ci) / co
         r = np.where(refl, 0.25 * dg * (F if self.transmits else self.albedo), 0.0)
         if self.transmits:
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -115,10 +124,7 @@ class GGX:
         xp, wpw = _gauss(nphi)
         t = 0.5 * (xt + 1.0)
         phi = 0.5 * math.pi * (xp + 1.0)
-        a2 = self.alpha * self.alpha
-        q = (1.0 - t) + a2 * t
-        cm = np.sqrt((1.0 - t) / q)[:, None]
-        sm = np.sqrt(a2 * t / q)[:, None]
+        cm, sm = (x[:, None] for x in self.normal_angles(t))
         mx, my, mz = sm * np.cos(phi)[None, :], sm * np.sin(phi)[None, :], cm + 0 * phi[None, :]
         om = so * mx + co * mz                      # wo = (so, 0, co) in the local frame
         wr_z = 2.0 * om * mz - co                   # the reflected direction's cos

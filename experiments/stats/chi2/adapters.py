@@ -199,7 +199,7 @@ class BSDFSamples:
 class BSDFAdapter:
     """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
-    n, wo), `exponent` the lobe's shape (GGX: alpha); u_lobe, u.x, u.y of thread i are
+    n, wo) or, for a conductor kind, (..., n, wo, eta, k), `exponent` the lobe's shape (GGX: alpha); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
     (Strategy.microfacet); `lobes`: registered lobe samplers replacing the built-in lobe sampling of
     their kinds (Strategy.lobes)."""
@@ -217,13 +217,14 @@ class BSDFAdapter:
 
     def _launch(self, mode, case, n, seed, pts=None):
         wp = _wp()
-        kind, albedo, exponent, ior, nrm, wo = case
+        kind, albedo, exponent, ior, nrm, wo, *metal = case
+        eta, k = metal or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
         inp, n = _input_points(pts, n)
         arrays = _outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
         kind_i = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
         wp.launch(self.kernel, dim=n, device="cpu",
                   inputs=[int(mode), kind_i, _as_vec3(albedo), float(exponent), float(ior),
-                          _as_vec3(nrm), _as_vec3(wo), wp.uint32(seed), inp, *arrays])
+                          _as_vec3(eta), _as_vec3(k), _as_vec3(nrm), _as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, case, n: int, seed: int = 0) -> BSDFSamples:
@@ -263,7 +264,7 @@ def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
 
     @wp.kernel(enable_backward=False, module="unique")
     def bsdf_kernel(mode: int, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                    n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
+                    cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
                     out_wi: wp.array(dtype=wp.vec3), out_pdf: wp.array(dtype=float),
                     out_weight: wp.array(dtype=wp.vec3), out_flags: wp.array(dtype=int),
                     out_pdf_eval: wp.array(dtype=float), out_f_eval: wp.array(dtype=wp.vec3)):
@@ -272,17 +273,17 @@ def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
             i = wp.uint32(tid)
             u_lobe = uniform(seed, i, 0)
             u = wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2))
-            s = sample_bsdf(kind, albedo, exponent, ior, n, wo, u_lobe, u)
+            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, u_lobe, u)
             out_wi[tid] = s.wi
             out_pdf[tid] = s.pdf
             out_weight[tid] = s.weight
             out_flags[tid] = s.valid + 2 * s.delta
             if s.valid == 1 and s.delta == 0:
                 out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, n, wo, s.wi)
-                out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, n, wo, s.wi)
+                out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, s.wi)
         else:
             wi = pts[tid]
             out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, n, wo, wi)
-            out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, n, wo, wi)
+            out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi)
 
     return bsdf_kernel
