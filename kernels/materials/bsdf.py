@@ -97,7 +97,7 @@ def _delta_models(models: tuple) -> tuple:
     """((kind code, delta_reflection), ...) of the model kinds with a mirror lobe beside their
     density (smooth_plastic.py): sample_bsdf picks it with its probability (1/2 under the uniform
     strategy), and pdf_bsdf is the density of the rest times one minus that."""
-    return tuple((code, m.delta_reflection) for code, m, _ in models if hasattr(m, "delta_reflection"))
+    return tuple((code, m.delta_reflection) for code, m, *_ in models if hasattr(m, "delta_reflection"))
 
 
 def _sphere_codes(models: tuple) -> tuple:
