@@ -90,6 +90,10 @@ class MaterialData:
     emission: wp.array(dtype=wp.vec3)
     eta: wp.array(dtype=wp.vec3)               # a conductor's complex index eta + i k, per channel
     k: wp.array(dtype=wp.vec3)
+    # Rows of per-material data a kind's model reads (MaterialKind.table), one flat array, and each
+    # material's row offset (0 for the others).
+    table: wp.array(dtype=float)
+    row: wp.array(dtype=int)
 
 
 @wp.struct

@@ -7,6 +7,7 @@ per triangle mesh, one over many spheres, the mesh tables). Uploads of equal con
 device arrays (the kernels only read them), so the many renders of one scene in a study pay the
 upload once."""
 import hashlib
+import importlib
 import math
 import os
 import pickle
@@ -182,6 +183,15 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
     m.eta = arr([x.eta for x in materials], wp.vec3, (1, 3))
     m.k = arr([x.k for x in materials], wp.vec3, (1, 3))
+    rows, table = [], [np.zeros(1, dtype=np.float32)]
+    for x in materials:
+        spec = KIND_BY_NAME[x.kind]
+        rows.append(sum(len(t) for t in table) if spec.table else 0)
+        if spec.table:
+            model = importlib.import_module(f"drtlab.kernels.materials.{spec.model}")
+            table.append(model.table_row(x.kind, x.albedo, x.roughness, x.ior))
+    m.table = arr(np.concatenate(table), float, (1,))
+    m.row = arr(rows, int, (1,))
 
 
 def emitter_powers(scene: Scene) -> list[float]:

@@ -11,6 +11,7 @@ from drtlab.estimators import dimensions as dims
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME
 from drtlab.kernels.direct import DirectLighting
 from drtlab.kernels.environment_lighting import oriented
 from drtlab.kernels.features import (DROP_COSINE, PDF_HIGH_10PCT, REPEAT_DRAW, REPEAT_INTERSECT,
@@ -56,6 +57,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
     TWICE_DRAW = REPEAT_DRAW in f.faults
     MESHES = f.meshes
     HAS_CONDUCTOR = "conductor" in f.kinds      # a delta kind besides mirror and dielectric
+    HAS_TABLE = any(KIND_BY_NAME[k].table for k in f.kinds)     # a model reading MaterialData.table
     # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
     # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
     LOBE_CHOICE = bool(f.kinds & LOBE_CHOICE_KINDS)
@@ -123,6 +125,10 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             ior = sd.materials.ior[m]
             cond_eta = sd.materials.eta[m]
             cond_k = sd.materials.k[m]
+            mtable = sd.materials.table
+            mrow = int(0)
+            if wp.static(HAS_TABLE):
+                mrow = sd.materials.row[m]
             is_delta = kind == MIRROR or kind == DIELECTRIC
             if wp.static(HAS_CONDUCTOR):
                 if kind == CONDUCTOR:
@@ -140,13 +146,13 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                                    spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
                                spp)
-                    L += next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, h, wo, ul, up, depth,
+                    L += next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo, ul, up, depth,
                                     dt)
                     if wp.static(TWICE_NEXT_EVENT):
-                        L += 1.0e-30 * next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, h, wo,
+                        L += 1.0e-30 * next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo,
                                                   1.0 - ul, wp.vec2(up[1], up[0]), depth, dt)
                 if wp.static(DELTA_LIGHTS):
-                    L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior, cond_eta, cond_k,
+                    L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow,
                                                              h.p, h.n, ns, wo, dt))
             u_lobe = float(0.0)
             if wp.static(LOBE_CHOICE):
@@ -155,9 +161,9 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if wp.static(TWICE_DRAW):
                 L += wp.vec3(1.0e-30 * get2d(seed, pix, idx + wp.uint32(1),
                                              base + wp.uint32(wp.static(dims.DIRECTION)), spp)[0])
-            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, ns, wo, u_lobe, u_dir)
+            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, u_lobe, u_dir)
             if wp.static(TWICE_SAMPLE_BSDF):
-                L += 1.0e-30 * sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, ns, wo, u_lobe,
+                L += 1.0e-30 * sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, u_lobe,
                                            wp.vec2(u_dir[1], u_dir[0])).weight
             if s.valid == 0:
                 break

@@ -2,7 +2,7 @@
 
 `make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
 and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
-light a surface by light_centres(sd, kind, albedo, exponent, ior, cond_eta, cond_k, p, n, ns, wo): each seen as a point
+light a surface by light_centres(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, p, n, ns, wo): each seen as a point
 source at its centre (a mesh light: at its area-weighted centroid; n geometric, ns shading normal,
 as in kernels/direct.py).
 """
@@ -43,7 +43,8 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
 
     @wp.func
     def light_centres(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                      cond_eta: wp.vec3, cond_k: wp.vec3, p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
+                      cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, p: wp.vec3,
+                      n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
         # Whitted's shadow rays to area-light centres: each light acts as a point source with its
         # radiant intensity towards p (sphere: Le * pi r^2; one-sided quad: Le * A * cos; a mesh:
         # its one-sided flat part |N| cos plus its closed part (A - |N|) / 4, N = sum of area x
@@ -77,7 +78,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     intensity = (wp.max(0.0, -wp.dot(na, wi))
                                  + 0.25 * wp.max(0.0, sd.meshes.area[s] - wp.length(na)))
             if intensity > 0.0:
-                fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, ns, wo, wi)
+                fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
@@ -142,11 +143,13 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     if wp.static(AREA_CENTRES):
                         direct += light_centres(sd, kind, albedo, sd.materials.exponent[m],
                                                 sd.materials.ior[m], sd.materials.eta[m],
-                                                sd.materials.k[m], h.p, h.n, ns, wo)
+                                                sd.materials.k[m], sd.materials.table, sd.materials.row[m],
+                                                h.p, h.n, ns, wo)
                     if wp.static(DELTA_LIGHTS):
                         direct += direct_delta_lights(sd, kind, albedo, sd.materials.exponent[m],
                                                       sd.materials.ior[m], sd.materials.eta[m],
-                                                      sd.materials.k[m], h.p, h.n, ns, wo, 0.0)
+                                                      sd.materials.k[m], sd.materials.table,
+                                                      sd.materials.row[m], h.p, h.n, ns, wo, 0.0)
                     L += wp.cw_mul(beta, direct)
                     break
                 wi = 2.0 * co * nf - wo

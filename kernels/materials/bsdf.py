@@ -39,10 +39,11 @@ SWITCH_KINDS = kinds_where(lambda k: not k.model and not k.emitter)
 
 
 class Bsdf(NamedTuple):
-    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi) -> f|cos|
-    pdf_bsdf: wp.Function       # (kind, exponent, ior, n, wo, wi) -> sample_bsdf's density
-    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, u_lobe, u)
-                                # -> Scatter
+    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, wi)
+                                # -> f|cos|
+    pdf_bsdf: wp.Function       # (kind, exponent, ior, table, row, n, wo, wi) -> sample_bsdf's density
+    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, u_lobe,
+                                # u) -> Scatter
 
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
@@ -61,7 +62,16 @@ def _models(kinds: frozenset) -> tuple:
     kind), and their lobe sampling unless a strategy's lobe sampler replaces it."""
     import importlib
     return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"),
-                  k.transmits, k.conductor) for k in KINDS if k.model and k.name in kinds)
+                  k.transmits, k.conductor) for k in KINDS if k.model and not k.table and k.name in kinds)
+
+
+def _table_models(kinds: frozenset) -> tuple:
+    """((kind code, module), ...) of the present kinds whose model reads its material's row of the
+    flat per-material table (MaterialKind.table): their eval_bsdf, sample and pdf take the table and
+    the row's offset after `ior` (rough_plastic.py)."""
+    import importlib
+    return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"))
+                 for k in KINDS if k.table and k.name in kinds)
 
 
 def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
@@ -108,11 +118,12 @@ def _sphere_codes(models: tuple) -> tuple:
 def _make_eval(kinds: frozenset, models: tuple):
     """eval_bsdf (f|cos|) of `kinds`."""
     MODELS = models
+    TABLED = _table_models(kinds)
     K = _present(kinds)
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
-                  n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+                  table: wp.array(dtype=float), row: int, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
         """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
         r = wp.vec3(0.0)
         cos_o = wp.dot(n, wo)
@@ -147,6 +158,10 @@ def _make_eval(kinds: frozenset, models: tuple):
                 r = wp.static(MODELS[i][1].eval_bsdf)(albedo, exponent, ior, n, wo, wi)
                 if wp.static(MODELS[i][3]):
                     r = wp.cw_mul(r, half_fresnel(cond_eta, cond_k, wo, wi))
+        _tabled = wp.static(variant_tag(TABLED))  # noqa: F841 (static_tag.py)
+        for i in range(wp.static(len(TABLED))):
+            if kind == wp.static(TABLED[i][0]):
+                r = wp.static(TABLED[i][1].eval_bsdf)(albedo, exponent, ior, table, row, n, wo, wi)
         return r
 
     return eval_bsdf
@@ -157,12 +172,13 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
     K = _present(_built_in(all_kinds, plug))
     SPHERE_MODELS = _sphere_codes(models)
     DELTA_MODELS = _delta_models(models)
+    TABLED = _table_models(all_kinds)
     LOBE = lobe
     PLUG = plug
 
     @wp.func
-    def pdf_bsdf(kind: int, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
-                 wi: wp.vec3) -> float:
+    def pdf_bsdf(kind: int, exponent: float, ior: float, table: wp.array(dtype=float), row: int, n: wp.vec3,
+                 wo: wp.vec3, wi: wp.vec3) -> float:
         """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
         cos_o = wp.dot(n, wo)
         cos_i = wp.dot(n, wi)
@@ -224,6 +240,10 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
             for i in range(wp.static(len(PLUG))):
                 if kind == wp.static(PLUG[i][0]):
                     p = wp.static(PLUG[i][2])(exponent, ior, n, wo, wi)
+            _tabled = wp.static(variant_tag(TABLED))  # noqa: F841 (static_tag.py)
+            for i in range(wp.static(len(TABLED))):
+                if kind == wp.static(TABLED[i][0]):
+                    p = wp.static(TABLED[i][1].pdf)(exponent, ior, table, row, n, wo, wi)
         for i in range(wp.static(len(DELTA_MODELS))):
             if kind == wp.static(DELTA_MODELS[i][0]):
                 pd = float(0.5)
@@ -243,11 +263,13 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
     PLUG = plug
     SPHERE_MODELS = _sphere_codes(models)
     DELTA_MODELS = _delta_models(models)
+    TABLED = _table_models(all_kinds)
     LOBE = lobe
 
     @wp.func
     def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
-                    n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+                    table: wp.array(dtype=float), row: int, n: wp.vec3, wo: wp.vec3, u_lobe: float,
+                    u: wp.vec2) -> Scatter:
         s = Scatter()
         s.valid = 0
         _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
@@ -363,9 +385,13 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                     if wp.static(PLUG[i][3]):
                         ul = u_lobe
                     wi = wp.static(PLUG[i][1])(albedo, exponent, ior, n, wo, ul, u)
-        pdf = pdf_bsdf(kind, exponent, ior, n, wo, wi)
+            _tabled = wp.static(variant_tag(TABLED))  # noqa: F841 (static_tag.py)
+            for i in range(wp.static(len(TABLED))):
+                if kind == wp.static(TABLED[i][0]):
+                    wi = wp.static(TABLED[i][1].sample)(albedo, exponent, ior, table, row, n, wo, u_lobe, u)
+        pdf = pdf_bsdf(kind, exponent, ior, table, row, n, wo, wi)
         if pdf > 0.0:
-            fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi)
+            fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, wi)
             if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                 s.wi = wi
                 s.pdf = pdf

@@ -35,6 +35,8 @@ class MaterialKind:
                                 # weigh their lobe choice by it, and pdf_bsdf has no albedo)
     conductor: bool = False     # a metal of complex index `eta` + i `k` (per channel): its facets
                                 # reflect albedo times the conductor Fresnel (conductor.py)
+    table: bool = False         # its model reads a row of the flat per-material table
+                                # (MaterialData.table), built on the host by the model's `table_row`
 
     @property
     def ior(self) -> bool:
@@ -86,6 +88,10 @@ KINDS = (
     MaterialKind("conductor", delta=True, conductor=True),
     MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann"),
     MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_separable"),
+    MaterialKind("beckmann_plastic", microfacet=True, coat=True, table=True, model="rough_plastic"),
+    MaterialKind("ggx_plastic", microfacet=True, coat=True, table=True, model="rough_plastic"),
+    MaterialKind("beckmann_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),
+    MaterialKind("ggx_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -20,10 +20,6 @@ from drtlab.kernels.scene_model.mitsuba_xml import Obj, Reader, Ref, chain_matri
 
 INTEGRATORS, SENSORS = ("path", "direct"), ("perspective", "thinlens")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
-# Why a plugin Mitsuba has is refused: what drtlab lacks to render it exactly.
-WHY_NOT = {
-    "roughplastic": "its coat's transmittance is a per-material table Mitsuba integrates numerically, "
-                    "which drtlab's kernels do not carry"}
 
 
 def scene_dict(path: Path) -> tuple[dict, str]:
@@ -79,8 +75,7 @@ class _Importer(ShapeMapping, MaterialMapping):
 
     def kind(self, o: Obj, supported: tuple[str, ...]) -> str:
         if o.type not in supported:
-            why = WHY_NOT.get(o.type, f"supported: {', '.join(supported)}")
-            self.r.fail(o.path, f"{o.tag} type '{o.type}' is not supported ({why})")
+            self.r.fail(o.path, f"{o.tag} type '{o.type}' is not supported (supported: {', '.join(supported)})")
         return o.type
 
     def nested(self, o: Obj) -> list[Obj]:

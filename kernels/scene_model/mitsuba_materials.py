@@ -8,7 +8,8 @@ from __future__ import annotations
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
-BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic")
+BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
+         "roughplastic")
 
 
 class MaterialMapping:
@@ -45,9 +46,10 @@ class MaterialMapping:
             if len(nested) != 1:
                 self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
                                     "same on both sides)")
-            if nested[0].type not in ("diffuse", "conductor", "roughconductor", "plastic"):
+            one_sided = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
+            if nested[0].type not in one_sided:
                 self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
-                                            "(diffuse, conductor, roughconductor, plastic)")
+                                            f"({', '.join(one_sided)})")
             self.done(o)
             return self.bsdf(nested[0])
         for child in self.nested(o):
@@ -64,7 +66,7 @@ class MaterialMapping:
             if (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
                 metal = {"mirror": "conductor", "beckmann": "beckmann_conductor", "ggx_separable": "ggx_conductor"}
                 spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
-        elif kind == "plastic":
+        elif kind in ("plastic", "roughplastic"):
             spec = self.plastic(o)
         else:
             ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
@@ -84,16 +86,23 @@ class MaterialMapping:
                                                               "white)")
 
     def plastic(self, o: Obj) -> dict:
-        """Mitsuba's smooth `plastic`: `smooth_plastic` (or its `nonlinear` twin), eta = int_ior /
-        ext_ior > 1 (the kind's coat), a white coat."""
+        """Mitsuba's `plastic`: `smooth_plastic` (or its `nonlinear` twin), eta = int_ior / ext_ior > 1
+        (the kind's coat), a white coat; `roughplastic`: `beckmann_plastic` or `ggx_plastic` (and
+        their `_nonlinear` twins) of its alpha."""
         eta = self.ior(o, "int_ior", "polypropylene") / self.ior(o, "ext_ior", "air")
         if eta <= 1.0:
             self.r.fail((o.props.get("int_ior") or o).path, f"int_ior / ext_ior must be > 1 (a coat "
                         f"denser than outside), got {eta:g}")
         self.white_coat(o, "plastic coat")
         nonlinear = self.get(o, "nonlinear", ("boolean",), False)
-        return {"kind": "smooth_plastic_nonlinear" if nonlinear else "smooth_plastic",
-                "albedo": self.colour(o, "diffuse_reflectance", 0.5), "ior": eta}
+        spec = {"kind": "smooth_plastic", "albedo": self.colour(o, "diffuse_reflectance", 0.5), "ior": eta}
+        if o.type == "roughplastic":
+            rough, alpha = self.roughness(o)
+            spec.update(kind={"beckmann": "beckmann_plastic", "ggx_separable": "ggx_plastic"}[rough],
+                        roughness=alpha)
+        if nonlinear:
+            spec["kind"] += "_nonlinear"
+        return spec
 
     def complex_ior(self, o: Obj) -> tuple[list[float], list[float]]:
         """(eta, k) of a conductor as Mitsuba 3 reads them: `eta`/`k` (defaults 0 and 1: reflects

@@ -225,7 +225,8 @@ def test_integrators(tmp_path, integrator, want):
      "'phong' is not supported (supported: beckmann, ggx"),
     ('<shape type="sphere"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughconductor)", "anisotropic"),
-    ('<shape type="sphere"><bsdf type="roughplastic"/></shape>', "bsdf(roughplastic)", "transmittance"),
+    ('<shape type="sphere"><bsdf type="roughplastic"><float name="alpha_u" value="0.1"/>'
+     '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughplastic)", "anisotropic"),
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
      "bsdf(diffuse)/texture(checkerboard)", "textures"),
     ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Xx"/></bsdf></shape>',

@@ -176,7 +176,6 @@ def test_plastic_loads_as_its_kind(tmp_path, bsdf, kind, albedo, eta):
      "rgb[@name=specular_reflectance]: must be 1 (drtlab's plastic coat reflects white)"),
     ('<bsdf type="plastic"><texture type="checkerboard" name="diffuse_reflectance"/></bsdf>', "textures"),
     ('<bsdf type="plastic"><float name="int_ior" value="1.0"/></bsdf>', "int_ior / ext_ior must be > 1"),
-    ('<bsdf type="roughplastic"/>', "bsdf(roughplastic): bsdf type 'roughplastic' is not supported"),
 ])
 def test_refused_plastics_in_one_line(tmp_path, bsdf, what):
     with pytest.raises(InputError) as e:

@@ -199,7 +199,8 @@ class BSDFSamples:
 class BSDFAdapter:
     """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
-    n, wo) or, for a conductor kind, (..., n, wo, eta, k), `exponent` the lobe's shape (GGX: alpha); u_lobe, u.x, u.y of thread i are
+    n, wo) or, for a conductor kind, (..., n, wo, eta, k), `exponent` the lobe's shape (GGX: alpha); a
+    rough plastic kind's table row is built from the case (rough_plastic_table.py); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
     (Strategy.microfacet); `lobes`: registered lobe samplers replacing the built-in lobe sampling of
     their kinds (Strategy.lobes)."""
@@ -224,7 +225,8 @@ class BSDFAdapter:
         kind_i = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
         wp.launch(self.kernel, dim=n, device="cpu",
                   inputs=[int(mode), kind_i, _as_vec3(albedo), float(exponent), float(ior),
-                          _as_vec3(eta), _as_vec3(k), _as_vec3(nrm), _as_vec3(wo), wp.uint32(seed), inp, *arrays])
+                          _as_vec3(eta), _as_vec3(k), _table(kind_i, albedo, exponent, ior), 0, _as_vec3(nrm),
+                          _as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, case, n: int, seed: int = 0) -> BSDFSamples:
@@ -255,6 +257,20 @@ class BSDFAdapter:
         return pdf
 
 
+def _table(kind: int, albedo, exponent: float, ior: float):
+    """The case's row of MaterialData.table (a kind whose model reads one, MaterialKind.table),
+    else one zero."""
+    import importlib
+
+    from drtlab.kernels.scene_model.material_kinds import KINDS
+    spec = KINDS[kind]
+    row = np.zeros(1, dtype=np.float32)
+    if spec.table:
+        row = importlib.import_module(f"drtlab.kernels.materials.{spec.model}").table_row(
+            spec.name, albedo, exponent, ior)
+    return _wp().array(row, dtype=float, device="cpu")
+
+
 def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
     wp = _wp()
     from drtlab.kernels.materials import make_bsdf
@@ -264,7 +280,7 @@ def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
 
     @wp.kernel(enable_backward=False, module="unique")
     def bsdf_kernel(mode: int, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                    cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
+                    cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
                     out_wi: wp.array(dtype=wp.vec3), out_pdf: wp.array(dtype=float),
                     out_weight: wp.array(dtype=wp.vec3), out_flags: wp.array(dtype=int),
                     out_pdf_eval: wp.array(dtype=float), out_f_eval: wp.array(dtype=wp.vec3)):
@@ -273,17 +289,17 @@ def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
             i = wp.uint32(tid)
             u_lobe = uniform(seed, i, 0)
             u = wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2))
-            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, u_lobe, u)
+            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, n, wo, u_lobe, u)
             out_wi[tid] = s.wi
             out_pdf[tid] = s.pdf
             out_weight[tid] = s.weight
             out_flags[tid] = s.valid + 2 * s.delta
             if s.valid == 1 and s.delta == 0:
-                out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, n, wo, s.wi)
-                out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, s.wi)
+                out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, mtable, mrow, n, wo, s.wi)
+                out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, n, wo, s.wi)
         else:
             wi = pts[tid]
-            out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, n, wo, wi)
-            out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi)
+            out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, mtable, mrow, n, wo, wi)
+            out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, n, wo, wi)
 
     return bsdf_kernel
