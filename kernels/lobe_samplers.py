@@ -29,8 +29,10 @@ from drtlab.errors import InputError
 from drtlab.estimators.plugins import check_warp_function
 from drtlab.kernels.scene_model.material_kinds import kinds_where
 
-# Kinds a lobe sampler can serve: delta lobes have no density to sample, emitters do not scatter.
-SAMPLED_KINDS = kinds_where(lambda k: not (k.delta or k.emitter))
+# Kinds a lobe sampler can serve: delta lobes have no density to sample, emitters do not scatter,
+# and a kind whose lobe choice reads its material's table row (MaterialKind.table) has no sampler
+# of this interface.
+SAMPLED_KINDS = kinds_where(lambda k: not (k.delta or k.emitter or k.table))
 
 
 @dataclass(frozen=True)
@@ -79,7 +81,7 @@ def register(ls: LobeSampler, who: str, fingerprint: str) -> LobeSampler:
         raise InputError(who, f"register_lobe_sampler takes a drtlab LobeSampler, got {type(ls).__name__}")
     if ls.kind not in SAMPLED_KINDS:
         raise InputError(who, f"kind must be one of {', '.join(SAMPLED_KINDS)} (delta and emitting kinds "
-                              f"are not sampled by a density), got {ls.kind!r}")
+                              f"are not sampled by a density, table-reading ones by their model), got {ls.kind!r}")
     check_warp_function(ls.sample, "sample", (wp.vec3, float, float, wp.vec3, wp.vec3, float, wp.vec2),
                         wp.vec3, who, "(albedo: vec3, shape, ior, n: vec3, wo: vec3, u_lobe, u: vec2)")
     check_warp_function(ls.pdf, "pdf", (float, float, wp.vec3, wp.vec3, wp.vec3), float, who,

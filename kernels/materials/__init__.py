@@ -3,13 +3,15 @@
 
 `make_bsdf(features, strategy)` returns Bsdf, Warp functions of the features' material kinds that
 can be called on their own (the tracer, MIS and the chi-square tests use the same ones):
-    eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, wi) -> f(wo, wi) |cos theta_i|
-                                                      (non-delta kinds)
-    pdf_bsdf(kind, exponent, ior, n, wo, wi)          -> solid-angle density of sample_bsdf
-    sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, n, wo, u_lobe, u) -> Scatter
+    eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, wi)
+                                                      -> f(wo, wi) |cos theta_i| (non-delta kinds)
+    pdf_bsdf(kind, exponent, ior, table, row, n, wo, wi) -> solid-angle density of sample_bsdf
+    sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, u_lobe, u) -> Scatter
                                                       (weight = f|cos|/pdf)
 `cond_eta`, `cond_k`: a conductor kind's complex index of refraction (conductor.py), unread by
-the other kinds.
+the other kinds. `table`, `row`: the flat per-material table (MaterialData.table) and the
+material's row offset in it, read by the kinds whose model needs a row (MaterialKind.table:
+the rough plastics, rough_plastic.py).
 `strategy.lobe` True samples cosine / Phong lobes / Fresnel, False samples uniform hemisphere
 (sphere for glossy transmission) and picks reflect/refract with probability 1/2.
 `plastic` is a diffuse base under a glossy dielectric coat; its model is `eval_plastic`'s docstring.
