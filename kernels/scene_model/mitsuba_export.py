@@ -28,6 +28,8 @@ ROUGH_CONDUCTORS = {"beckmann": "beckmann", "ggx_separable": "ggx", "beckmann_co
 METALS = ("conductor", "beckmann_conductor", "ggx_conductor")
 # ... and its roughdielectric.
 ROUGH_DIELECTRICS = {"beckmann_dielectric": "beckmann", "ggx_dielectric_separable": "ggx"}
+# ... and its plastic (None) and roughplastic, by distribution; the `_nonlinear` kinds with nonlinear.
+PLASTICS = {"smooth_plastic": None, "beckmann_plastic": "beckmann", "ggx_plastic": "ggx"}
 # The procedural environment's default lat-long size: what an imported constant emitter becomes.
 DEFAULT_ENV_SHAPE = (32, 64)
 
@@ -164,7 +166,8 @@ def _sensor(root, scene: Scene) -> None:
 def _bsdfs(root, scene: Scene) -> dict[str, str]:
     """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
     one-sided; beckmann, ggx_separable and the rough metals are Mitsuba's roughconductor, beckmann_dielectric and
-    ggx_dielectric_separable its roughdielectric); material name -> its id."""
+    ggx_dielectric_separable its roughdielectric, the plastics its plastic and roughplastic); material name -> its
+    id."""
     ids: dict[str, str] = {}
     for k, m in enumerate(scene.materials):
         ident = m.name if _is_id(m.name) and m.name not in ids.values() else f"material{k}"
@@ -193,6 +196,16 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
                 _vec(b, "rgb", "eta", m.eta)
                 _vec(b, "rgb", "k", m.k)
             _vec(b, "rgb", "specular_reflectance", m.albedo)
+        elif m.kind.removesuffix("_nonlinear") in PLASTICS:
+            rough = PLASTICS[m.kind.removesuffix("_nonlinear")]
+            b = ET.SubElement(outer, "bsdf", type="plastic" if rough is None else "roughplastic")
+            if rough is not None:
+                _num(b, "string", "distribution", rough)
+                _num(b, "float", "alpha", m.roughness)
+            _num(b, "float", "int_ior", m.ior)
+            _num(b, "float", "ext_ior", 1.0)
+            _num(b, "boolean", "nonlinear", "true" if m.kind.endswith("_nonlinear") else "false")
+            _vec(b, "rgb", "diffuse_reflectance", m.albedo)
         else:
             b = ET.SubElement(outer, "bsdf", type="diffuse")
             _vec(b, "rgb", "reflectance", m.albedo)

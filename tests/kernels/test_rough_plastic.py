@@ -13,6 +13,7 @@
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -271,3 +272,16 @@ def test_refused_roughplastics_in_one_line(tmp_path, bsdf, what):
     with pytest.raises(InputError) as e:
         _xml(tmp_path, bsdf)
     assert "\n" not in str(e.value) and what in str(e.value), str(e.value)
+
+
+def test_export_writes_them_back(tmp_path):
+    from drtlab.kernels.scene_model.mitsuba_export import export_mitsuba
+    a = _xml(tmp_path, "")
+    kinds = ("beckmann_plastic", "ggx_plastic_nonlinear", "smooth_plastic_nonlinear")
+    a.materials = [dataclasses.replace(a.materials[0], name=k, kind=k, albedo=np.array([0.8, 0.3, 0.1]),
+                                       roughness=0.25, ior=1.6) for k in kinds]
+    a.shapes = [dataclasses.replace(a.shapes[0], material=i) for i in range(len(kinds))]
+    export_mitsuba(a, tmp_path / "m.xml")
+    b = load_scene(tmp_path / "m.xml")
+    assert [(m.kind, m.albedo.tolist(), m.ior, m.roughness if m.kind != kinds[2] else 0.25) for m in b.materials] \
+        == [(k, [0.8, 0.3, 0.1], 1.6, 0.25) for k in kinds]
