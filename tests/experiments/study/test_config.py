@@ -197,8 +197,8 @@ def test_bad_experiment_file_via_cli_exits_2_writes_nothing(tmp_path):
 
 
 def test_scene_paths_are_relative_to_the_experiment_file(tmp_path, monkeypatch):
-    import drtlab.kernels
-    src = Path(drtlab.kernels.__file__).parent / "scenes" / "aa-edges.toml"
+    from drtlab.kernels.scene_model.scene_file import BUILTIN_DIR
+    src = BUILTIN_DIR / "aa-edges.toml"
     (tmp_path / "sub").mkdir()
     (tmp_path / "sub" / "mine.toml").write_text(src.read_text())
     write(tmp_path / "sub", GOOD.replace('"aa-edges"', '"mine.toml"'))
