@@ -1,6 +1,5 @@
 """One kernel variant's BSDF: the kind table's model modules of the kinds the scene has, composed
-(eval, pdf and sample; the package docstring describes them), and the delta kinds' switch."""
-from types import SimpleNamespace
+(eval, pdf and sample; the package docstring describes them)."""
 from typing import NamedTuple
 
 import warp as wp
@@ -11,27 +10,16 @@ from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE, kinds_where
 from drtlab.kernels.static_tag import variant_tag
-from drtlab.kernels.materials.conductor import fresnel_conductor, half_fresnel
-from drtlab.kernels.materials.dielectric import interface, refract_dir
-from drtlab.kernels.materials.kinds import CONDUCTOR, DIELECTRIC, EMITTER, MIRROR
+from drtlab.kernels.materials.conductor import half_fresnel
+from drtlab.kernels.materials.kinds import EMITTER
+from drtlab.kernels.materials.scatter import Scatter
 
-
-@wp.struct
-class Scatter:
-    wi: wp.vec3
-    weight: wp.vec3     # f * |cos| / pdf, or the delta lobe's weight
-    pdf: float          # solid-angle pdf; 0 for delta lobes
-    delta: int
-    valid: int
 
 
 
 # The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
 LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
 LOBE_CHOICE_CODES = frozenset(MATERIAL_CODE[k] for k in LOBE_CHOICE_KINDS)
-# The kinds without a model module: the delta kinds, sampled in this module's switch (they have no
-# density, and the uniform strategy picks their lobes apart).
-SWITCH_KINDS = kinds_where(lambda k: not k.model and not k.emitter)
 
 
 class Bsdf(NamedTuple):
@@ -42,21 +30,22 @@ class Bsdf(NamedTuple):
 
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
-    models = _models(f.kinds)
+    models = _models(f.kinds, delta=False)
     plug = _plugged(f.kinds, strategy, models)
     eval_bsdf = _make_eval(models)
     pdf_bsdf = _make_pdf(strategy.lobe, plug, models)
-    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, plug, models)
+    sample_bsdf = _make_sampler(strategy.lobe, eval_bsdf, pdf_bsdf, plug, models, _models(f.kinds, delta=True))
     return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
 
 
-def _models(kinds: frozenset) -> tuple:
+def _models(kinds: frozenset, delta: bool) -> tuple:
     """((kind code, module, transmits, conductor), ...) of the present kinds the kind table gives a
-    model module (MaterialKind.model): their eval_bsdf (times the conductor Fresnel for a conductor
-    kind), and their lobe sampling unless a strategy's lobe sampler replaces it."""
+    model module (MaterialKind.model), delta or not: a non-delta one's eval_bsdf (times the
+    conductor Fresnel for a conductor kind), and its lobe sampling unless a strategy's lobe sampler
+    replaces it; a delta one's sample_delta."""
     import importlib
     return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"),
-                  k.transmits, k.conductor) for k in KINDS if k.model and k.name in kinds)
+                  k.transmits, k.conductor) for k in KINDS if k.model and k.delta == delta and k.name in kinds)
 
 
 def _model_sampling(m, strategy: Strategy) -> tuple:
@@ -87,12 +76,6 @@ def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
             sample, pdf, tag = _model_sampling(m, strategy)
             out.append((code, sample, pdf, code in LOBE_CHOICE_CODES, tag))
     return tuple(out)
-
-
-def _present(kinds: frozenset) -> SimpleNamespace:
-    """Which of the switch-coded kinds a variant compiles in, as attributes its functions read with
-    wp.static (K.mirror, K.dielectric, K.conductor)."""
-    return SimpleNamespace(**{k: k in kinds for k in SWITCH_KINDS})
 
 
 def _delta_models(models: tuple) -> tuple:
@@ -161,10 +144,10 @@ def _make_pdf(lobe: bool, plug: tuple, models: tuple):
     return pdf_bsdf
 
 
-def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, plug: tuple, models: tuple):
-    """sample_bsdf of `all_kinds`: delta lobes directly, the others by proposal (a model kind's
-    own, or a plugged lobe sampler's) and eval_bsdf / pdf_bsdf."""
-    K = _present(all_kinds)
+def _make_sampler(lobe: bool, eval_bsdf, pdf_bsdf, plug: tuple, models: tuple, deltas: tuple):
+    """sample_bsdf: the delta kinds `deltas` by their sample_delta, the others by proposal (a model
+    kind's own, or a plugged lobe sampler's) and eval_bsdf / pdf_bsdf."""
+    DELTAS = deltas
     PLUG = plug
     SPHERE_MODELS = _sphere_codes(models)
     DELTA_MODELS = _delta_models(models)
@@ -175,46 +158,17 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, plug: t
                     n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
         s = Scatter()
         s.valid = 0
-        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
+        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS, DELTAS)))  # noqa: F841 (static_tag.py)
         s.delta = 0
+        for i in range(wp.static(len(DELTAS))):
+            if kind == wp.static(DELTAS[i][0]):
+                return wp.static(DELTAS[i][1].sample_delta)(albedo, ior, cond_eta, cond_k, n, wo, u_lobe,
+                                                            wp.static(0 if LOBE else 1))
         cos_o = wp.dot(n, wo)
         nf = n
         if cos_o < 0.0:
             nf = -n
         co = wp.abs(cos_o)
-        if wp.static(K.mirror):
-            if kind == MIRROR:
-                s.wi = 2.0 * co * nf - wo
-                s.weight = albedo
-                s.delta = 1
-                s.valid = 1
-                return s
-        if wp.static(K.conductor):
-            if kind == CONDUCTOR:
-                s.wi = 2.0 * co * nf - wo
-                s.weight = wp.cw_mul(albedo, fresnel_conductor(co, cond_eta, cond_k))
-                s.delta = 1
-                s.valid = 1
-                return s
-        if wp.static(K.dielectric):
-            if kind == DIELECTRIC:
-                it = interface(n, wo, ior)
-                eta = it.eta
-                F = it.F
-                p_reflect = F
-                if wp.static(not LOBE):
-                    p_reflect = 0.5
-                if F >= 1.0:
-                    p_reflect = 1.0
-                s.delta = 1
-                s.valid = 1
-                if u_lobe < p_reflect:
-                    s.wi = 2.0 * co * nf - wo
-                    s.weight = wp.vec3(F / p_reflect)
-                else:
-                    s.wi = refract_dir(wo, nf, co, eta)
-                    s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
-                return s
         if kind == EMITTER:
             return s
         for i in range(wp.static(len(DELTA_MODELS))):

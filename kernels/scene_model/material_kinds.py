@@ -7,9 +7,8 @@ materials.LOBE_CHOICE_KINDS), the lobe tool which kinds have a lobe to plot and 
 kernels/materials/ with eval_bsdf, sample and pdf (`beckmann.py`; the interface of a lobe sampler,
 kernels/lobe_samplers.py, plus the BSDF itself): two files. The built-in kinds register the same
 way (diffuse.py, phong.py, ...; a module whose sampling follows the strategy's microfacet normals
-has `sampling(microfacet)`); only the delta kinds (mirror, dielectric, conductor: no density, and
-the uniform strategy picks a dielectric's two lobes at 1/2) have their code in the switch of
-kernels/materials/bsdf.py.
+has `sampling(microfacet)`). A `delta` kind's module has `sample_delta` instead (mirror.py): it has
+no density to sample or evaluate. Only the emitter, which scatters nothing, has no module.
 """
 from __future__ import annotations
 
@@ -33,7 +32,7 @@ class MaterialKind:
     checker: bool = False       # may alternate two albedos (`albedo2`, `checker`)
     emitter: bool = False       # black: it only emits, and scatters nothing
     model: str = ""             # its module in kernels/materials/ (eval_bsdf, sample, pdf); "" for
-                                # the delta kinds (bsdf.py's switch) and the emitter
+                                # the emitter; a delta kind's module has sample_delta
     albedo_shape: bool = False  # the kernels' shape argument is the albedo's mean (Mitsuba's plastics
                                 # weigh their lobe choice by it, and pdf_bsdf has no albedo)
     conductor: bool = False     # a metal of complex index `eta` + i `k` (per channel): its facets
@@ -73,8 +72,8 @@ class MaterialKind:
 KINDS = (
     MaterialKind("diffuse", checker=True, model="diffuse"),
     MaterialKind("glossy", phong=True, checker=True, model="phong"),
-    MaterialKind("mirror", delta=True),
-    MaterialKind("dielectric", delta=True, transmits=True),
+    MaterialKind("mirror", delta=True, model="mirror"),
+    MaterialKind("dielectric", delta=True, transmits=True, model="dielectric"),
     MaterialKind("glossy_dielectric", phong=True, transmits=True, model="glossy_dielectric"),
     MaterialKind("emitter", emitter=True),
     MaterialKind("plastic", phong=True, coat=True, checker=True, model="plastic"),
@@ -86,7 +85,7 @@ KINDS = (
     MaterialKind("smooth_plastic", coat=True, albedo_shape=True, model="smooth_plastic"),
     MaterialKind("smooth_plastic_nonlinear", coat=True, albedo_shape=True, model="smooth_plastic_nonlinear"),
     MaterialKind("beckmann_dielectric", microfacet=True, transmits=True, model="beckmann_dielectric"),
-    MaterialKind("conductor", delta=True, conductor=True),
+    MaterialKind("conductor", delta=True, conductor=True, model="conductor"),
     MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann"),
     MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_separable"),
 )
