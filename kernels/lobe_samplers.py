@@ -18,8 +18,8 @@ is) gives the same image in expectation; a zero vector or a density of 0 drops t
 against the built-in sampler's, finite values at grazing angles and extreme lobe shapes).
 
 A strategy composes samplers by name (`Strategy.lobes`; `drtlab.register_strategy(...,
-lobe_samplers=[...])`); the kinds it names none for keep the built-in lobe sampling of
-`kernels/materials/bsdf.py`.
+lobe_samplers=[...])`); the kinds it names none for keep their model module's own sampling
+(`MaterialKind.model`, composed by `kernels/materials/bsdf.py`).
 """
 from dataclasses import dataclass
 

@@ -11,7 +11,7 @@ from drtlab.estimators import dimensions as dims
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.direct import DirectLighting
 from drtlab.kernels.environment_lighting import oriented
 from drtlab.kernels.features import (DROP_COSINE, PDF_HIGH_10PCT, REPEAT_DRAW, REPEAT_INTERSECT,
@@ -19,8 +19,8 @@ from drtlab.kernels.features import (DROP_COSINE, PDF_HIGH_10PCT, REPEAT_DRAW, R
                                      Features)
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
-from drtlab.kernels.materials import (CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, MIRROR,
-                                      Bsdf, emitted, surface_albedo)
+from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, Bsdf, emitted, surface_albedo
+from drtlab.kernels.static_tag import variant_tag
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
@@ -56,7 +56,8 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
     TWICE_SAMPLE_BSDF = REPEAT_SAMPLE_BSDF in f.faults
     TWICE_DRAW = REPEAT_DRAW in f.faults
     MESHES = f.meshes
-    HAS_CONDUCTOR = "conductor" in f.kinds      # a delta kind besides mirror and dielectric
+    # The kind table's delta kinds present: their one direction has no density for light sampling.
+    DELTA_CODES = tuple(MATERIAL_CODE[k] for k in sorted(f.kinds) if KIND_BY_NAME[k].delta)
     HAS_TABLE = any(KIND_BY_NAME[k].table for k in f.kinds)     # a model reading MaterialData.table
     # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
     # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
@@ -129,9 +130,10 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             mrow = int(0)
             if wp.static(HAS_TABLE):
                 mrow = sd.materials.row[m]
-            is_delta = kind == MIRROR or kind == DIELECTRIC
-            if wp.static(HAS_CONDUCTOR):
-                if kind == CONDUCTOR:
+            is_delta = False
+            _deltas = wp.static(variant_tag(DELTA_CODES))  # noqa: F841 (static_tag.py)
+            for i in range(wp.static(len(DELTA_CODES))):
+                if kind == wp.static(DELTA_CODES[i]):
                     is_delta = True
             # The BSDF sees the shading normal (a mesh's interpolated one); offsets and the side
             # test stay geometric (geometry.shading_consistent).

@@ -2,10 +2,12 @@
 
 `make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
 and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
-light a surface by light_centres(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, p, n, ns, wo): each seen as a point
-source at its centre (a mesh light: at its area-weighted centroid; n geometric, ns shading normal,
-as in kernels/direct.py).
+light a surface by light_centres(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, p,
+n, ns, wo): each seen as a point source at its centre (a mesh light: at its area-weighted centroid;
+n geometric, ns shading normal, as in kernels/direct.py).
 """
+import importlib
+
 import warp as wp
 
 from drtlab.estimators.domain_maps import PI
@@ -15,10 +17,8 @@ from drtlab.kernels.environment import env_radiance
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
-from drtlab.kernels.materials import (CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY,
-                                      GLOSSY_DIELECTRIC, MIRROR, PLASTIC, Bsdf, emitted, surface_albedo)
+from drtlab.kernels.materials import EMITTER, Bsdf, emitted, surface_albedo
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
-from drtlab.kernels.materials.conductor import fresnel_conductor
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.static_tag import variant_tag
 
@@ -30,11 +30,14 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     SPLITS = f.whitted_splits
     MESHES = f.meshes
     ENV = f.environment
-    HAS_CONDUCTOR = "conductor" in f.kinds      # the smooth one: a mirror of Fresnel reflectance
-    # The kind table's model kinds (MaterialKind.model): a reflecting one ends the ray with its
-    # direct light, as ggx; a transmitting one splits as a smooth dielectric, as ggx_dielectric.
-    MODEL_ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and not k.transmits and k.name in f.kinds)
-    MODEL_SPLITS = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.model and k.transmits and k.name in f.kinds)
+    # From the kind table's flags: a reflecting non-delta kind (diffuse, glossy, plastic, ggx, ...)
+    # ends the ray with its direct light; a reflecting delta kind (mirror, conductor) continues it
+    # by its module's sample_delta; a transmitting one splits as a smooth dielectric.
+    ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS
+                 if not (k.delta or k.transmits or k.emitter) and k.name in f.kinds)
+    MIRRORS = tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"))
+                    for k in KINDS if k.delta and not k.transmits and k.name in f.kinds)
+    SPLITTING = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.transmits and k.name in f.kinds)
     intersect = rays.intersect
     visible = rays.visible
     visible_mesh = rays.visible_mesh
@@ -132,11 +135,10 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if cos_o < 0.0:
                     nf = -ns
                 co = wp.abs(cos_o)
-                # Non-delta kinds end the ray with their direct light (plastic and ggx as glossy).
-                ends = kind == DIFFUSE or kind == GLOSSY or kind == PLASTIC or kind == GGX
-                _variant = wp.static(variant_tag(MODEL_ENDS))  # noqa: F841 (static_tag.py)
-                for i in range(wp.static(len(MODEL_ENDS))):
-                    if kind == wp.static(MODEL_ENDS[i]):
+                ends = False
+                _variant = wp.static(variant_tag(ENDS))  # noqa: F841 (static_tag.py)
+                for i in range(wp.static(len(ENDS))):
+                    if kind == wp.static(ENDS[i]):
                         ends = True
                 if ends:
                     direct = wp.vec3(0.0)
@@ -153,17 +155,18 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     L += wp.cw_mul(beta, direct)
                     break
                 wi = 2.0 * co * nf - wo
-                if kind == MIRROR:
-                    beta = wp.cw_mul(beta, albedo)
-                if wp.static(HAS_CONDUCTOR):
-                    if kind == CONDUCTOR:
-                        beta = wp.cw_mul(beta, wp.cw_mul(albedo, fresnel_conductor(
-                            co, sd.materials.eta[m], sd.materials.k[m])))
+                _mirrors = wp.static(variant_tag(MIRRORS))  # noqa: F841 (static_tag.py)
+                for i in range(wp.static(len(MIRRORS))):
+                    if kind == wp.static(MIRRORS[i][0]):
+                        s = wp.static(MIRRORS[i][1].sample_delta)(albedo, sd.materials.ior[m], sd.materials.eta[m],
+                                                                  sd.materials.k[m], ns, wo, 0.0, 0)
+                        wi = s.wi
+                        beta = wp.cw_mul(beta, s.weight)
                 if wp.static(SPLITS > 0):
-                    splits = kind == DIELECTRIC or kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC
-                    _split_variant = wp.static(variant_tag(MODEL_SPLITS))  # noqa: F841 (static_tag.py)
-                    for i in range(wp.static(len(MODEL_SPLITS))):
-                        if kind == wp.static(MODEL_SPLITS[i]):
+                    splits = False
+                    _split_variant = wp.static(variant_tag(SPLITTING))  # noqa: F841 (static_tag.py)
+                    for i in range(wp.static(len(SPLITTING))):
+                        if kind == wp.static(SPLITTING[i]):
                             splits = True
                     if splits:
                         it = interface(ns, wo, sd.materials.ior[m])

@@ -1,5 +1,8 @@
-"""Materials per kernel variant: kind codes (`kinds.py`), the BSDF models (`dielectric.py`, `plastic.py`,
-`ggx.py`), the kind switches of a variant (`bsdf.py`), (checkered) albedo and emission (`surface.py`).
+"""Materials per kernel variant: kind codes (`kinds.py`), one model module per kind that scatters,
+named by its kind-table row's `model` (`diffuse.py`, `phong.py`, `mirror.py`, `dielectric.py` (also
+Fresnel and refraction), `conductor.py` (also a metal's Fresnel), `glossy_dielectric.py`,
+`plastic.py`, `ggx.py`, `ggx_dielectric.py`, `beckmann.py`, ...), a variant's composition of them
+(`bsdf.py`; `Scatter` in `scatter.py`), (checkered) albedo and emission (`surface.py`).
 
 `make_bsdf(features, strategy)` returns Bsdf, Warp functions of the features' material kinds that
 can be called on their own (the tracer, MIS and the chi-square tests use the same ones):

@@ -1,41 +1,23 @@
-"""The kind switches of one kernel variant: eval, pdf and sample of every material kind the scene has
-(the package docstring describes them)."""
-from types import SimpleNamespace
+"""One kernel variant's BSDF: the kind table's model modules of the kinds the scene has, composed
+(eval, pdf and sample; the package docstring describes them)."""
 from typing import NamedTuple
 
 import warp as wp
 
-from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, phong_lobe_pdf,
-                                           square_to_cosine_hemisphere, square_to_phong_lobe,
-                                           square_to_uniform_hemisphere, square_to_uniform_sphere)
+from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, square_to_uniform_hemisphere,
+                                           square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE, kinds_where
 from drtlab.kernels.static_tag import variant_tag
-from drtlab.kernels.materials.dielectric import (eval_glossy_dielectric, fresnel, glossy_dielectric_lobes,
-                                                 interface, refract_dir)
-from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
-from drtlab.kernels.materials.conductor import fresnel_conductor, half_fresnel
-from drtlab.kernels.materials.kinds import (CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC,
-                                            GLOSSY, GLOSSY_DIELECTRIC, MIRROR, PLASTIC)
-from drtlab.kernels.materials.plastic import eval_plastic, plastic_coat_probability
-
-
-@wp.struct
-class Scatter:
-    wi: wp.vec3
-    weight: wp.vec3     # f * |cos| / pdf, or the delta lobe's weight
-    pdf: float          # solid-angle pdf; 0 for delta lobes
-    delta: int
-    valid: int
-
+from drtlab.kernels.materials.conductor import half_fresnel
+from drtlab.kernels.materials.kinds import EMITTER
+from drtlab.kernels.materials.scatter import Scatter
 
 
 # The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
 LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
 LOBE_CHOICE_CODES = frozenset(MATERIAL_CODE[k] for k in LOBE_CHOICE_KINDS)
-# The kinds whose code is in this module's switches (a kind with a `model` brings its own module).
-SWITCH_KINDS = kinds_where(lambda k: not k.model and not k.emitter)
 
 
 class Bsdf(NamedTuple):
@@ -47,22 +29,25 @@ class Bsdf(NamedTuple):
 
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
-    normals = make_ggx_normals(strategy.microfacet == "vndf")
-    models = _models(f.kinds)
+    models = _models(f.kinds, delta=False)
     plug = _plugged(f.kinds, strategy, models)
-    eval_bsdf = _make_eval(f.kinds, models)
-    pdf_bsdf = _make_pdf(f.kinds, strategy.lobe, normals[1], plug, models)
-    sample_bsdf = _make_sampler(f.kinds, strategy.lobe, eval_bsdf, pdf_bsdf, normals[0], plug, models)
+    tabled = _table_models(f.kinds)
+    eval_bsdf = _make_eval(models, tabled)
+    pdf_bsdf = _make_pdf(strategy.lobe, plug, models, tabled)
+    sample_bsdf = _make_sampler(strategy.lobe, eval_bsdf, pdf_bsdf, plug, models, tabled,
+                                _models(f.kinds, delta=True))
     return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
 
 
-def _models(kinds: frozenset) -> tuple:
+def _models(kinds: frozenset, delta: bool) -> tuple:
     """((kind code, module, transmits, conductor), ...) of the present kinds the kind table gives a
-    model module (MaterialKind.model): their eval_bsdf (times the conductor Fresnel for a conductor
-    kind), and their lobe sampling unless a strategy's lobe sampler replaces it."""
+    model module (MaterialKind.model), delta or not: a non-delta one's eval_bsdf (times the
+    conductor Fresnel for a conductor kind), and its lobe sampling unless a strategy's lobe sampler
+    replaces it; a delta one's sample_delta."""
     import importlib
     return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"),
-                  k.transmits, k.conductor) for k in KINDS if k.model and not k.table and k.name in kinds)
+                  k.transmits, k.conductor) for k in KINDS if k.model and not k.table and k.delta == delta
+                  and k.name in kinds)
 
 
 def _table_models(kinds: frozenset) -> tuple:
@@ -74,8 +59,17 @@ def _table_models(kinds: frozenset) -> tuple:
                  for k in KINDS if k.table and k.name in kinds)
 
 
+def _model_sampling(m, strategy: Strategy) -> tuple:
+    """(sample, pdf, cache tag) of model module `m` under `strategy`: a module with `sampling`
+    (the GGX kinds) draws its microfacet normal as the strategy's `microfacet` says, which the tag
+    must then name (its two closures have one source)."""
+    if hasattr(m, "sampling"):
+        return m.sampling(strategy.microfacet) + ((m, strategy.microfacet == "vndf"),)
+    return m.sample, m.pdf, m
+
+
 def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
-    """((kind code, sample, pdf, reads u_lobe), ...): the strategy's lobe samplers
+    """((kind code, sample, pdf, reads u_lobe, cache tag), ...): the strategy's lobe samplers
     (kernels/lobe_samplers.py) for the kinds present, then the model kinds' own sampling for the
     rest; only a strategy that samples lobes uses them."""
     if not strategy.lobe:
@@ -88,19 +82,11 @@ def _plugged(kinds: frozenset, strategy: Strategy, models: tuple) -> tuple:
         out = [(MATERIAL_CODE[s.kind], s.sample, s.pdf, s.kind in LOBE_CHOICE_KINDS, s.fingerprint)
                for s in samplers_of(strategy) if s.kind in kinds]
     taken = {p[0] for p in out}
-    out += [(code, m.sample, m.pdf, code in LOBE_CHOICE_CODES, m) for code, m, *_ in models if code not in taken]
+    for code, m, *_ in models:
+        if code not in taken:
+            sample, pdf, tag = _model_sampling(m, strategy)
+            out.append((code, sample, pdf, code in LOBE_CHOICE_CODES, tag))
     return tuple(out)
-
-
-def _built_in(kinds: frozenset, plug: tuple) -> frozenset:
-    """The kinds whose lobes the built-in code samples (those no plugged sampler replaces)."""
-    return frozenset(kinds) - {k for k, code in MATERIAL_CODE.items() if any(p[0] == code for p in plug)}
-
-
-def _present(kinds: frozenset) -> SimpleNamespace:
-    """Which of the switch-coded kinds a variant compiles in, as attributes its functions read with
-    wp.static (K.diffuse, K.ggx_dielectric, ...)."""
-    return SimpleNamespace(**{k: k in kinds for k in SWITCH_KINDS})
 
 
 def _delta_models(models: tuple) -> tuple:
@@ -115,43 +101,16 @@ def _sphere_codes(models: tuple) -> tuple:
     return tuple(code for code, _, transmits, _ in models if transmits)
 
 
-def _make_eval(kinds: frozenset, models: tuple):
-    """eval_bsdf (f|cos|) of `kinds`."""
+def _make_eval(models: tuple, tabled: tuple):
+    """eval_bsdf (f|cos|) of the model kinds `models` and `tabled` (0 for the others)."""
     MODELS = models
-    TABLED = _table_models(kinds)
-    K = _present(kinds)
+    TABLED = tabled
 
     @wp.func
     def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
                   table: wp.array(dtype=float), row: int, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
         """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
         r = wp.vec3(0.0)
-        cos_o = wp.dot(n, wo)
-        cos_i = wp.dot(n, wi)
-        if wp.static(K.diffuse):
-            if kind == DIFFUSE:
-                if cos_o * cos_i > 0.0:
-                    r = albedo * (wp.abs(cos_i) * INV_PI)
-        if wp.static(K.glossy):
-            if kind == GLOSSY:
-                if cos_o * cos_i > 0.0:
-                    refl = 2.0 * cos_o * n - wo
-                    ca = wp.dot(refl, wi)
-                    if ca > 0.0:
-                        r = albedo * ((exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
-                                      * wp.abs(cos_i))
-        if wp.static(K.glossy_dielectric):
-            if kind == GLOSSY_DIELECTRIC:
-                r = eval_glossy_dielectric(albedo, exponent, ior, n, wo, wi)
-        if wp.static(K.plastic):
-            if kind == PLASTIC:
-                r = eval_plastic(albedo, exponent, ior, n, wo, wi)
-        if wp.static(K.ggx):
-            if kind == GGX:
-                r = eval_ggx(albedo, exponent, ior, n, wo, wi, 0)
-        if wp.static(K.ggx_dielectric):
-            if kind == GGX_DIELECTRIC:
-                r = eval_ggx(albedo, exponent, ior, n, wo, wi, 1)
         _variant = wp.static(variant_tag(MODELS))  # noqa: F841 (the loop table, hashed: static_tag.py)
         for i in range(wp.static(len(MODELS))):
             if kind == wp.static(MODELS[i][0]):
@@ -167,12 +126,11 @@ def _make_eval(kinds: frozenset, models: tuple):
     return eval_bsdf
 
 
-def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, models: tuple):
-    """pdf_bsdf (the density sample_bsdf proposes with) of `all_kinds`."""
-    K = _present(_built_in(all_kinds, plug))
+def _make_pdf(lobe: bool, plug: tuple, models: tuple, tabled: tuple):
+    """pdf_bsdf (the density sample_bsdf proposes with) of the model kinds."""
     SPHERE_MODELS = _sphere_codes(models)
     DELTA_MODELS = _delta_models(models)
-    TABLED = _table_models(all_kinds)
+    TABLED = tabled
     LOBE = lobe
     PLUG = plug
 
@@ -180,63 +138,15 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
     def pdf_bsdf(kind: int, exponent: float, ior: float, table: wp.array(dtype=float), row: int, n: wp.vec3,
                  wo: wp.vec3, wi: wp.vec3) -> float:
         """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
-        cos_o = wp.dot(n, wo)
-        cos_i = wp.dot(n, wi)
         p = float(0.0)
         _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
         if wp.static(not LOBE):
-            if kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
-                p = INV_4PI
-            elif cos_o * cos_i > 0.0:
+            if wp.dot(n, wo) * wp.dot(n, wi) > 0.0:
                 p = 0.5 * INV_PI
             for i in range(wp.static(len(SPHERE_MODELS))):
                 if kind == wp.static(SPHERE_MODELS[i]):
                     p = INV_4PI
         if wp.static(LOBE):
-            if wp.static(K.diffuse):
-                if kind == DIFFUSE:
-                    if cos_o * cos_i > 0.0:
-                        p = wp.abs(cos_i) * INV_PI
-            if wp.static(K.glossy):
-                if kind == GLOSSY:
-                    if cos_o * cos_i > 0.0:
-                        nf = n
-                        if cos_o < 0.0:
-                            nf = -n
-                        refl = 2.0 * wp.abs(cos_o) * nf - wo
-                        p = phong_lobe_pdf(wp.dot(refl, wi), exponent)
-            if wp.static(K.glossy_dielectric):
-                if kind == GLOSSY_DIELECTRIC:
-                    it = interface(n, wo, ior)
-                    lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
-                    # The proposal is the Fresnel-weighted mixture of both lobes wherever wi lies.
-                    p = it.F * lobes[0] + (1.0 - it.F) * lobes[1]
-            if wp.static(K.plastic):
-                if kind == PLASTIC:
-                    if cos_o * cos_i > 0.0:
-                        # The mixture of the coat's Phong lobe and the base's cosine lobe.
-                        pc = plastic_coat_probability(wp.abs(cos_o), ior)
-                        refl = 2.0 * cos_o * n - wo
-                        p = (pc * phong_lobe_pdf(wp.dot(refl, wi), exponent)
-                             + (1.0 - pc) * wp.abs(cos_i) * INV_PI)
-            if wp.static(K.ggx):
-                if kind == GGX:
-                    nf = n
-                    if cos_o < 0.0:
-                        nf = -n
-                    mf = ggx_half(nf, 1.0, wo, wi, 0)
-                    if mf.valid == 1:
-                        p = ggx_normal_pdf(exponent, nf, wp.abs(cos_o), mf.wm, mf.om) * mf.dwm
-            if wp.static(K.ggx_dielectric):
-                if kind == GGX_DIELECTRIC:
-                    it = interface(n, wo, ior)
-                    mf = ggx_half(it.nf, it.eta, wo, wi, 1)
-                    if mf.valid == 1:
-                        # The lobe chosen with probability F(wo.wm), then its Jacobian.
-                        pl = mf.F
-                        if mf.reflect == 0:
-                            pl = 1.0 - mf.F
-                        p = ggx_normal_pdf(exponent, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
             for i in range(wp.static(len(PLUG))):
                 if kind == wp.static(PLUG[i][0]):
                     p = wp.static(PLUG[i][2])(exponent, ior, n, wo, wi)
@@ -255,15 +165,14 @@ def _make_pdf(all_kinds: frozenset, lobe: bool, ggx_normal_pdf, plug: tuple, mod
     return pdf_bsdf
 
 
-def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_ggx_normal, plug: tuple,
-                  models: tuple):
-    """sample_bsdf of `all_kinds`: delta lobes directly, the others by proposal and eval_bsdf /
-    pdf_bsdf (a plugged kind by its lobe sampler)."""
-    K = _present(_built_in(all_kinds, plug))
+def _make_sampler(lobe: bool, eval_bsdf, pdf_bsdf, plug: tuple, models: tuple, tabled: tuple, deltas: tuple):
+    """sample_bsdf: the delta kinds `deltas` by their sample_delta, the others by proposal (a model
+    kind's own, or a plugged lobe sampler's) and eval_bsdf / pdf_bsdf."""
+    DELTAS = deltas
     PLUG = plug
     SPHERE_MODELS = _sphere_codes(models)
     DELTA_MODELS = _delta_models(models)
-    TABLED = _table_models(all_kinds)
+    TABLED = tabled
     LOBE = lobe
 
     @wp.func
@@ -272,46 +181,17 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
                     u: wp.vec2) -> Scatter:
         s = Scatter()
         s.valid = 0
-        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
+        _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS, DELTAS)))  # noqa: F841 (static_tag.py)
         s.delta = 0
+        for i in range(wp.static(len(DELTAS))):
+            if kind == wp.static(DELTAS[i][0]):
+                return wp.static(DELTAS[i][1].sample_delta)(albedo, ior, cond_eta, cond_k, n, wo, u_lobe,
+                                                            wp.static(0 if LOBE else 1))
         cos_o = wp.dot(n, wo)
         nf = n
         if cos_o < 0.0:
             nf = -n
         co = wp.abs(cos_o)
-        if wp.static(K.mirror):
-            if kind == MIRROR:
-                s.wi = 2.0 * co * nf - wo
-                s.weight = albedo
-                s.delta = 1
-                s.valid = 1
-                return s
-        if wp.static(K.conductor):
-            if kind == CONDUCTOR:
-                s.wi = 2.0 * co * nf - wo
-                s.weight = wp.cw_mul(albedo, fresnel_conductor(co, cond_eta, cond_k))
-                s.delta = 1
-                s.valid = 1
-                return s
-        if wp.static(K.dielectric):
-            if kind == DIELECTRIC:
-                it = interface(n, wo, ior)
-                eta = it.eta
-                F = it.F
-                p_reflect = F
-                if wp.static(not LOBE):
-                    p_reflect = 0.5
-                if F >= 1.0:
-                    p_reflect = 1.0
-                s.delta = 1
-                s.valid = 1
-                if u_lobe < p_reflect:
-                    s.wi = 2.0 * co * nf - wo
-                    s.weight = wp.vec3(F / p_reflect)
-                else:
-                    s.wi = refract_dir(wo, nf, co, eta)
-                    s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
-                return s
         if kind == EMITTER:
             return s
         for i in range(wp.static(len(DELTA_MODELS))):
@@ -329,56 +209,11 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
         # Non-delta kinds: propose a direction, then weight = f|cos| / pdf evaluated separately.
         wi = wp.vec3(0.0)
         if wp.static(not LOBE):
-            if kind == GLOSSY_DIELECTRIC or kind == GGX_DIELECTRIC:
-                wi = square_to_uniform_sphere(u)
-            else:
-                wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
+            wi = frame_to_world(square_to_uniform_hemisphere(u), nf)
             for i in range(wp.static(len(SPHERE_MODELS))):
                 if kind == wp.static(SPHERE_MODELS[i]):
                     wi = square_to_uniform_sphere(u)
         if wp.static(LOBE):
-            if wp.static(K.diffuse):
-                if kind == DIFFUSE:
-                    wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
-            if wp.static(K.glossy):
-                if kind == GLOSSY:
-                    wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
-            if wp.static(K.glossy_dielectric):
-                if kind == GLOSSY_DIELECTRIC:
-                    it = interface(n, wo, ior)
-                    axis = 2.0 * co * nf - wo
-                    if u_lobe >= it.F:
-                        axis = refract_dir(wo, nf, co, it.eta)
-                    wi = frame_to_world(square_to_phong_lobe(u, exponent), axis)
-            if wp.static(K.plastic):
-                if kind == PLASTIC:
-                    if u_lobe < plastic_coat_probability(co, ior):
-                        wi = frame_to_world(square_to_phong_lobe(u, exponent), 2.0 * co * nf - wo)
-                    else:
-                        wi = frame_to_world(square_to_cosine_hemisphere(u), nf)
-            if wp.static(K.ggx):
-                if kind == GGX:
-                    if co <= 0.0:
-                        return s
-                    wm = sample_ggx_normal(nf, wo, co, exponent, u)
-                    wi = 2.0 * wp.dot(wo, wm) * wm - wo
-            if wp.static(K.ggx_dielectric):
-                if kind == GGX_DIELECTRIC:
-                    it = interface(n, wo, ior)
-                    if it.co <= 0.0:
-                        return s
-                    wm = sample_ggx_normal(it.nf, wo, it.co, exponent, u)
-                    om = wp.dot(wo, wm)
-                    if om <= 0.0:
-                        return s
-                    if u_lobe < fresnel(om, it.eta):
-                        wi = 2.0 * om * wm - wo
-                        if wp.dot(it.nf, wi) <= 0.0:
-                            return s        # reflected below: pdf_bsdf would read it as refracted
-                    else:
-                        wi = refract_dir(wo, wm, om, it.eta)
-                        if wp.dot(it.nf, wi) >= 0.0:
-                            return s        # refracted above: pdf_bsdf would read it as reflected
             for i in range(wp.static(len(PLUG))):
                 if kind == wp.static(PLUG[i][0]):
                     ul = float(0.0)
@@ -400,4 +235,3 @@ def _make_sampler(all_kinds: frozenset, lobe: bool, eval_bsdf, pdf_bsdf, sample_
         return s
 
     return sample_bsdf
-

@@ -10,9 +10,11 @@ at |cos| c of an interface from vacuum into a metal of complex index eta + i k, 
 Mitsuba's conductors have no exterior index: eta and k are the metal's against vacuum. 0 + 1i
 reflects everything (its material "none"). The smooth `conductor` reflects about the normal (c the
 cosine to it), the rough ones take c = wo.wm at the half vector (bsdf.py applies it to their model's
-eval_bsdf).
+eval_bsdf). `sample_delta` is the smooth `conductor` kind's (a delta kind of the kind table).
 """
 import warp as wp
+
+from drtlab.kernels.materials.scatter import Scatter
 
 
 @wp.func
@@ -47,3 +49,21 @@ def half_fresnel(eta: wp.vec3, k: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
     if ll > 0.0:
         c = wp.abs(wp.dot(wo, h)) / ll
     return fresnel_conductor(c, eta, k)
+
+
+@wp.func
+def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3,
+                 u_lobe: float, uniform: int) -> Scatter:
+    """The smooth `conductor` kind (a delta kind, mirror.py's docstring): albedo times F at the
+    normal."""
+    s = Scatter()
+    cos_o = wp.dot(n, wo)
+    nf = n
+    if cos_o < 0.0:
+        nf = -n
+    co = wp.abs(cos_o)
+    s.wi = 2.0 * co * nf - wo
+    s.weight = wp.cw_mul(albedo, fresnel_conductor(co, cond_eta, cond_k))
+    s.delta = 1
+    s.valid = 1
+    return s

@@ -1,8 +1,14 @@
-"""Smooth dielectric boundaries: Fresnel reflectance, refraction, the side a direction arrives from,
-and the glossy dielectric's two Phong lobes."""
+"""Smooth dielectric boundaries: Fresnel reflectance, refraction, the side a direction arrives from
+(the glossy dielectric's two Phong lobes are glossy_dielectric.py).
+
+This module is also the `dielectric` kind of the kind table, a delta kind (`MaterialKind.model`
+with `delta`): `sample_delta` (mirror.py's docstring) in place of eval_bsdf, sample and pdf. Mirror
+reflection with weight F, else refraction tinted by `albedo` (the 1/eta^2 of radiance); the lobe
+chosen by u_lobe with probability F (1/2 under a strategy that samples uniformly, `uniform` 1; 1
+under total internal reflection), the weight divided by the choice's probability."""
 import warp as wp
 
-from drtlab.estimators.domain_maps import phong_lobe_pdf
+from drtlab.kernels.materials.scatter import Scatter
 
 
 @wp.struct
@@ -50,31 +56,28 @@ def interface(n: wp.vec3, wo: wp.vec3, ior: float) -> Interface:
 
 
 @wp.func
-def glossy_dielectric_lobes(it: Interface, wo: wp.vec3, wi: wp.vec3, exponent: float) -> wp.vec2:
-    """Phong lobe densities at wi around the mirror (x) and refracted (y) directions, on either
-    side of the surface: a lobe near the horizon proposes directions on both sides. The refracted
-    lobe is zero under total internal reflection."""
-    r = phong_lobe_pdf(wp.dot(2.0 * it.co * it.nf - wo, wi), exponent)
-    t = float(0.0)
-    if it.F < 1.0:
-        t = phong_lobe_pdf(wp.dot(refract_dir(wo, it.nf, it.co, it.eta), wi), exponent)
-    return wp.vec2(r, t)
-
-
-@wp.func
-def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                           wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-    # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
-    # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
-    # A lobe's part on the wrong side of the surface is not scattering: reflection counts only
-    # above, transmission only below (the sampler's pdf still counts both, see pdf_bsdf).
+def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3,
+                 u_lobe: float, uniform: int) -> Scatter:
+    s = Scatter()
+    cos_o = wp.dot(n, wo)
+    nf = n
+    if cos_o < 0.0:
+        nf = -n
+    co = wp.abs(cos_o)
     it = interface(n, wo, ior)
-    lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
-    ci = wp.dot(it.nf, wi)
-    r = wp.vec3(0.0)
-    if ci > 0.0:
-        r = wp.vec3(it.F * lobes[0])
-    elif ci < 0.0:
-        r = albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
-    return r
-
+    eta = it.eta
+    F = it.F
+    p_reflect = F
+    if uniform == 1:
+        p_reflect = 0.5
+    if F >= 1.0:
+        p_reflect = 1.0
+    s.delta = 1
+    s.valid = 1
+    if u_lobe < p_reflect:
+        s.wi = 2.0 * co * nf - wo
+        s.weight = wp.vec3(F / p_reflect)
+    else:
+        s.wi = refract_dir(wo, nf, co, eta)
+        s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
+    return s

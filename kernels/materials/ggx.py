@@ -1,5 +1,9 @@
 """GGX (Trowbridge-Reitz) microfacets: the rough conductor `ggx` and rough dielectric `ggx_dielectric`,
-their normal distributions and the two ways of sampling a normal."""
+their normal distributions and the two ways of sampling a normal.
+
+This module is also the `ggx` kind of the kind table (`material_kinds.MaterialKind.model`):
+eval_bsdf, sample and pdf (the interface of a lobe sampler, kernels/lobe_samplers.py), the normal
+drawn as the strategy's `microfacet` says (`sampling`); `ggx_dielectric.py` is the other kind."""
 import warp as wp
 
 from drtlab.estimators.domain_maps import INV_PI, frame_to_world, sincos_turns
@@ -199,3 +203,49 @@ def make_ggx_normals(vndf: bool):
     normal_pdf = ggx_normal_pdf_vndf if VNDF else ggx_normal_pdf_d
     return sample_ggx_normal, normal_pdf
 
+
+
+@wp.func
+def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    return eval_ggx(albedo, shape, ior, n, wo, wi, 0)
+
+
+def _make_lobe(vndf: bool):
+    """(sample, pdf) of the conductor's lobe: a normal drawn as `vndf` says, wo reflected about it."""
+    sample_normal, normal_pdf = make_ggx_normals(vndf)
+
+    @wp.func
+    def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
+               u: wp.vec2) -> wp.vec3:
+        cos_o = wp.dot(n, wo)
+        nf = n
+        if cos_o < 0.0:
+            nf = -n
+        co = wp.abs(cos_o)
+        if co <= 0.0:
+            return wp.vec3(0.0)
+        wm = sample_normal(nf, wo, co, shape, u)
+        return 2.0 * wp.dot(wo, wm) * wm - wo
+
+    @wp.func
+    def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+        cos_o = wp.dot(n, wo)
+        nf = n
+        if cos_o < 0.0:
+            nf = -n
+        p = float(0.0)
+        mf = ggx_half(nf, 1.0, wo, wi, 0)
+        if mf.valid == 1:
+            p = normal_pdf(shape, nf, wp.abs(cos_o), mf.wm, mf.om) * mf.dwm
+        return p
+
+    return sample, pdf
+
+
+_LOBES = {True: _make_lobe(True), False: _make_lobe(False)}
+sample, pdf = _LOBES[True]
+
+
+def sampling(microfacet: str):
+    """(sample, pdf) as a strategy of `microfacet` ("vndf" or "d") draws the normal."""
+    return _LOBES[microfacet == "vndf"]

@@ -1,8 +1,14 @@
-"""Plastic: a diffuse base under a smooth-Fresnel Phong coat (the model is eval_plastic's docstring)."""
+"""Plastic: a diffuse base under a smooth-Fresnel Phong coat (the model is eval_plastic's docstring).
+
+The `plastic` kind of the kind table (`material_kinds.MaterialKind.model`): eval_bsdf, and the lobe
+sampling behind the interface of a lobe sampler (kernels/lobe_samplers.py): the coat's Phong lobe
+with probability plastic_coat_probability (the lobe choice number u_lobe), else the base's cosine
+lobe; the pdf is their mixture."""
 import numpy as np
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI
+from drtlab.estimators.domain_maps import (INV_PI, frame_to_world, phong_lobe_pdf, square_to_cosine_hemisphere,
+                                           square_to_phong_lobe)
 from drtlab.kernels.materials.dielectric import fresnel
 
 
@@ -68,3 +74,33 @@ def plastic_coat_probability(co: float, ior: float) -> float:
     for a white base (pdf_bsdf gets no albedo, so the choice cannot depend on it)."""
     return fresnel(co, ior)
 
+
+@wp.func
+def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    return eval_plastic(albedo, shape, ior, n, wo, wi)
+
+
+@wp.func
+def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
+           u: wp.vec2) -> wp.vec3:
+    cos_o = wp.dot(n, wo)
+    nf = n
+    if cos_o < 0.0:
+        nf = -n
+    co = wp.abs(cos_o)
+    if u_lobe < plastic_coat_probability(co, ior):
+        return frame_to_world(square_to_phong_lobe(u, shape), 2.0 * co * nf - wo)
+    return frame_to_world(square_to_cosine_hemisphere(u), nf)
+
+
+@wp.func
+def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    cos_o = wp.dot(n, wo)
+    cos_i = wp.dot(n, wi)
+    p = float(0.0)
+    if cos_o * cos_i > 0.0:
+        # The mixture of the coat's Phong lobe and the base's cosine lobe.
+        pc = plastic_coat_probability(wp.abs(cos_o), ior)
+        refl = 2.0 * cos_o * n - wo
+        p = pc * phong_lobe_pdf(wp.dot(refl, wi), shape) + (1.0 - pc) * wp.abs(cos_i) * INV_PI
+    return p

@@ -5,8 +5,10 @@ The scene loader reads which keys a kind takes (`MaterialKind.keys`), the kernel
 materials.LOBE_CHOICE_KINDS), the lobe tool which kinds have a lobe to plot and how
 (experiments/tools/lobes.py). A new kind is one row here naming its `model`, a module of
 kernels/materials/ with eval_bsdf, sample and pdf (`beckmann.py`; the interface of a lobe sampler,
-kernels/lobe_samplers.py, plus the BSDF itself): two files. The kinds before `model` existed have
-their code in the switches of kernels/materials/bsdf.py.
+kernels/lobe_samplers.py, plus the BSDF itself): two files. The built-in kinds register the same
+way (diffuse.py, phong.py, ...; a module whose sampling follows the strategy's microfacet normals
+has `sampling(microfacet)`). A `delta` kind's module has `sample_delta` instead (mirror.py): it has
+no density to sample or evaluate. Only the emitter, which scatters nothing, has no module.
 """
 from __future__ import annotations
 
@@ -30,7 +32,7 @@ class MaterialKind:
     checker: bool = False       # may alternate two albedos (`albedo2`, `checker`)
     emitter: bool = False       # black: it only emits, and scatters nothing
     model: str = ""             # its module in kernels/materials/ (eval_bsdf, sample, pdf); "" for
-                                # the kinds in bsdf.py's switches
+                                # the emitter; a delta kind's module has sample_delta
     albedo_shape: bool = False  # the kernels' shape argument is the albedo's mean (Mitsuba's plastics
                                 # weigh their lobe choice by it, and pdf_bsdf has no albedo)
     conductor: bool = False     # a metal of complex index `eta` + i `k` (per channel): its facets
@@ -70,22 +72,22 @@ class MaterialKind:
 # New kinds go at the end: a kind's code is its place here, and the codes of the existing ones stay
 # what compiled kernels and caches saw.
 KINDS = (
-    MaterialKind("diffuse", checker=True),
-    MaterialKind("glossy", phong=True, checker=True),
-    MaterialKind("mirror", delta=True),
-    MaterialKind("dielectric", delta=True, transmits=True),
-    MaterialKind("glossy_dielectric", phong=True, transmits=True),
+    MaterialKind("diffuse", checker=True, model="diffuse"),
+    MaterialKind("glossy", phong=True, checker=True, model="phong"),
+    MaterialKind("mirror", delta=True, model="mirror"),
+    MaterialKind("dielectric", delta=True, transmits=True, model="dielectric"),
+    MaterialKind("glossy_dielectric", phong=True, transmits=True, model="glossy_dielectric"),
     MaterialKind("emitter", emitter=True),
-    MaterialKind("plastic", phong=True, coat=True, checker=True),
-    MaterialKind("ggx", microfacet=True, checker=True),
-    MaterialKind("ggx_dielectric", microfacet=True, transmits=True),
+    MaterialKind("plastic", phong=True, coat=True, checker=True, model="plastic"),
+    MaterialKind("ggx", microfacet=True, checker=True, model="ggx"),
+    MaterialKind("ggx_dielectric", microfacet=True, transmits=True, model="ggx_dielectric"),
     MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
     MaterialKind("ggx_separable", microfacet=True, checker=True, model="ggx_separable"),
     MaterialKind("ggx_dielectric_separable", microfacet=True, transmits=True, model="ggx_dielectric_separable"),
     MaterialKind("smooth_plastic", coat=True, albedo_shape=True, model="smooth_plastic"),
     MaterialKind("smooth_plastic_nonlinear", coat=True, albedo_shape=True, model="smooth_plastic_nonlinear"),
     MaterialKind("beckmann_dielectric", microfacet=True, transmits=True, model="beckmann_dielectric"),
-    MaterialKind("conductor", delta=True, conductor=True),
+    MaterialKind("conductor", delta=True, conductor=True, model="conductor"),
     MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann"),
     MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_separable"),
     MaterialKind("beckmann_plastic", microfacet=True, coat=True, table=True, model="rough_plastic"),

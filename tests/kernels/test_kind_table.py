@@ -2,7 +2,9 @@
 with eval_bsdf, sample and pdf) must do in the renderer, whatever its model: every integrator
 renders it finite and non-negative, whitted ends a ray at it with direct light (as at ggx), and its
 sampled weights are what eval_bsdf / pdf say. Each model's own statistics live beside it
-(test_beckmann.py, test_ggx_separable.py)."""
+(test_beckmann.py, test_ggx_separable.py). The renders here are of the kinds added after the nine
+the built-in scenes render (those have their own tests: test_ggx.py, test_plastic.py,
+test_analytic.py, ...); every model kind gets its own kernel cache key."""
 import importlib
 
 import numpy as np
@@ -10,16 +12,20 @@ import pytest
 
 import drtlab
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, KINDS
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, KINDS, MATERIAL_CODE
 
 from bsdf_checks import assert_consistent
 
-MODEL_KINDS = [k.name for k in KINDS if k.model]
-REFLECTING = [k.name for k in KINDS if k.model and not k.transmits]
-TRANSMITTING = [k.name for k in KINDS if k.model and k.transmits]
+ALL_MODEL_KINDS = [k.name for k in KINDS if k.model]
+# The kinds with a density (a delta kind's module has sample_delta only: no weights to check, and
+# whitted continues its ray) added after the nine.
+ADDED = [k for k in KINDS[MATERIAL_CODE["ggx_dielectric"] + 1:] if not k.delta]
+MODEL_KINDS = [k.name for k in ADDED if k.model]
+REFLECTING = [k.name for k in ADDED if k.model and not k.transmits]
+TRANSMITTING = [k.name for k in ADDED if k.model and k.transmits]
 # The kinds whose model reads a table row compile alike but for their code: one of each model renders.
-RENDERED = [k.name for i, k in enumerate(KINDS)
-            if k.model and not (k.table and any(j.table and j.model == k.model for j in KINDS[:i]))]
+RENDERED = [k.name for i, k in enumerate(ADDED)
+            if k.model and not (k.table and any(j.table and j.model == k.model for j in ADDED[:i]))]
 # Kinds whose model has a mirror lobe beside its density (kernels/materials/smooth_plastic.py).
 MIRRORED = {k.name for k in KINDS
             if k.model and hasattr(importlib.import_module(f"drtlab.kernels.materials.{k.model}"), "delta_reflection")}
@@ -37,6 +43,9 @@ def _scene(kind: str, integrator: str, albedo=None):
 
 def test_the_table_has_model_kinds():
     assert {"beckmann", "ggx_separable"} <= set(REFLECTING) and "ggx_dielectric_separable" in TRANSMITTING
+    # Every kind that scatters is a model module (a delta one's with sample_delta): bsdf.py has no
+    # kind's code but the emitter's "scatters nothing".
+    assert {k.name for k in KINDS if not k.model} == {"emitter"}
 
 
 # drt (the studies' integrator) for every kind, path for the glass: each pair is a kernel variant to
@@ -72,14 +81,14 @@ def test_weights_are_eval_over_pdf(kind, lobe):
     assert_consistent(C.BSDFAdapter(lobe).sample(case, 20_000, 3), f"{kind} lobe={lobe}", delta=kind in MIRRORED)
 
 
-def _bsdf_kernel_hash(kinds: frozenset) -> bytes:
+def _bsdf_kernel_hash(kinds: frozenset, microfacet: str = "vndf") -> bytes:
     """Warp's module hash (the disk cache's key) of a kernel calling make_bsdf's functions."""
     import dataclasses
 
     import warp as wp
     from drtlab.experiments.stats.chi2.adapters import _routine_variant
     from drtlab.kernels.materials import make_bsdf
-    features, strategy = _routine_variant()
+    features, strategy = _routine_variant(microfacet=microfacet)
     b = make_bsdf(dataclasses.replace(features, kinds=kinds), strategy)
     sample_bsdf, eval_bsdf = b.sample_bsdf, b.eval_bsdf
 
@@ -94,8 +103,16 @@ def _bsdf_kernel_hash(kinds: frozenset) -> bytes:
 def test_kinds_of_the_table_change_the_kernel_cache_key():
     """Two scenes whose only difference is which model kind they hold compile apart: Warp does not
     hash an unrolled loop's static values (kernels/static_tag.py), the variant tag does."""
-    hashes = {kind: _bsdf_kernel_hash(frozenset({"diffuse", kind})) for kind in MODEL_KINDS}
-    assert len(set(hashes.values())) == len(MODEL_KINDS), hashes
+    hashes = {kind: _bsdf_kernel_hash(frozenset({"emitter", kind})) for kind in ALL_MODEL_KINDS}
+    assert len(set(hashes.values())) == len(ALL_MODEL_KINDS), hashes
+
+
+@pytest.mark.parametrize("kind", ["ggx", "ggx_dielectric"])
+def test_the_strategys_microfacet_sampler_changes_the_kernel_cache_key(kind):
+    """A model's `sampling(microfacet)` closures share one source: the tag names the choice; a kind
+    whose sampling ignores it (diffuse) keeps one key (the negative control)."""
+    assert _bsdf_kernel_hash(frozenset({kind}), "vndf") != _bsdf_kernel_hash(frozenset({kind}), "d")
+    assert _bsdf_kernel_hash(frozenset({"diffuse"}), "vndf") == _bsdf_kernel_hash(frozenset({"diffuse"}), "d")
 
 
 def test_the_variant_tag_reads_numbers_and_sources():
