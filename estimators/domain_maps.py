@@ -21,6 +21,22 @@ def facing(n: wp.vec3, w: wp.vec3) -> wp.vec3:
 
 
 @wp.func
+def mirror_dir(n: wp.vec3, w: wp.vec3) -> wp.vec3:
+    """w reflected about the line of n (either side of the surface)."""
+    return 2.0 * wp.dot(n, w) * n - w
+
+
+@wp.func
+def cosine_pdf(n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    """Density of the cosine lobe about n on wo's side at wi (0 on the other side)."""
+    cos_i = wp.dot(n, wi)
+    p = float(0.0)
+    if wp.dot(n, wo) * cos_i > 0.0:
+        p = wp.abs(cos_i) * INV_PI
+    return p
+
+
+@wp.func
 def frame_to_world(v: wp.vec3, n: wp.vec3) -> wp.vec3:
     # Duff et al. 2017: branch-free orthonormal basis, continuous except on the -z pole.
     s = 1.0

@@ -12,8 +12,8 @@ landing on the wrong side dropped; pdf = D(wm) cos theta_m |dwm/dwi| times the l
 import warp as wp
 
 from drtlab.kernels.materials.beckmann import beckmann_d, beckmann_g1, beckmann_normal
-from drtlab.kernels.materials.dielectric import fresnel, interface, refract_dir
-from drtlab.kernels.materials.ggx import ggx_half
+from drtlab.kernels.materials.dielectric import interface, scatter_at_normal
+from drtlab.kernels.materials.ggx import ggx_half, lobe_choice
 
 
 @wp.func
@@ -35,19 +35,7 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
     it = interface(n, wo, ior)
     if it.co <= 0.0:
         return wp.vec3(0.0)
-    wm = beckmann_normal(shape, it.nf, u)
-    om = wp.dot(wo, wm)
-    if om <= 0.0:
-        return wp.vec3(0.0)
-    if u_lobe < fresnel(om, it.eta):
-        wi = 2.0 * om * wm - wo
-        if wp.dot(it.nf, wi) <= 0.0:
-            return wp.vec3(0.0)         # reflected below: the pdf would read it as refracted
-        return wi
-    wi = refract_dir(wo, wm, om, it.eta)
-    if wp.dot(it.nf, wi) >= 0.0:
-        return wp.vec3(0.0)             # refracted above: the pdf would read it as reflected
-    return wi
+    return scatter_at_normal(wo, beckmann_normal(shape, it.nf, u), it.nf, it.eta, u_lobe)
 
 
 @wp.func
@@ -56,8 +44,5 @@ def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float
     mf = ggx_half(it.nf, it.eta, wo, wi, 1)
     if mf.valid == 0:
         return 0.0
-    pl = mf.F
-    if mf.reflect == 0:
-        pl = 1.0 - mf.F
     c = wp.dot(it.nf, mf.wm)
-    return beckmann_d(shape, c) * c * mf.dwm * pl
+    return beckmann_d(shape, c) * c * mf.dwm * lobe_choice(mf)

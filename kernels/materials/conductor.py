@@ -14,7 +14,8 @@ eval_bsdf). `sample_delta` is the smooth `conductor` kind's (a delta kind of the
 """
 import warp as wp
 
-from drtlab.kernels.materials.scatter import Scatter
+from drtlab.estimators.domain_maps import mirror_dir
+from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
 @wp.func
@@ -56,14 +57,5 @@ def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3
                  u_lobe: float, uniform: int) -> Scatter:
     """The smooth `conductor` kind (a delta kind, mirror.py's docstring): albedo times F at the
     normal."""
-    s = Scatter()
-    cos_o = wp.dot(n, wo)
-    nf = n
-    if cos_o < 0.0:
-        nf = -n
-    co = wp.abs(cos_o)
-    s.wi = 2.0 * co * nf - wo
-    s.weight = wp.cw_mul(albedo, fresnel_conductor(co, cond_eta, cond_k))
-    s.delta = 1
-    s.valid = 1
-    return s
+    return delta_scatter(mirror_dir(n, wo), wp.cw_mul(albedo, fresnel_conductor(wp.abs(wp.dot(n, wo)), cond_eta,
+                                                                                 cond_k)))

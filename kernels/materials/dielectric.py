@@ -8,7 +8,8 @@ chosen by u_lobe with probability F (1/2 under a strategy that samples uniformly
 under total internal reflection), the weight divided by the choice's probability."""
 import warp as wp
 
-from drtlab.kernels.materials.scatter import Scatter
+from drtlab.estimators.domain_maps import mirror_dir
+from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
 @wp.struct
@@ -58,26 +59,34 @@ def interface(n: wp.vec3, wo: wp.vec3, ior: float) -> Interface:
 @wp.func
 def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3,
                  u_lobe: float, uniform: int) -> Scatter:
-    s = Scatter()
-    cos_o = wp.dot(n, wo)
-    nf = n
-    if cos_o < 0.0:
-        nf = -n
-    co = wp.abs(cos_o)
     it = interface(n, wo, ior)
-    eta = it.eta
     F = it.F
     p_reflect = F
     if uniform == 1:
         p_reflect = 0.5
     if F >= 1.0:
         p_reflect = 1.0
-    s.delta = 1
-    s.valid = 1
     if u_lobe < p_reflect:
-        s.wi = 2.0 * co * nf - wo
-        s.weight = wp.vec3(F / p_reflect)
-    else:
-        s.wi = refract_dir(wo, nf, co, eta)
-        s.weight = albedo * ((1.0 - F) / ((1.0 - p_reflect) * eta * eta))
-    return s
+        return delta_scatter(mirror_dir(n, wo), wp.vec3(F / p_reflect))
+    return delta_scatter(refract_dir(wo, it.nf, it.co, it.eta),
+                         albedo * ((1.0 - F) / ((1.0 - p_reflect) * it.eta * it.eta)))
+
+
+@wp.func
+def scatter_at_normal(wo: wp.vec3, wm: wp.vec3, nf: wp.vec3, eta: float, u_lobe: float) -> wp.vec3:
+    """A rough dielectric's lobe choice at microfacet normal wm (on nf's side; eta outside over
+    inside as seen from wo): wo reflected about wm with probability F(wo.wm) (the lobe choice number
+    u_lobe), else refracted through it; zero where wm faces away from wo or the direction lands on
+    the other lobe's side, which the pdf would read as that lobe."""
+    om = wp.dot(wo, wm)
+    if om <= 0.0:
+        return wp.vec3(0.0)
+    if u_lobe < fresnel(om, eta):
+        wi = 2.0 * om * wm - wo
+        if wp.dot(nf, wi) <= 0.0:
+            return wp.vec3(0.0)
+        return wi
+    wi = refract_dir(wo, wm, om, eta)
+    if wp.dot(nf, wi) >= 0.0:
+        return wp.vec3(0.0)
+    return wi

@@ -6,17 +6,12 @@ on wo's side, pdf = |cos_i| / pi.
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, square_to_cosine_hemisphere
+from drtlab.estimators.domain_maps import cosine_pdf, facing, frame_to_world, square_to_cosine_hemisphere
 
 
 @wp.func
 def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-    cos_o = wp.dot(n, wo)
-    cos_i = wp.dot(n, wi)
-    r = wp.vec3(0.0)
-    if cos_o * cos_i > 0.0:
-        r = albedo * (wp.abs(cos_i) * INV_PI)
-    return r
+    return albedo * cosine_pdf(n, wo, wi)
 
 
 @wp.func
@@ -27,9 +22,4 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
 
 @wp.func
 def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    cos_o = wp.dot(n, wo)
-    cos_i = wp.dot(n, wi)
-    p = float(0.0)
-    if cos_o * cos_i > 0.0:
-        p = wp.abs(cos_i) * INV_PI
-    return p
+    return cosine_pdf(n, wo, wi)

@@ -6,7 +6,7 @@ eval_bsdf, sample and pdf (the interface of a lobe sampler, kernels/lobe_sampler
 drawn as the strategy's `microfacet` says (`sampling`); `ggx_dielectric.py` is the other kind."""
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI, frame_to_world, sincos_turns
+from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, sincos_turns
 from drtlab.kernels.materials.dielectric import fresnel, interface
 
 
@@ -114,6 +114,16 @@ def ggx_half(nf: wp.vec3, eta: float, wo: wp.vec3, wi: wp.vec3, transmits: int) 
 
 
 @wp.func
+def lobe_choice(mf: Microfacet) -> float:
+    """The probability with which a rough dielectric chose mf's lobe: F(wo.wm) to reflect, else
+    1 - F (dielectric.scatter_at_normal)."""
+    pl = mf.F
+    if mf.reflect == 0:
+        pl = 1.0 - mf.F
+    return pl
+
+
+@wp.func
 def eval_ggx(albedo: wp.vec3, alpha: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3,
              transmits: int) -> wp.vec3:
     """f|cos_i| of ggx (transmits 0: albedo is the facets' reflectance, two-sided) and of
@@ -217,11 +227,8 @@ def _make_lobe(vndf: bool):
     @wp.func
     def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
                u: wp.vec2) -> wp.vec3:
-        cos_o = wp.dot(n, wo)
-        nf = n
-        if cos_o < 0.0:
-            nf = -n
-        co = wp.abs(cos_o)
+        nf = facing(n, wo)
+        co = wp.abs(wp.dot(n, wo))
         if co <= 0.0:
             return wp.vec3(0.0)
         wm = sample_normal(nf, wo, co, shape, u)
@@ -229,14 +236,11 @@ def _make_lobe(vndf: bool):
 
     @wp.func
     def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-        cos_o = wp.dot(n, wo)
-        nf = n
-        if cos_o < 0.0:
-            nf = -n
+        nf = facing(n, wo)
         p = float(0.0)
         mf = ggx_half(nf, 1.0, wo, wi, 0)
         if mf.valid == 1:
-            p = normal_pdf(shape, nf, wp.abs(cos_o), mf.wm, mf.om) * mf.dwm
+            p = normal_pdf(shape, nf, wp.abs(wp.dot(n, wo)), mf.wm, mf.om) * mf.dwm
         return p
 
     return sample, pdf

@@ -9,8 +9,8 @@ normal's times |dwm/dwi| times the lobe's probability.
 """
 import warp as wp
 
-from drtlab.kernels.materials.dielectric import fresnel, interface, refract_dir
-from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, make_ggx_normals
+from drtlab.kernels.materials.dielectric import interface, scatter_at_normal
+from drtlab.kernels.materials.ggx import eval_ggx, ggx_half, lobe_choice, make_ggx_normals
 
 
 @wp.func
@@ -28,19 +28,7 @@ def _make_lobe(vndf: bool):
         it = interface(n, wo, ior)
         if it.co <= 0.0:
             return wp.vec3(0.0)
-        wm = sample_normal(it.nf, wo, it.co, shape, u)
-        om = wp.dot(wo, wm)
-        if om <= 0.0:
-            return wp.vec3(0.0)
-        if u_lobe < fresnel(om, it.eta):
-            wi = 2.0 * om * wm - wo
-            if wp.dot(it.nf, wi) <= 0.0:
-                return wp.vec3(0.0)         # reflected below: the pdf would read it as refracted
-            return wi
-        wi = refract_dir(wo, wm, om, it.eta)
-        if wp.dot(it.nf, wi) >= 0.0:
-            return wp.vec3(0.0)             # refracted above: the pdf would read it as reflected
-        return wi
+        return scatter_at_normal(wo, sample_normal(it.nf, wo, it.co, shape, u), it.nf, it.eta, u_lobe)
 
     @wp.func
     def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
@@ -48,10 +36,7 @@ def _make_lobe(vndf: bool):
         mf = ggx_half(it.nf, it.eta, wo, wi, 1)
         p = float(0.0)
         if mf.valid == 1:
-            pl = mf.F
-            if mf.reflect == 0:
-                pl = 1.0 - mf.F
-            p = normal_pdf(shape, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
+            p = normal_pdf(shape, it.nf, it.co, mf.wm, mf.om) * mf.dwm * lobe_choice(mf)
         return p
 
     return sample, pdf

@@ -11,8 +11,8 @@ times the lobe's probability, as the built-in ggx_dielectric's.
 """
 import warp as wp
 
-from drtlab.kernels.materials.dielectric import fresnel, interface, refract_dir
-from drtlab.kernels.materials.ggx import ggx_d_at, ggx_g1, ggx_half, make_ggx_normals
+from drtlab.kernels.materials.dielectric import interface, scatter_at_normal
+from drtlab.kernels.materials.ggx import ggx_d_at, ggx_g1, ggx_half, lobe_choice, make_ggx_normals
 
 _sample_normal, _normal_pdf = make_ggx_normals(True)
 
@@ -36,19 +36,7 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
     it = interface(n, wo, ior)
     if it.co <= 0.0:
         return wp.vec3(0.0)
-    wm = _sample_normal(it.nf, wo, it.co, shape, u)
-    om = wp.dot(wo, wm)
-    if om <= 0.0:
-        return wp.vec3(0.0)
-    if u_lobe < fresnel(om, it.eta):
-        wi = 2.0 * om * wm - wo
-        if wp.dot(it.nf, wi) <= 0.0:
-            return wp.vec3(0.0)         # reflected below: the pdf would read it as refracted
-        return wi
-    wi = refract_dir(wo, wm, om, it.eta)
-    if wp.dot(it.nf, wi) >= 0.0:
-        return wp.vec3(0.0)             # refracted above: the pdf would read it as reflected
-    return wi
+    return scatter_at_normal(wo, _sample_normal(it.nf, wo, it.co, shape, u), it.nf, it.eta, u_lobe)
 
 
 @wp.func
@@ -57,7 +45,4 @@ def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float
     mf = ggx_half(it.nf, it.eta, wo, wi, 1)
     if mf.valid == 0:
         return 0.0
-    pl = mf.F
-    if mf.reflect == 0:
-        pl = 1.0 - mf.F
-    return _normal_pdf(shape, it.nf, it.co, mf.wm, mf.om) * mf.dwm * pl
+    return _normal_pdf(shape, it.nf, it.co, mf.wm, mf.om) * mf.dwm * lobe_choice(mf)

@@ -9,7 +9,7 @@ F-weighted mixture wherever wi lies.
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import frame_to_world, phong_lobe_pdf, square_to_phong_lobe
+from drtlab.estimators.domain_maps import frame_to_world, mirror_dir, phong_lobe_pdf, square_to_phong_lobe
 from drtlab.kernels.materials.dielectric import Interface, interface, refract_dir
 
 
@@ -51,15 +51,10 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 @wp.func
 def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
            u: wp.vec2) -> wp.vec3:
-    cos_o = wp.dot(n, wo)
-    nf = n
-    if cos_o < 0.0:
-        nf = -n
-    co = wp.abs(cos_o)
     it = interface(n, wo, ior)
-    axis = 2.0 * co * nf - wo
+    axis = mirror_dir(n, wo)
     if u_lobe >= it.F:
-        axis = refract_dir(wo, nf, co, it.eta)
+        axis = refract_dir(wo, it.nf, it.co, it.eta)
     return frame_to_world(square_to_phong_lobe(u, shape), axis)
 
 

@@ -9,20 +9,11 @@ index, conductor.py).
 """
 import warp as wp
 
-from drtlab.kernels.materials.scatter import Scatter
+from drtlab.estimators.domain_maps import mirror_dir
+from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
 @wp.func
 def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3,
                  u_lobe: float, uniform: int) -> Scatter:
-    s = Scatter()
-    cos_o = wp.dot(n, wo)
-    nf = n
-    if cos_o < 0.0:
-        nf = -n
-    co = wp.abs(cos_o)
-    s.wi = 2.0 * co * nf - wo
-    s.weight = albedo
-    s.delta = 1
-    s.valid = 1
-    return s
+    return delta_scatter(mirror_dir(n, wo), albedo)

@@ -8,7 +8,7 @@ mirror direction (its part below the surface dropped by eval_bsdf).
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI, frame_to_world, phong_lobe_pdf, square_to_phong_lobe
+from drtlab.estimators.domain_maps import INV_PI, frame_to_world, mirror_dir, phong_lobe_pdf, square_to_phong_lobe
 
 
 @wp.func
@@ -17,8 +17,7 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
     cos_i = wp.dot(n, wi)
     r = wp.vec3(0.0)
     if cos_o * cos_i > 0.0:
-        refl = 2.0 * cos_o * n - wo
-        ca = wp.dot(refl, wi)
+        ca = wp.dot(mirror_dir(n, wo), wi)
         if ca > 0.0:
             r = albedo * ((shape + 2.0) * 0.5 * INV_PI * wp.pow(ca, shape) * wp.abs(cos_i))
     return r
@@ -27,22 +26,12 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 @wp.func
 def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
            u: wp.vec2) -> wp.vec3:
-    cos_o = wp.dot(n, wo)
-    nf = n
-    if cos_o < 0.0:
-        nf = -n
-    return frame_to_world(square_to_phong_lobe(u, shape), 2.0 * wp.abs(cos_o) * nf - wo)
+    return frame_to_world(square_to_phong_lobe(u, shape), mirror_dir(n, wo))
 
 
 @wp.func
 def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    cos_o = wp.dot(n, wo)
-    cos_i = wp.dot(n, wi)
     p = float(0.0)
-    if cos_o * cos_i > 0.0:
-        nf = n
-        if cos_o < 0.0:
-            nf = -n
-        refl = 2.0 * wp.abs(cos_o) * nf - wo
-        p = phong_lobe_pdf(wp.dot(refl, wi), shape)
+    if wp.dot(n, wo) * wp.dot(n, wi) > 0.0:
+        p = phong_lobe_pdf(wp.dot(mirror_dir(n, wo), wi), shape)
     return p

@@ -7,8 +7,8 @@ lobe; the pdf is their mixture."""
 import numpy as np
 import warp as wp
 
-from drtlab.estimators.domain_maps import (INV_PI, frame_to_world, phong_lobe_pdf, square_to_cosine_hemisphere,
-                                           square_to_phong_lobe)
+from drtlab.estimators.domain_maps import (INV_PI, facing, frame_to_world, mirror_dir, phong_lobe_pdf,
+                                           square_to_cosine_hemisphere, square_to_phong_lobe)
 from drtlab.kernels.materials.dielectric import fresnel
 
 
@@ -59,7 +59,7 @@ def eval_plastic(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3, wo: w
         ci = wp.abs(cos_i)
         fo = fresnel(co, ior)
         fi = fresnel(ci, ior)
-        ca = wp.dot(2.0 * cos_o * n - wo, wi)
+        ca = wp.dot(mirror_dir(n, wo), wi)
         coat = float(0.0)
         if ca > 0.0:
             coat = wp.min(fo, fi) * (exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
@@ -83,14 +83,9 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 @wp.func
 def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
            u: wp.vec2) -> wp.vec3:
-    cos_o = wp.dot(n, wo)
-    nf = n
-    if cos_o < 0.0:
-        nf = -n
-    co = wp.abs(cos_o)
-    if u_lobe < plastic_coat_probability(co, ior):
-        return frame_to_world(square_to_phong_lobe(u, shape), 2.0 * co * nf - wo)
-    return frame_to_world(square_to_cosine_hemisphere(u), nf)
+    if u_lobe < plastic_coat_probability(wp.abs(wp.dot(n, wo)), ior):
+        return frame_to_world(square_to_phong_lobe(u, shape), mirror_dir(n, wo))
+    return frame_to_world(square_to_cosine_hemisphere(u), facing(n, wo))
 
 
 @wp.func
@@ -101,6 +96,5 @@ def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float
     if cos_o * cos_i > 0.0:
         # The mixture of the coat's Phong lobe and the base's cosine lobe.
         pc = plastic_coat_probability(wp.abs(cos_o), ior)
-        refl = 2.0 * cos_o * n - wo
-        p = pc * phong_lobe_pdf(wp.dot(refl, wi), shape) + (1.0 - pc) * wp.abs(cos_i) * INV_PI
+        p = pc * phong_lobe_pdf(wp.dot(mirror_dir(n, wo), wi), shape) + (1.0 - pc) * wp.abs(cos_i) * INV_PI
     return p

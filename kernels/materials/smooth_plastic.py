@@ -17,7 +17,7 @@ Mitsuba's plastic is one-sided; drtlab's is two-sided, as its `twosided` (the im
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, square_to_cosine_hemisphere
+from drtlab.estimators.domain_maps import INV_PI, cosine_pdf, facing, frame_to_world, square_to_cosine_hemisphere
 from drtlab.kernels.materials.dielectric import fresnel
 
 
@@ -61,9 +61,7 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
 
 @wp.func
 def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    if wp.dot(n, wo) * wp.dot(n, wi) <= 0.0:
-        return 0.0
-    return wp.abs(wp.dot(n, wi)) * INV_PI
+    return cosine_pdf(n, wo, wi)
 
 
 @wp.func
