@@ -25,7 +25,5 @@ picks how the lobe strategy draws their microfacet normals (visible normals or D
 `surface_albedo(sd, m, uv)` is the (checkered) albedo, `emitted(sd, h, wo)` a hit's emission.
 """
 from drtlab.kernels.materials.bsdf import Bsdf, Scatter, make_bsdf  # noqa: F401
-from drtlab.kernels.materials.kinds import (  # noqa: F401
-    CONDUCTOR, DIELECTRIC, DIFFUSE, EMITTER, GGX, GGX_DIELECTRIC, GLOSSY, GLOSSY_DIELECTRIC, LOBE_CHOICE_KINDS, MIRROR,
-    PLASTIC)
+from drtlab.kernels.materials.kinds import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS  # noqa: F401
 from drtlab.kernels.materials.surface import checkered, emitted, surface_albedo  # noqa: F401

@@ -8,15 +8,13 @@ from drtlab.estimators.domain_maps import (INV_4PI, INV_PI, frame_to_world, squa
                                            square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.features import Features
-from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE, kinds_where
+from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.materials.conductor import half_fresnel
-from drtlab.kernels.materials.kinds import EMITTER
+from drtlab.kernels.materials.kinds import EMITTER, LOBE_CHOICE_KINDS
 from drtlab.kernels.materials.scatter import Scatter
 
 
-# The material kinds whose sample_bsdf reads u_lobe; every other kind samples one lobe.
-LOBE_CHOICE_KINDS = frozenset(kinds_where(lambda k: k.lobe_choice))
 LOBE_CHOICE_CODES = frozenset(MATERIAL_CODE[k] for k in LOBE_CHOICE_KINDS)
 
 

@@ -26,7 +26,8 @@ import drtlab
 from drtlab.experiments.stats import chi2 as C
 
 import ggx_util as gu
-from bsdf_checks import assert_consistent, microfacet_chi2
+from bsdf_checks import albedo_estimate, assert_consistent, microfacet_chi2
+from scene_pieces import glossy_ggx_as
 from stats_util import ALPHA, seed_for
 from test_beckmann import f_cos as beckmann_f_cos
 
@@ -114,8 +115,7 @@ def test_directional_albedo_and_its_negative_control():
     s = C.BSDFAdapter(True).sample(("ggx_conductor", (1.0,) * 3, alpha, 1.5, NORMAL, wo_at(theta)) + CU, N,
                                    seed_for("conductor-albedo", "ggx"))
     assert_consistent(s, "ggx_conductor")
-    w = np.where(s.valid[:, None], s.weight.astype(np.float64), 0.0)
-    mean, se = w.mean(axis=0), w.std(axis=0, ddof=1) / math.sqrt(N)
+    mean, se = albedo_estimate(s)
     ref, wrong = _albedo_quadrature(alpha, theta, True), _albedo_quadrature(alpha, theta, False)
     z_crit = stats.norm.isf(LEVEL / 2 / 3)          # three channels, Sidak within the test too
     z = (mean - ref) / se
@@ -124,21 +124,11 @@ def test_directional_albedo_and_its_negative_control():
     assert np.any(np.abs(mean - wrong) / se >= z_crit), (mean, wrong)
 
 
-def _scene(kind: str, integrator: str, ior=None):
-    scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": integrator})
-    for m in scene.materials:
-        if m.kind == "ggx":
-            m.kind = kind
-            if ior is not None:
-                m.eta, m.k = (np.array(v) for v in ior)
-    return scene
-
-
 @pytest.mark.parametrize("integrator", ["path", "whitted"])
 def test_smooth_conductor_is_a_delta_lobe_in_the_integrators(integrator):
     """0 + 1i (Mitsuba's material "none") renders exactly as a mirror; copper, less bright."""
-    mirror = drtlab.render(_scene("mirror", integrator), spp=2, seed=1)
-    none = drtlab.render(_scene("conductor", integrator), spp=2, seed=1)
-    cu = drtlab.render(_scene("conductor", integrator, CU), spp=2, seed=1)
+    mirror = drtlab.render(glossy_ggx_as("mirror", integrator), spp=2, seed=1)
+    none = drtlab.render(glossy_ggx_as("conductor", integrator), spp=2, seed=1)
+    cu = drtlab.render(glossy_ggx_as("conductor", integrator, eta=CU[0], k=CU[1]), spp=2, seed=1)
     assert np.array_equal(mirror, none)
     assert np.all(cu <= none + 1e-6) and cu.mean() < none.mean() and np.isfinite(cu).all()

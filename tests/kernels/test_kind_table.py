@@ -15,6 +15,7 @@ from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, KINDS, MATERIAL_CODE
 
 from bsdf_checks import assert_consistent
+from scene_pieces import glossy_ggx_as
 
 ALL_MODEL_KINDS = [k.name for k in KINDS if k.model]
 # The kinds with a density (a delta kind's module has sample_delta only: no weights to check, and
@@ -31,16 +32,6 @@ MIRRORED = {k.name for k in KINDS
             if k.model and hasattr(importlib.import_module(f"drtlab.kernels.materials.{k.model}"), "delta_reflection")}
 
 
-def _scene(kind: str, integrator: str, albedo=None):
-    scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": integrator})
-    for m in scene.materials:
-        if m.kind == "ggx":
-            m.kind = kind
-            if albedo is not None:
-                m.albedo = np.asarray(albedo, dtype=np.float64)
-    return scene
-
-
 def test_the_table_has_model_kinds():
     assert {"beckmann", "ggx_separable"} <= set(REFLECTING) and "ggx_dielectric_separable" in TRANSMITTING
     # Every kind that scatters is a model module (a delta one's with sample_delta): bsdf.py has no
@@ -52,7 +43,7 @@ def test_the_table_has_model_kinds():
 # compile, and whitted has its own tests below.
 @pytest.mark.parametrize("kind,integrator", [(k, "drt") for k in RENDERED] + [(TRANSMITTING[0], "path")])
 def test_integrators_render_it_finite(kind, integrator):
-    img = drtlab.render(_scene(kind, integrator), spp=4, sampler="independent+importance", seed=1)
+    img = drtlab.render(glossy_ggx_as(kind, integrator), spp=4, sampler="independent+importance", seed=1)
     assert np.all(np.isfinite(img)) and np.all(img >= 0) and img.mean() > 0
 
 
@@ -61,7 +52,7 @@ def test_integrators_render_it_finite(kind, integrator):
 def test_whitted_ends_the_ray_at_it_with_direct_light(kind):
     """A black surface of the kind renders exactly as a black diffuse one: a continued (mirror) ray
     would show reflections."""
-    images = [drtlab.render(_scene(k, "whitted", albedo=[0, 0, 0]), spp=1, seed=1) for k in (kind, "diffuse")]
+    images = [drtlab.render(glossy_ggx_as(k, "whitted", albedo=[0, 0, 0]), spp=1, seed=1) for k in (kind, "diffuse")]
     assert np.array_equal(images[0], images[1])
 
 
@@ -70,7 +61,7 @@ def test_whitted_splits_at_it_as_at_a_smooth_dielectric(kind):
     """Whitted treats a transmitting kind as ggx_dielectric: a smooth interface it splits into
     reflection and refraction, so the two render the same image, bit for bit (and not a black
     surface's: the split does something)."""
-    images = [drtlab.render(_scene(k, "whitted"), spp=1, seed=1) for k in (kind, "ggx_dielectric", "diffuse")]
+    images = [drtlab.render(glossy_ggx_as(k, "whitted"), spp=1, seed=1) for k in (kind, "ggx_dielectric", "diffuse")]
     assert np.array_equal(images[0], images[1]) and not np.array_equal(images[0], images[2])
 
 

@@ -47,6 +47,12 @@ def load(tmp_path, text: str, name: str = "s.xml"):
     return load_scene(path)
 
 
+def one_bsdf(tmp_path, bsdf: str):
+    """The scene of a sphere with `bsdf` (an XML element) and nothing else: its materials[0]."""
+    return load(tmp_path, '<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"><rfilter '
+                          f'type="box"/></film></sensor><shape type="sphere">{bsdf}</shape></scene>')
+
+
 def refused(tmp_path, text: str) -> str:
     with pytest.raises(InputError) as e:
         load(tmp_path, text)

@@ -25,7 +25,9 @@ from drtlab.errors import InputError
 from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.materials.rough_plastic_table import table_row
 
+from bsdf_checks import albedo_estimate
 from stats_util import ALPHA, seed_for
+from test_mitsuba_xml import one_bsdf
 
 N = 200_000
 NORMAL = np.array([0.0, 0.0, 1.0])
@@ -222,8 +224,7 @@ def _albedo_reference(kind, albedo, alpha, eta, theta, scale_base=1.0, n=200):
 def test_directional_albedo_is_at_most_one_and_its_negative_control(kind, albedo, alpha, eta, theta):
     s = C.BSDFAdapter(True).sample((kind, albedo, alpha, eta, NORMAL, wo_at(theta)), N,
                                    seed_for("rough-plastic-albedo", f"{kind}-{eta}-{theta}"))
-    w = np.where(s.valid[:, None], s.weight.astype(np.float64), 0.0)
-    mean, se = w.mean(0), w.std(0, ddof=1) / math.sqrt(N)
+    mean, se = albedo_estimate(s)
     ref = _albedo_reference(kind, albedo, alpha, eta, theta)
     wrong = _albedo_reference(kind, albedo, alpha, eta, theta, scale_base=eta * eta)
     z_crit = stats.norm.isf(LEVEL / 2)
@@ -235,13 +236,6 @@ def test_directional_albedo_is_at_most_one_and_its_negative_control(kind, albedo
 
 
 # ---- Mitsuba XML import --------------------------------------------------------------------------
-
-def _xml(tmp_path, bsdf: str):
-    path = tmp_path / "s.xml"
-    path.write_text(f'<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"><rfilter '
-                    f'type="box"/></film></sensor><shape type="sphere">{bsdf}</shape></scene>')
-    return load_scene(path)
-
 
 @pytest.mark.parametrize("bsdf,kind,albedo,alpha,eta", [
     ('<bsdf type="roughplastic"/>', "beckmann_plastic", [0.5] * 3, 0.1, 1.49 / 1.000277),
@@ -256,7 +250,7 @@ def _xml(tmp_path, bsdf: str):
      "ggx_plastic_nonlinear", [0.5] * 3, 0.1, 1.49 / 1.000277),
 ])
 def test_roughplastic_loads_as_its_kind(tmp_path, bsdf, kind, albedo, alpha, eta):
-    m = _xml(tmp_path, bsdf).materials[0]
+    m = one_bsdf(tmp_path, bsdf).materials[0]
     assert (m.kind, m.albedo.tolist()) == (kind, albedo)
     assert m.roughness == pytest.approx(alpha, rel=1e-12) and m.ior == pytest.approx(eta, rel=1e-12)
 
@@ -270,13 +264,13 @@ def test_roughplastic_loads_as_its_kind(tmp_path, bsdf, kind, albedo, alpha, eta
 ])
 def test_refused_roughplastics_in_one_line(tmp_path, bsdf, what):
     with pytest.raises(InputError) as e:
-        _xml(tmp_path, bsdf)
+        one_bsdf(tmp_path, bsdf)
     assert "\n" not in str(e.value) and what in str(e.value), str(e.value)
 
 
 def test_export_writes_them_back(tmp_path):
     from drtlab.kernels.scene_model.mitsuba_export import export_mitsuba
-    a = _xml(tmp_path, "")
+    a = one_bsdf(tmp_path, "")
     kinds = ("beckmann_plastic", "ggx_plastic_nonlinear", "smooth_plastic_nonlinear")
     a.materials = [dataclasses.replace(a.materials[0], name=k, kind=k, albedo=np.array([0.8, 0.3, 0.1]),
                                        roughness=0.25, ior=1.6) for k in kinds]

@@ -22,9 +22,10 @@ from scipy import stats
 
 from drtlab.experiments.stats import chi2 as C
 from drtlab.errors import InputError
-from drtlab import load_scene
 
+from bsdf_checks import albedo_estimate
 from stats_util import ALPHA, seed_for
+from test_mitsuba_xml import one_bsdf
 
 N = 200_000
 NORMAL = np.array([0.0, 0.0, 1.0])
@@ -137,8 +138,7 @@ def test_directional_albedo_is_at_most_one_and_its_negative_control(kind, albedo
     nonlinear = kind.endswith("nonlinear")
     s = C.BSDFAdapter(True).sample((kind, albedo, float(np.mean(albedo)), eta, NORMAL, wo_at(theta)), N,
                                    seed_for("smooth-plastic-albedo", f"{kind}-{eta}-{theta}"))
-    w = np.where(s.valid[:, None], s.weight.astype(np.float64), 0.0)
-    mean, se = w.mean(0), w.std(0, ddof=1) / math.sqrt(N)
+    mean, se = albedo_estimate(s)
     ref = albedo_ref(albedo, eta, theta, nonlinear)
     wrong = albedo_ref(albedo, eta, theta, nonlinear, coat=False)
     z_crit = stats.norm.isf(LEVEL / 2)
@@ -151,13 +151,6 @@ def test_directional_albedo_is_at_most_one_and_its_negative_control(kind, albedo
 
 # ---- Mitsuba XML import --------------------------------------------------------------------------
 
-def _xml(tmp_path, bsdf: str):
-    path = tmp_path / "s.xml"
-    path.write_text(f'<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm"><rfilter '
-                    f'type="box"/></film></sensor><shape type="sphere">{bsdf}</shape></scene>')
-    return load_scene(path)
-
-
 @pytest.mark.parametrize("bsdf,kind,albedo,eta", [
     ('<bsdf type="plastic"/>', "smooth_plastic", [0.5] * 3, 1.49 / 1.000277),
     ('<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.8, 0.1, 0.2"/><float name="int_ior" '
@@ -167,7 +160,7 @@ def _xml(tmp_path, bsdf: str):
      'name="int_ior" value="bk7"/></bsdf></bsdf>', "smooth_plastic", [0.5] * 3, 1.5046 / 1.000277),
 ])
 def test_plastic_loads_as_its_kind(tmp_path, bsdf, kind, albedo, eta):
-    m = _xml(tmp_path, bsdf).materials[0]
+    m = one_bsdf(tmp_path, bsdf).materials[0]
     assert (m.kind, m.albedo.tolist()) == (kind, albedo) and m.ior == pytest.approx(eta, rel=1e-12)
 
 
@@ -179,5 +172,5 @@ def test_plastic_loads_as_its_kind(tmp_path, bsdf, kind, albedo, eta):
 ])
 def test_refused_plastics_in_one_line(tmp_path, bsdf, what):
     with pytest.raises(InputError) as e:
-        _xml(tmp_path, bsdf)
+        one_bsdf(tmp_path, bsdf)
     assert "\n" not in str(e.value) and what in str(e.value), str(e.value)

@@ -1,5 +1,6 @@
 """Checks every BSDF sampler's samples must pass (tests/kernels/test_plastic.py, test_ggx.py)."""
 import dataclasses
+import math
 
 import numpy as np
 from scipy import stats
@@ -51,3 +52,10 @@ def microfacet_chi2(ad: C.BSDFAdapter, case, name: str, n: int, tests: int, seed
                    res=(101, 202), seed=seed + 1, test_count=tests)
     assert r.passed, r.summary()
     return s, r
+
+
+def albedo_estimate(s: C.BSDFSamples) -> tuple[np.ndarray, np.ndarray]:
+    """Per channel: (mean, standard error) of the sampled weights, an invalid sample counting 0, so
+    the mean estimates the directional albedo."""
+    w = np.where(s.valid[:, None], s.weight.astype(np.float64), 0.0)
+    return w.mean(axis=0), w.std(axis=0, ddof=1) / math.sqrt(len(w))

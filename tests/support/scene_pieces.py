@@ -136,3 +136,16 @@ def inward_box_quads(lo, hi, material, split_face: bool = False) -> list[dict]:
             continue
         out.append(quad(origin, eu, ev, material))
     return out
+
+
+def glossy_ggx_as(kind: str, integrator: str, **attrs):
+    """The built-in glossy-ggx scene at 12x9 under `integrator`, its ggx material made a `kind` with
+    `attrs` (arrays as float64): one kind in a lit scene, as cheap to compile as a kind can be."""
+    import drtlab
+    scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [12, 9], "scene.integrator": integrator})
+    for m in scene.materials:
+        if m.kind == "ggx":
+            m.kind = kind
+            for key, value in attrs.items():
+                setattr(m, key, np.asarray(value, dtype=np.float64))
+    return scene
