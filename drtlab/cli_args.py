@@ -28,7 +28,11 @@ class Parser(argparse.ArgumentParser):
             raise InputError(m.group(1), "required")
         m = re.match(r"unrecognized arguments: (.*)", message)
         if m:
-            raise InputError(m.group(1).split()[0], f"unknown option; see `{self.prog} --help`")
+            extra = m.group(1).split()[0]
+            if extra.startswith("-"):
+                raise InputError(extra, f"unknown option; see `{self.prog} --help`")
+            # A value too many: `--res 32 24` for `--res 32x24`.
+            raise InputError(extra, f"unexpected argument (each option takes one value); see `{self.prog} --help`")
         raise InputError("arguments", message)
 
 

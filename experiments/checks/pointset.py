@@ -153,7 +153,8 @@ def check(name: str, seed: int = 0, level: float = 0.01, pixels: int | None = No
         card.lines.append(Line("battery", battery.passed,
                                f"{len(battery.tests)} tests at {battery.level:.3g}: "
                                + ("all pass" if battery.passed else "FAIL " + ", ".join(battery.failed))
-                               + f"; smallest p {worst.p:.3g} ({worst.name}: {worst.worst})", worst.p))
+                               + f"; smallest p {worst.p:.3g} ({worst.name}, Sidak over its {worst.subtests} "
+                                 f"sub-tests; the worst of them: {worst.worst})", worst.p))
         strat = next((t.info for t in battery.tests if t.name == "stratification"), {})
         if strat:
             card.lines.append(Line("stratification claims", None,

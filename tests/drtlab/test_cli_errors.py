@@ -104,6 +104,17 @@ def test_unknown_option(folders, capsys):
     rc = main(["render", str(scenes / "good.toml"), "--bogus", "3"])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.splitlines()) == 1 and "--bogus" in err and "Traceback" not in err
+    assert "unknown option" in err
+
+
+def test_a_value_too_many_is_named_as_such(folders, capsys):
+    """`--res 32 24` (for 32x24): the stray 24 is no option, and the line says which it is."""
+    scenes, out_dir = folders
+    rc = main(["render", str(scenes / "good.toml"), "--res", "32", "24", "--out", str(out_dir / "x.exr")])
+    err = capsys.readouterr().err
+    assert rc == 2 and list(out_dir.iterdir()) == []
+    assert_one_line_error(err, "24")
+    assert "unexpected argument" in err and "unknown option" not in err, err
 
 
 def test_good_input_writes_the_files(folders, capsys):
