@@ -127,3 +127,19 @@ def test_the_scene_model_holds_no_warp_code():
                     or (n.startswith("drtlab.kernels.") and n not in leaves
                         and not n.startswith("drtlab.kernels.scene_model"))]
     assert bad == []
+
+
+MAX_LINES = 450     # past this a module usually holds two concepts: one concept, one module
+
+
+def _too_long(paths) -> dict[str, int]:
+    lengths = {str(p): len(p.read_text().splitlines()) for p in paths}
+    return {p: n for p, n in lengths.items() if n > MAX_LINES}
+
+
+def test_no_package_module_is_over_450_lines(tmp_path):
+    assert _too_long(p for folder in ("drtlab", *LAYERS) for p in (ROOT / folder).rglob("*.py")) == {}
+    # The check itself sees a long one, and not one of exactly the limit.
+    (tmp_path / "long.py").write_text("x = 1\n" * (MAX_LINES + 1))
+    (tmp_path / "fits.py").write_text("x = 1\n" * MAX_LINES)
+    assert _too_long([tmp_path / "long.py", tmp_path / "fits.py"]) == {str(tmp_path / "long.py"): MAX_LINES + 1}
