@@ -2,10 +2,10 @@
 
 `make_direct(features, strategy, rays=rays, bsdf=bsdf, lights=lights)` (from make_intersect,
 make_bsdf and make_lights) returns DirectLighting, Warp functions:
-    direct_delta_lights(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, p, n, ns, wo, dt) -> point and directional
+    direct_delta_lights(sd, mat, p, n, ns, wo, dt) -> point and directional
         light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
         sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
-    next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo, u_light, u_point, bounce, dt) -> beta
+    next_event(sd, beta, mat, h, wo, u_light, u_point, bounce, dt) -> beta
         times one area-light sample's estimate (MIS-weighted when the strategy combines by MIS) at
         h, the path vertex of bounce index `bounce` (0: the camera ray's hit)
     hit_weight(sd, h, prev_delta, prev_pdf, prev_p, prev_bounce, dt) -> weight of an emitter a
@@ -27,6 +27,7 @@ from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_c
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.lights import AreaLights
 from drtlab.kernels.materials import Bsdf
+from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.mis import heuristic_of
 
 
@@ -59,9 +60,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     sample_light = lights.sample_light
 
     @wp.func
-    def direct_delta_lights(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float,
-                            ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, p: wp.vec3, n: wp.vec3,
-                            ns: wp.vec3, wo: wp.vec3,
+    def direct_delta_lights(sd: SceneData, mat: MaterialAt, p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3,
                             dt: float) -> wp.vec3:
         L = wp.vec3(0.0)
         if wp.static(POINTS):
@@ -70,7 +69,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 d = sd.lights.point_position[i] - p
                 dist = wp.length(d)
                 wi = d / dist
-                fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, wi)
+                fc = eval_bsdf(mat, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
@@ -82,7 +81,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
             i = int(0)
             while i < sd.lights.n_dir:
                 wi = -sd.lights.dir_direction[i]
-                fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, wi)
+                fc = eval_bsdf(mat, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
@@ -93,17 +92,14 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
         return L
 
     @wp.func
-    def next_event(sd: SceneData, beta: wp.vec3, kind: int, albedo: wp.vec3, exponent: float,
-                   ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, h: Hit, wo: wp.vec3, u_light: float,
-                   u_point: wp.vec2,
-                   bounce: int, dt: float) -> wp.vec3:
+    def next_event(sd: SceneData, beta: wp.vec3, mat: MaterialAt, h: Hit, wo: wp.vec3, u_light: float,
+                   u_point: wp.vec2, bounce: int, dt: float) -> wp.vec3:
         ul = u_light
         share = float(1.0)      # the area lights' share of the light choice
         if wp.static(ENV):
             pe = env_pick(sd.environment)
             if ul < pe:
-                return env_next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo, u_point, pe,
-                                      dt)
+                return env_next_event(sd, beta, mat, h, wo, u_point, pe, dt)
             ul = (ul - pe) / (1.0 - pe)
             share = 1.0 - pe
         li = pick_light(sd, h.p, ul)
@@ -118,7 +114,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
             ns = h.n
             if wp.static(MESHES):
                 ns = h.ns
-            fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, ls.wi)
+            fc = eval_bsdf(mat, ns, wo, ls.wi)
             if wp.static(MESHES):
                 fc = fc * shading_consistent(h.n, ns, wo, ls.wi)
             if wp.static(FAULT_DROP_COSINE):
@@ -135,7 +131,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 if visible(sd, so, ls.wi, ls.dist, dt, lk, target) == 1:
                     w = float(1.0)
                     if wp.static(MIS):
-                        pb = pdf_bsdf(kind, exponent, ior, mtable, mrow, ns, wo, ls.wi)
+                        pb = pdf_bsdf(mat, ns, wo, ls.wi)
                         w = mis_weight(ls.pdf, pb)
                     est = wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) * (w / ls.pdf)
                     if wp.static(TWICE_SAMPLE_LIGHT or TWICE_VISIBLE):

@@ -3,7 +3,7 @@ that leaves the scene.
 
 `make_environment_lighting(features, strategy, rays=rays, bsdf=bsdf)` (from make_intersect and
 make_bsdf) returns EnvironmentLighting, Warp functions:
-    env_next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo, u, pick, dt) -> beta times one
+    env_next_event(sd, beta, mat, h, wo, u, pick, dt) -> beta times one
         environment sample's estimate; `pick` is the probability the light choice gave it
         (kernels/direct.py splits the light choice between the environment and the area lights)
     env_escape(sd, d, prev_delta, prev_pdf, prev_n) -> the radiance a ray leaving along d brings,
@@ -23,6 +23,7 @@ from drtlab.kernels.features import DROP_COSINE, Features
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.materials import Bsdf
+from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.mis import heuristic_of
 
 
@@ -54,16 +55,14 @@ def make_environment_lighting(f: Features, strategy: Strategy, *, rays: SceneRay
     pdf_bsdf = bsdf.pdf_bsdf
 
     @wp.func
-    def env_next_event(sd: SceneData, beta: wp.vec3, kind: int, albedo: wp.vec3, exponent: float,
-                       ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, h: Hit, wo: wp.vec3, u: wp.vec2,
-                       pick: float,
-                       dt: float) -> wp.vec3:
+    def env_next_event(sd: SceneData, beta: wp.vec3, mat: MaterialAt, h: Hit, wo: wp.vec3, u: wp.vec2,
+                       pick: float, dt: float) -> wp.vec3:
         ns = h.n
         if wp.static(MESHES):
             ns = h.ns
         es = env_sample(sd.environment, oriented(ns, wo), u)
         if es.valid == 1:
-            fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, es.wi)
+            fc = eval_bsdf(mat, ns, wo, es.wi)
             if wp.static(MESHES):
                 fc = fc * shading_consistent(h.n, ns, wo, es.wi)
             if wp.static(FAULT_DROP_COSINE):
@@ -75,7 +74,7 @@ def make_environment_lighting(f: Features, strategy: Strategy, *, rays: SceneRay
                     pdf = es.pdf * pick
                     w = float(1.0)
                     if wp.static(MIS):
-                        pb = pdf_bsdf(kind, exponent, ior, mtable, mrow, ns, wo, es.wi)
+                        pb = pdf_bsdf(mat, ns, wo, es.wi)
                         w = mis_weight(pdf, pb)
                     return wp.cw_mul(beta, c) * (w / pdf)
         return wp.vec3(0.0)

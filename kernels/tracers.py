@@ -19,7 +19,8 @@ from drtlab.kernels.features import (DROP_COSINE, PDF_HIGH_10PCT, REPEAT_DRAW, R
                                      Features)
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
-from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, Bsdf, emitted, surface_albedo
+from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, Bsdf, emitted
+from drtlab.kernels.materials.material_at import material_at
 from drtlab.kernels.static_tag import variant_tag
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
@@ -58,7 +59,6 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
     MESHES = f.meshes
     # The kind table's delta kinds present: their one direction has no density for light sampling.
     DELTA_CODES = tuple(MATERIAL_CODE[k] for k in sorted(f.kinds) if KIND_BY_NAME[k].delta)
-    HAS_TABLE = any(KIND_BY_NAME[k].table for k in f.kinds)     # a model reading MaterialData.table
     # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
     # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
     LOBE_CHOICE = bool(f.kinds & LOBE_CHOICE_KINDS)
@@ -121,15 +121,7 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                         break
                     if wp.static(RR_REWEIGHT):
                         beta = beta / q
-            albedo = surface_albedo(sd, m, h.uv)
-            exponent = sd.materials.exponent[m]
-            ior = sd.materials.ior[m]
-            cond_eta = sd.materials.eta[m]
-            cond_k = sd.materials.k[m]
-            mtable = sd.materials.table
-            mrow = int(0)
-            if wp.static(HAS_TABLE):
-                mrow = sd.materials.row[m]
+            mat = material_at(sd, m, h.uv)
             is_delta = False
             _deltas = wp.static(variant_tag(DELTA_CODES))  # noqa: F841 (static_tag.py)
             for i in range(wp.static(len(DELTA_CODES))):
@@ -148,14 +140,11 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
                                    spp)
                     up = get2d(seed, pix, idx, base + wp.uint32(wp.static(dims.LIGHT_POSITION)),
                                spp)
-                    L += next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo, ul, up, depth,
-                                    dt)
+                    L += next_event(sd, beta, mat, h, wo, ul, up, depth, dt)
                     if wp.static(TWICE_NEXT_EVENT):
-                        L += 1.0e-30 * next_event(sd, beta, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, h, wo,
-                                                  1.0 - ul, wp.vec2(up[1], up[0]), depth, dt)
+                        L += 1.0e-30 * next_event(sd, beta, mat, h, wo, 1.0 - ul, wp.vec2(up[1], up[0]), depth, dt)
                 if wp.static(DELTA_LIGHTS):
-                    L += wp.cw_mul(beta, direct_delta_lights(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow,
-                                                             h.p, h.n, ns, wo, dt))
+                    L += wp.cw_mul(beta, direct_delta_lights(sd, mat, h.p, h.n, ns, wo, dt))
             u_lobe = float(0.0)
             if wp.static(LOBE_CHOICE):
                 u_lobe = get1d(seed, pix, idx, base + wp.uint32(wp.static(dims.LOBE_CHOICE)), spp)
@@ -163,10 +152,9 @@ def make_trace(f: Features, pointset: PointSet, strategy: Strategy, *, rays: Sce
             if wp.static(TWICE_DRAW):
                 L += wp.vec3(1.0e-30 * get2d(seed, pix, idx + wp.uint32(1),
                                              base + wp.uint32(wp.static(dims.DIRECTION)), spp)[0])
-            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, u_lobe, u_dir)
+            s = sample_bsdf(mat, ns, wo, u_lobe, u_dir)
             if wp.static(TWICE_SAMPLE_BSDF):
-                L += 1.0e-30 * sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, u_lobe,
-                                           wp.vec2(u_dir[1], u_dir[0])).weight
+                L += 1.0e-30 * sample_bsdf(mat, ns, wo, u_lobe, wp.vec2(u_dir[1], u_dir[0])).weight
             if s.valid == 0:
                 break
             if wp.static(MESHES):

@@ -2,8 +2,7 @@
 
 `make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
 and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
-light a surface by light_centres(sd, kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, p,
-n, ns, wo): each seen as a point source at its centre (a mesh light: at its area-weighted centroid;
+light a surface by light_centres(sd, mat, p, n, ns, wo): each seen as a point source at its centre (a mesh light: at its area-weighted centroid;
 n geometric, ns shading normal, as in kernels/direct.py).
 """
 import importlib
@@ -17,7 +16,8 @@ from drtlab.kernels.environment import env_radiance
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
-from drtlab.kernels.materials import EMITTER, Bsdf, emitted, surface_albedo
+from drtlab.kernels.materials import EMITTER, Bsdf, emitted
+from drtlab.kernels.materials.material_at import MaterialAt, material_at
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.static_tag import variant_tag
@@ -45,9 +45,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     direct_delta_lights = lighting.direct_delta_lights
 
     @wp.func
-    def light_centres(sd: SceneData, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                      cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, p: wp.vec3,
-                      n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
+    def light_centres(sd: SceneData, mat: MaterialAt, p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
         # Whitted's shadow rays to area-light centres: each light acts as a point source with its
         # radiant intensity towards p (sphere: Le * pi r^2; one-sided quad: Le * A * cos; a mesh:
         # its one-sided flat part |N| cos plus its closed part (A - |N|) / 4, N = sum of area x
@@ -81,7 +79,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                     intensity = (wp.max(0.0, -wp.dot(na, wi))
                                  + 0.25 * wp.max(0.0, sd.meshes.area[s] - wp.length(na)))
             if intensity > 0.0:
-                fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, ns, wo, wi)
+                fc = eval_bsdf(mat, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
@@ -126,7 +124,8 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 kind = sd.materials.kind[m]
                 if kind == EMITTER:
                     break
-                albedo = surface_albedo(sd, m, h.uv)
+                mat = material_at(sd, m, h.uv)
+                albedo = mat.albedo
                 ns = h.n                # the shading normal (a mesh's interpolated one)
                 if wp.static(MESHES):
                     ns = h.ns
@@ -143,23 +142,16 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 if ends:
                     direct = wp.vec3(0.0)
                     if wp.static(AREA_CENTRES):
-                        direct += light_centres(sd, kind, albedo, sd.materials.exponent[m],
-                                                sd.materials.ior[m], sd.materials.eta[m],
-                                                sd.materials.k[m], sd.materials.table, sd.materials.row[m],
-                                                h.p, h.n, ns, wo)
+                        direct += light_centres(sd, mat, h.p, h.n, ns, wo)
                     if wp.static(DELTA_LIGHTS):
-                        direct += direct_delta_lights(sd, kind, albedo, sd.materials.exponent[m],
-                                                      sd.materials.ior[m], sd.materials.eta[m],
-                                                      sd.materials.k[m], sd.materials.table,
-                                                      sd.materials.row[m], h.p, h.n, ns, wo, 0.0)
+                        direct += direct_delta_lights(sd, mat, h.p, h.n, ns, wo, 0.0)
                     L += wp.cw_mul(beta, direct)
                     break
                 wi = 2.0 * co * nf - wo
                 _mirrors = wp.static(variant_tag(MIRRORS))  # noqa: F841 (static_tag.py)
                 for i in range(wp.static(len(MIRRORS))):
                     if kind == wp.static(MIRRORS[i][0]):
-                        s = wp.static(MIRRORS[i][1].sample_delta)(albedo, sd.materials.ior[m], sd.materials.eta[m],
-                                                                  sd.materials.k[m], ns, wo, 0.0, 0)
+                        s = wp.static(MIRRORS[i][1].sample_delta)(mat, ns, wo, 0.0, 0)
                         wi = s.wi
                         beta = wp.cw_mul(beta, s.weight)
                 if wp.static(SPLITS > 0):
@@ -169,7 +161,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                         if kind == wp.static(SPLITTING[i]):
                             splits = True
                     if splits:
-                        it = interface(ns, wo, sd.materials.ior[m])
+                        it = interface(ns, wo, mat.ior)
                         eta = it.eta
                         F = it.F
                         if F < 1.0:

@@ -12,6 +12,7 @@ from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.materials.conductor import half_fresnel
 from drtlab.kernels.materials.kinds import EMITTER, LOBE_CHOICE_KINDS
+from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
 
 
@@ -19,11 +20,9 @@ LOBE_CHOICE_CODES = frozenset(MATERIAL_CODE[k] for k in LOBE_CHOICE_KINDS)
 
 
 class Bsdf(NamedTuple):
-    eval_bsdf: wp.Function      # (kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, wi)
-                                # -> f|cos|
-    pdf_bsdf: wp.Function       # (kind, exponent, ior, table, row, n, wo, wi) -> sample_bsdf's density
-    sample_bsdf: wp.Function    # (kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, u_lobe,
-                                # u) -> Scatter
+    eval_bsdf: wp.Function      # (mat: MaterialAt, n, wo, wi) -> f|cos|
+    pdf_bsdf: wp.Function       # (mat, n, wo, wi) -> sample_bsdf's density (it reads no albedo)
+    sample_bsdf: wp.Function    # (mat, n, wo, u_lobe, u) -> Scatter
 
 
 def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
@@ -105,20 +104,20 @@ def _make_eval(models: tuple, tabled: tuple):
     TABLED = tabled
 
     @wp.func
-    def eval_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
-                  table: wp.array(dtype=float), row: int, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    def eval_bsdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
         """f(wo, wi) * |cos(theta_i)| for the non-delta kinds; zero for delta kinds."""
+        kind = mat.kind
         r = wp.vec3(0.0)
         _variant = wp.static(variant_tag(MODELS))  # noqa: F841 (the loop table, hashed: static_tag.py)
         for i in range(wp.static(len(MODELS))):
             if kind == wp.static(MODELS[i][0]):
-                r = wp.static(MODELS[i][1].eval_bsdf)(albedo, exponent, ior, n, wo, wi)
+                r = wp.static(MODELS[i][1].eval_bsdf)(mat.albedo, mat.shape, mat.ior, n, wo, wi)
                 if wp.static(MODELS[i][3]):
-                    r = wp.cw_mul(r, half_fresnel(cond_eta, cond_k, wo, wi))
+                    r = wp.cw_mul(r, half_fresnel(mat.eta, mat.k, wo, wi))
         _tabled = wp.static(variant_tag(TABLED))  # noqa: F841 (static_tag.py)
         for i in range(wp.static(len(TABLED))):
             if kind == wp.static(TABLED[i][0]):
-                r = wp.static(TABLED[i][1].eval_bsdf)(albedo, exponent, ior, table, row, n, wo, wi)
+                r = wp.static(TABLED[i][1].eval_bsdf)(mat.albedo, mat.shape, mat.ior, mat.table, mat.row, n, wo, wi)
         return r
 
     return eval_bsdf
@@ -133,9 +132,9 @@ def _make_pdf(lobe: bool, plug: tuple, models: tuple, tabled: tuple):
     PLUG = plug
 
     @wp.func
-    def pdf_bsdf(kind: int, exponent: float, ior: float, table: wp.array(dtype=float), row: int, n: wp.vec3,
-                 wo: wp.vec3, wi: wp.vec3) -> float:
+    def pdf_bsdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
         """Solid-angle density with which `sample_bsdf` proposes wi (non-delta kinds)."""
+        kind = mat.kind
         p = float(0.0)
         _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS)))  # noqa: F841 (static_tag.py)
         if wp.static(not LOBE):
@@ -147,16 +146,16 @@ def _make_pdf(lobe: bool, plug: tuple, models: tuple, tabled: tuple):
         if wp.static(LOBE):
             for i in range(wp.static(len(PLUG))):
                 if kind == wp.static(PLUG[i][0]):
-                    p = wp.static(PLUG[i][2])(exponent, ior, n, wo, wi)
+                    p = wp.static(PLUG[i][2])(mat.shape, mat.ior, n, wo, wi)
             _tabled = wp.static(variant_tag(TABLED))  # noqa: F841 (static_tag.py)
             for i in range(wp.static(len(TABLED))):
                 if kind == wp.static(TABLED[i][0]):
-                    p = wp.static(TABLED[i][1].pdf)(exponent, ior, table, row, n, wo, wi)
+                    p = wp.static(TABLED[i][1].pdf)(mat.shape, mat.ior, mat.table, mat.row, n, wo, wi)
         for i in range(wp.static(len(DELTA_MODELS))):
             if kind == wp.static(DELTA_MODELS[i][0]):
                 pd = float(0.5)
                 if wp.static(LOBE):
-                    pd = wp.static(DELTA_MODELS[i][1])(exponent, ior, n, wo)[0]
+                    pd = wp.static(DELTA_MODELS[i][1])(mat.shape, mat.ior, n, wo)[0]
                 p = p * (1.0 - pd)
         return p
 
@@ -174,17 +173,15 @@ def _make_sampler(lobe: bool, eval_bsdf, pdf_bsdf, plug: tuple, models: tuple, t
     LOBE = lobe
 
     @wp.func
-    def sample_bsdf(kind: int, albedo: wp.vec3, exponent: float, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3,
-                    table: wp.array(dtype=float), row: int, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-                    u: wp.vec2) -> Scatter:
+    def sample_bsdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+        kind = mat.kind
         s = Scatter()
         s.valid = 0
         _variant = wp.static(variant_tag((PLUG, SPHERE_MODELS, DELTA_MODELS, DELTAS)))  # noqa: F841 (static_tag.py)
         s.delta = 0
         for i in range(wp.static(len(DELTAS))):
             if kind == wp.static(DELTAS[i][0]):
-                return wp.static(DELTAS[i][1].sample_delta)(albedo, ior, cond_eta, cond_k, n, wo, u_lobe,
-                                                            wp.static(0 if LOBE else 1))
+                return wp.static(DELTAS[i][1].sample_delta)(mat, n, wo, u_lobe, wp.static(0 if LOBE else 1))
         cos_o = wp.dot(n, wo)
         nf = n
         if cos_o < 0.0:
@@ -194,7 +191,7 @@ def _make_sampler(lobe: bool, eval_bsdf, pdf_bsdf, plug: tuple, models: tuple, t
             return s
         for i in range(wp.static(len(DELTA_MODELS))):
             if kind == wp.static(DELTA_MODELS[i][0]):
-                dr = wp.static(DELTA_MODELS[i][1])(exponent, ior, n, wo)
+                dr = wp.static(DELTA_MODELS[i][1])(mat.shape, mat.ior, n, wo)
                 pd = float(0.5)
                 if wp.static(LOBE):
                     pd = dr[0]
@@ -217,14 +214,15 @@ def _make_sampler(lobe: bool, eval_bsdf, pdf_bsdf, plug: tuple, models: tuple, t
                     ul = float(0.0)
                     if wp.static(PLUG[i][3]):
                         ul = u_lobe
-                    wi = wp.static(PLUG[i][1])(albedo, exponent, ior, n, wo, ul, u)
+                    wi = wp.static(PLUG[i][1])(mat.albedo, mat.shape, mat.ior, n, wo, ul, u)
             _tabled = wp.static(variant_tag(TABLED))  # noqa: F841 (static_tag.py)
             for i in range(wp.static(len(TABLED))):
                 if kind == wp.static(TABLED[i][0]):
-                    wi = wp.static(TABLED[i][1].sample)(albedo, exponent, ior, table, row, n, wo, u_lobe, u)
-        pdf = pdf_bsdf(kind, exponent, ior, table, row, n, wo, wi)
+                    wi = wp.static(TABLED[i][1].sample)(mat.albedo, mat.shape, mat.ior, mat.table, mat.row, n, wo,
+                                                        u_lobe, u)
+        pdf = pdf_bsdf(mat, n, wo, wi)
         if pdf > 0.0:
-            fc = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, table, row, n, wo, wi)
+            fc = eval_bsdf(mat, n, wo, wi)
             if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                 s.wi = wi
                 s.pdf = pdf

@@ -15,6 +15,7 @@ eval_bsdf). `sample_delta` is the smooth `conductor` kind's (a delta kind of the
 import warp as wp
 
 from drtlab.estimators.domain_maps import mirror_dir
+from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
@@ -53,9 +54,8 @@ def half_fresnel(eta: wp.vec3, k: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
 
 
 @wp.func
-def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3,
-                 u_lobe: float, uniform: int) -> Scatter:
+def sample_delta(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, uniform: int) -> Scatter:
     """The smooth `conductor` kind (a delta kind, mirror.py's docstring): albedo times F at the
     normal."""
-    return delta_scatter(mirror_dir(n, wo), wp.cw_mul(albedo, fresnel_conductor(wp.abs(wp.dot(n, wo)), cond_eta,
-                                                                                 cond_k)))
+    return delta_scatter(mirror_dir(n, wo), wp.cw_mul(mat.albedo, fresnel_conductor(wp.abs(wp.dot(n, wo)), mat.eta,
+                                                                                     mat.k)))

@@ -9,6 +9,7 @@ under total internal reflection), the weight divided by the choice's probability
 import warp as wp
 
 from drtlab.estimators.domain_maps import mirror_dir
+from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
@@ -57,9 +58,8 @@ def interface(n: wp.vec3, wo: wp.vec3, ior: float) -> Interface:
 
 
 @wp.func
-def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3, n: wp.vec3, wo: wp.vec3,
-                 u_lobe: float, uniform: int) -> Scatter:
-    it = interface(n, wo, ior)
+def sample_delta(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, uniform: int) -> Scatter:
+    it = interface(n, wo, mat.ior)
     F = it.F
     p_reflect = F
     if uniform == 1:
@@ -69,7 +69,7 @@ def sample_delta(albedo: wp.vec3, ior: float, cond_eta: wp.vec3, cond_k: wp.vec3
     if u_lobe < p_reflect:
         return delta_scatter(mirror_dir(n, wo), wp.vec3(F / p_reflect))
     return delta_scatter(refract_dir(wo, it.nf, it.co, it.eta),
-                         albedo * ((1.0 - F) / ((1.0 - p_reflect) * it.eta * it.eta)))
+                         mat.albedo * ((1.0 - F) / ((1.0 - p_reflect) * it.eta * it.eta)))
 
 
 @wp.func

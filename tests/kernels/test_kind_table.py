@@ -79,15 +79,16 @@ def _bsdf_kernel_hash(kinds: frozenset, microfacet: str = "vndf") -> bytes:
     import warp as wp
     from drtlab.experiments.stats.chi2.adapters import _routine_variant
     from drtlab.kernels.materials import make_bsdf
+    from drtlab.kernels.materials.material_at import MaterialAt
     features, strategy = _routine_variant(microfacet=microfacet)
     b = make_bsdf(dataclasses.replace(features, kinds=kinds), strategy)
     sample_bsdf, eval_bsdf = b.sample_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")
-    def k(kind: int, table: wp.array(dtype=float), out: wp.array(dtype=wp.vec3)):
+    def k(mat: MaterialAt, out: wp.array(dtype=wp.vec3)):
         n = wp.vec3(0.0, 0.0, 1.0)
-        s = sample_bsdf(kind, wp.vec3(1.0), 0.5, 1.5, wp.vec3(0.0), wp.vec3(1.0), table, 0, n, n, 0.5, wp.vec2(0.3, 0.6))
-        out[0] = s.weight + eval_bsdf(kind, wp.vec3(1.0), 0.5, 1.5, wp.vec3(0.0), wp.vec3(1.0), table, 0, n, n, n)
+        s = sample_bsdf(mat, n, n, 0.5, wp.vec2(0.3, 0.6))
+        out[0] = s.weight + eval_bsdf(mat, n, n, n)
     return k.module.get_module_hash()
 
 

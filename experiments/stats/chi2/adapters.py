@@ -2,7 +2,6 @@
 functions (estimators/domain_maps.py, kernels/materials/bsdf.py `make_bsdf`) in CPU kernels built by
 factories, and the helpers the other adapters share (lights: light_adapter.py; see the package
 docstring, drtlab.experiments.stats.chi2)."""
-from __future__ import annotations
 
 from dataclasses import dataclass
 
@@ -222,11 +221,14 @@ class BSDFAdapter:
         eta, k = metal or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
         inp, n = _input_points(pts, n)
         arrays = _outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
-        kind_i = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
+        from drtlab.kernels.materials.material_at import MaterialAt
+        mat = MaterialAt()
+        mat.kind = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
+        mat.albedo, mat.shape, mat.ior = _as_vec3(albedo), float(exponent), float(ior)
+        mat.eta, mat.k = _as_vec3(eta), _as_vec3(k)
+        mat.table, mat.row = _table(mat.kind, albedo, exponent, ior), 0
         wp.launch(self.kernel, dim=n, device="cpu",
-                  inputs=[int(mode), kind_i, _as_vec3(albedo), float(exponent), float(ior),
-                          _as_vec3(eta), _as_vec3(k), _table(kind_i, albedo, exponent, ior), 0, _as_vec3(nrm),
-                          _as_vec3(wo), wp.uint32(seed), inp, *arrays])
+                  inputs=[int(mode), mat, _as_vec3(nrm), _as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, case, n: int, seed: int = 0) -> BSDFSamples:
@@ -274,13 +276,13 @@ def _table(kind: int, albedo, exponent: float, ior: float):
 def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
     wp = _wp()
     from drtlab.kernels.materials import make_bsdf
+    from drtlab.kernels.materials.material_at import MaterialAt
 
     b = make_bsdf(*_routine_variant(lobe=lobe, microfacet=microfacet, lobes=lobes))
     sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")
-    def bsdf_kernel(mode: int, kind: int, albedo: wp.vec3, exponent: float, ior: float,
-                    cond_eta: wp.vec3, cond_k: wp.vec3, mtable: wp.array(dtype=float), mrow: int, n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
+    def bsdf_kernel(mode: int, mat: MaterialAt, n: wp.vec3, wo: wp.vec3, seed: wp.uint32, pts: wp.array(dtype=wp.vec3),
                     out_wi: wp.array(dtype=wp.vec3), out_pdf: wp.array(dtype=float),
                     out_weight: wp.array(dtype=wp.vec3), out_flags: wp.array(dtype=int),
                     out_pdf_eval: wp.array(dtype=float), out_f_eval: wp.array(dtype=wp.vec3)):
@@ -289,17 +291,17 @@ def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
             i = wp.uint32(tid)
             u_lobe = uniform(seed, i, 0)
             u = wp.vec2(uniform(seed, i, 1), uniform(seed, i, 2))
-            s = sample_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, n, wo, u_lobe, u)
+            s = sample_bsdf(mat, n, wo, u_lobe, u)
             out_wi[tid] = s.wi
             out_pdf[tid] = s.pdf
             out_weight[tid] = s.weight
             out_flags[tid] = s.valid + 2 * s.delta
             if s.valid == 1 and s.delta == 0:
-                out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, mtable, mrow, n, wo, s.wi)
-                out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, n, wo, s.wi)
+                out_pdf_eval[tid] = pdf_bsdf(mat, n, wo, s.wi)
+                out_f_eval[tid] = eval_bsdf(mat, n, wo, s.wi)
         else:
             wi = pts[tid]
-            out_pdf_eval[tid] = pdf_bsdf(kind, exponent, ior, mtable, mrow, n, wo, wi)
-            out_f_eval[tid] = eval_bsdf(kind, albedo, exponent, ior, cond_eta, cond_k, mtable, mrow, n, wo, wi)
+            out_pdf_eval[tid] = pdf_bsdf(mat, n, wo, wi)
+            out_f_eval[tid] = eval_bsdf(mat, n, wo, wi)
 
     return bsdf_kernel

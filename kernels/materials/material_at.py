@@ -1,0 +1,35 @@
+"""The material at a hit, as the BSDF functions read it (bsdf.py): one record instead of a parameter
+per property, so a per-material property a new kind needs is a field here and in MaterialData
+(device_scene.py), not an argument threaded through every caller (tracers, direct and environment
+lighting, whitted, the chi-square adapter)."""
+import warp as wp
+
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.materials.surface import surface_albedo
+
+
+@wp.struct
+class MaterialAt:
+    kind: int                       # its code in the kind table (material_kinds.MATERIAL_CODE)
+    albedo: wp.vec3                 # at the hit (a checker texture's colour there)
+    shape: float                    # the lobe's one shape parameter (MaterialKind.shape_key)
+    ior: float
+    eta: wp.vec3                    # a conductor kind's complex index eta + i k (conductor.py)
+    k: wp.vec3
+    table: wp.array(dtype=float)    # the flat per-material table (MaterialKind.table kinds) ...
+    row: int                        # ... and this material's row offset in it
+
+
+@wp.func
+def material_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+    """Material m of the scene at surface coordinates uv."""
+    r = MaterialAt()
+    r.kind = sd.materials.kind[m]
+    r.albedo = surface_albedo(sd, m, uv)
+    r.shape = sd.materials.exponent[m]
+    r.ior = sd.materials.ior[m]
+    r.eta = sd.materials.eta[m]
+    r.k = sd.materials.k[m]
+    r.table = sd.materials.table
+    r.row = sd.materials.row[m]
+    return r
