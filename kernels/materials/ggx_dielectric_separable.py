@@ -11,10 +11,12 @@ times the lobe's probability, as the built-in ggx_dielectric's.
 """
 import warp as wp
 
-from drtlab.kernels.materials.dielectric import interface, scatter_at_normal
-from drtlab.kernels.materials.ggx import ggx_d_at, ggx_g1, ggx_half, lobe_choice, make_ggx_normals
+from drtlab.kernels.materials import ggx_dielectric
+from drtlab.kernels.materials.dielectric import interface
+from drtlab.kernels.materials.ggx import ggx_d_at, ggx_g1, ggx_half
 
-_sample_normal, _normal_pdf = make_ggx_normals(True)
+# The lobes as ggx_dielectric's under visible-normal sampling: only the masking differs.
+sample, pdf = ggx_dielectric.sampling("vndf")
 
 
 @wp.func
@@ -29,20 +31,3 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
         return wp.vec3(0.25 * mf.F * dg)
     return albedo * ((1.0 - mf.F) * dg * mf.dwm * mf.om / (it.eta * it.eta))
 
-
-@wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-           u: wp.vec2) -> wp.vec3:
-    it = interface(n, wo, ior)
-    if it.co <= 0.0:
-        return wp.vec3(0.0)
-    return scatter_at_normal(wo, _sample_normal(it.nf, wo, it.co, shape, u), it.nf, it.eta, u_lobe)
-
-
-@wp.func
-def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    it = interface(n, wo, ior)
-    mf = ggx_half(it.nf, it.eta, wo, wi, 1)
-    if mf.valid == 0:
-        return 0.0
-    return _normal_pdf(shape, it.nf, it.co, mf.wm, mf.om) * mf.dwm * lobe_choice(mf)

@@ -17,8 +17,9 @@ Mitsuba's plastic is one-sided; drtlab's is two-sided, as its `twosided` (the im
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import INV_PI, cosine_pdf, facing, frame_to_world, square_to_cosine_hemisphere
+from drtlab.estimators.domain_maps import INV_PI
 from drtlab.kernels.materials.dielectric import fresnel
+from drtlab.kernels.materials import diffuse
 
 
 @wp.func
@@ -48,20 +49,13 @@ def plastic_base(albedo: wp.vec3, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.ve
     return albedo * (t / (1.0 - fdr))
 
 
+# The diffuse part's lobe sampling: the cosine lobe on wo's side.
+sample, pdf = diffuse.sample, diffuse.pdf
+
 @wp.func
 def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
     return plastic_base(albedo, ior, n, wo, wi, 0)
 
-
-@wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-           u: wp.vec2) -> wp.vec3:
-    return frame_to_world(square_to_cosine_hemisphere(u), facing(n, wo))
-
-
-@wp.func
-def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    return cosine_pdf(n, wo, wi)
 
 
 @wp.func
