@@ -2,8 +2,9 @@
 
 `make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
 and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
-light a surface by light_centres(sd, mat, p, n, ns, wo): each seen as a point source at its centre (a mesh light: at its area-weighted centroid;
-n geometric, ns shading normal, as in kernels/direct.py).
+light a surface by light_centres(sd, mat, p, n, ns, wo): each seen as a point source at its centre
+(a mesh light: at its area-weighted centroid; n geometric, ns shading normal, as in
+kernels/direct.py).
 """
 import importlib
 

@@ -3,11 +3,11 @@ and after, and diff the two files.
 
     python -m drtlab.experiments.bench.image_hashes [--out FILE]
 
-One line per render, `LABEL sha256-prefix` (a kind's label starts `kind:`): every built-in scene under its own integrator with four
-samplers and under whitted (48x36, 4 spp, seed 3); then every material kind that scatters, put in
-place of glossy-ggx's ggx material, under drt and path with two samplers and under whitted (24x18,
-4 spp, seed 5). A render that fails prints its error in place of the hash. The images are
-bit-identical across thread counts and tiles, so the hashes are too."""
+One line per render, `LABEL sha256-prefix` (a kind's label starts `kind:`): every built-in scene
+under its own integrator with four samplers and under whitted (48x36, 4 spp, seed 3); then every
+material kind that scatters, put in place of glossy-ggx's ggx material, under drt and path with two
+samplers and under whitted (24x18, 4 spp, seed 5). A render that fails prints its error in place of
+the hash. The images are bit-identical across thread counts and tiles, so the hashes are too."""
 from __future__ import annotations
 
 import argparse
