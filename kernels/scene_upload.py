@@ -7,7 +7,6 @@ per triangle mesh, one over many spheres, the mesh tables). Uploads of equal con
 device arrays (the kernels only read them), so the many renders of one scene in a study pay the
 upload once."""
 import hashlib
-import importlib
 import math
 import os
 import pickle
@@ -188,8 +187,8 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
         spec = KIND_BY_NAME[x.kind]
         rows.append(sum(len(t) for t in table) if spec.table else 0)
         if spec.table:
-            model = importlib.import_module(f"drtlab.kernels.materials.{spec.model}")
-            table.append(model.table_row(x.kind, x.albedo, x.roughness, x.ior))
+            from drtlab.kernels.materials.kinds import model_module
+            table.append(model_module(spec).table_row(x.kind, x.albedo, x.roughness, x.ior))
     m.table = arr(np.concatenate(table), float, (1,))
     m.row = arr(rows, int, (1,))
 

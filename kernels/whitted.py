@@ -6,8 +6,6 @@ light a surface by light_centres(sd, mat, p, n, ns, wo): each seen as a point so
 (a mesh light: at its area-weighted centroid; n geometric, ns shading normal, as in
 kernels/direct.py).
 """
-import importlib
-
 import warp as wp
 
 from drtlab.estimators.domain_maps import PI
@@ -18,6 +16,7 @@ from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
 from drtlab.kernels.materials import EMITTER, Bsdf, emitted
+from drtlab.kernels.materials.kinds import model_module
 from drtlab.kernels.materials.material_at import MaterialAt, material_at
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.materials.dielectric import interface, refract_dir
@@ -36,7 +35,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     # by its module's sample_delta; a transmitting one splits as a smooth dielectric.
     ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS
                  if not (k.delta or k.transmits or k.emitter) and k.name in f.kinds)
-    MIRRORS = tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"))
+    MIRRORS = tuple((MATERIAL_CODE[k.name], model_module(k))
                     for k in KINDS if k.delta and not k.transmits and k.name in f.kinds)
     SPLITTING = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.transmits and k.name in f.kinds)
     intersect = rays.intersect

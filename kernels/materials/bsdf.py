@@ -11,7 +11,7 @@ from drtlab.kernels.features import Features
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.materials.conductor import half_fresnel
-from drtlab.kernels.materials.kinds import EMITTER, LOBE_CHOICE_KINDS
+from drtlab.kernels.materials.kinds import EMITTER, LOBE_CHOICE_KINDS, model_module
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
 
@@ -41,8 +41,7 @@ def _models(kinds: frozenset, delta: bool) -> tuple:
     model module (MaterialKind.model), delta or not: a non-delta one's eval_bsdf (times the
     conductor Fresnel for a conductor kind), and its lobe sampling unless a strategy's lobe sampler
     replaces it; a delta one's sample_delta."""
-    import importlib
-    return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"),
+    return tuple((MATERIAL_CODE[k.name], model_module(k),
                   k.transmits, k.conductor) for k in KINDS if k.model and not k.table and k.delta == delta
                   and k.name in kinds)
 
@@ -51,8 +50,7 @@ def _table_models(kinds: frozenset) -> tuple:
     """((kind code, module), ...) of the present kinds whose model reads its material's row of the
     flat per-material table (MaterialKind.table): their eval_bsdf, sample and pdf take the table and
     the row's offset after `ior` (rough_plastic.py)."""
-    import importlib
-    return tuple((MATERIAL_CODE[k.name], importlib.import_module(f"drtlab.kernels.materials.{k.model}"))
+    return tuple((MATERIAL_CODE[k.name], model_module(k))
                  for k in KINDS if k.table and k.name in kinds)
 
 

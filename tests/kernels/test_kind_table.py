@@ -5,13 +5,13 @@ sampled weights are what eval_bsdf / pdf say. Each model's own statistics live b
 (test_beckmann.py, test_ggx_separable.py). The renders here are of the kinds added after the nine
 the built-in scenes render (those have their own tests: test_ggx.py, test_plastic.py,
 test_analytic.py, ...); every model kind gets its own kernel cache key."""
-import importlib
 
 import numpy as np
 import pytest
 
 import drtlab
 from drtlab.experiments.stats import chi2 as C
+from drtlab.kernels.materials.kinds import model_module
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, KINDS, MATERIAL_CODE
 
 from bsdf_checks import assert_consistent
@@ -29,7 +29,7 @@ RENDERED = [k.name for i, k in enumerate(ADDED)
             if k.model and not (k.table and any(j.table and j.model == k.model for j in ADDED[:i]))]
 # Kinds whose model has a mirror lobe beside its density (kernels/materials/smooth_plastic.py).
 MIRRORED = {k.name for k in KINDS
-            if k.model and hasattr(importlib.import_module(f"drtlab.kernels.materials.{k.model}"), "delta_reflection")}
+            if k.model and hasattr(model_module(k), "delta_reflection")}
 
 
 def test_the_table_has_model_kinds():

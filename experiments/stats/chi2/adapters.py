@@ -262,14 +262,12 @@ class BSDFAdapter:
 def _table(kind: int, albedo, exponent: float, ior: float):
     """The case's row of MaterialData.table (a kind whose model reads one, MaterialKind.table),
     else one zero."""
-    import importlib
-
+    from drtlab.kernels.materials.kinds import model_module
     from drtlab.kernels.scene_model.material_kinds import KINDS
     spec = KINDS[kind]
     row = np.zeros(1, dtype=np.float32)
     if spec.table:
-        row = importlib.import_module(f"drtlab.kernels.materials.{spec.model}").table_row(
-            spec.name, albedo, exponent, ior)
+        row = model_module(spec).table_row(spec.name, albedo, exponent, ior)
     return _wp().array(row, dtype=float, device="cpu")
 
 
