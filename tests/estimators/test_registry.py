@@ -13,7 +13,7 @@ from drtlab.estimators.registry import POINTSETS, parse_sampler
 
 
 def test_each_module_defines_the_set_it_is_named_after():
-    assert list(POINTSETS) == list(registry._POINTSET_MODULES)
+    assert list(POINTSETS) == list(registry.POINTSET_MODULES)
     for name in POINTSETS:
         assert POINTSETS[name].name == name
     assert [ps.name for ps in POINTSETS.values()] == list(POINTSETS)
@@ -34,7 +34,7 @@ def test_a_registered_fake_is_listed_and_removed(monkeypatch):
     monkeypatch.setitem(POINTSETS, "fake", fake)
     assert list(POINTSETS)[-1] == "fake" and POINTSETS["fake"] is fake
     monkeypatch.undo()
-    assert "fake" not in POINTSETS and list(POINTSETS) == list(registry._POINTSET_MODULES)
+    assert "fake" not in POINTSETS and list(POINTSETS) == list(registry.POINTSET_MODULES)
 
 
 def test_parsing_a_sampler_imports_only_its_point_set():
