@@ -207,6 +207,97 @@ def test_no_two_folders_import_each_other():
                   and "surface" not in (a, b)) == []
 
 
+# ---------------------------------------------------------------------------------------------
+# "From a scene file to a report": every file it names exists, every name is defined there
+# ---------------------------------------------------------------------------------------------
+
+def _named_files(cell: str) -> tuple[list[str], list[str]]:
+    """(paths, errors) of the files a cell names: a path from a top folder, or a bare file name in
+    the folder of the path before it (`experiments/pointsets/analysis.py`, `plots.py`). Inside
+    parentheses only .py files and folders count (a `calibration.json` there is an output)."""
+    paths, errors, base = [], [], ""
+    outside = set(_ticked(_unparenthesized(cell)))
+    for token in _ticked(cell):
+        kinds = (".py", "/") if token not in outside else (".py", "/", ".toml", ".json", ".sh", ".md")
+        if not token.endswith(kinds) or " " in token:
+            continue
+        path = token if token.split("/")[0] in TOPS else base + token if base else None
+        if path is None or not _exists(path):
+            errors.append(f"`{token}`: no such file{f' ({path})' if path else ''}")
+            continue
+        base = path if path.endswith("/") else path.rsplit("/", 1)[0] + "/"
+        paths.append(path)
+    return paths, errors
+
+
+def _definitions(path: str) -> tuple[set[str], dict[str, set[str]]]:
+    """(names, members by class) a module defines: every def and class at any depth (a factory's
+    Warp functions count), module-level assignments; a class's methods, fields and constants."""
+    tree = _tree(ROOT / path)
+    names, members = set(), {}
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        if isinstance(node, ast.ClassDef):
+            members[node.name] = {b.name for b in node.body if isinstance(b, (ast.FunctionDef, ast.ClassDef))} | {
+                n.id for b in node.body if isinstance(b, (ast.Assign, ast.AnnAssign))
+                for t in (b.targets if isinstance(b, ast.Assign) else [b.target]) for n in ast.walk(t)
+                if isinstance(n, ast.Name)}
+    names |= {n.id for b in tree.body if isinstance(b, (ast.Assign, ast.AnnAssign))
+              for t in (b.targets if isinstance(b, ast.Assign) else [b.target]) for n in ast.walk(t)
+              if isinstance(n, ast.Name)}
+    return names, members
+
+
+@functools.cache
+def _types() -> frozenset[str]:
+    """Every class of the package: a name after `->` is a type, defined wherever it lives."""
+    return frozenset(n.name for p in _module_files().values() for n in ast.walk(_tree(p))
+                     if isinstance(n, ast.ClassDef))
+
+
+def _pipeline_errors(text: str | None = None) -> list[str]:
+    rows = _rows(_section("From a scene file to a report", text))
+    errors = [f"{r[0][:50]}...: {len(r)} cells, not 3 (a bare | in a cell?)" for r in rows if len(r) != 3]
+    for step, file_cell, name_cell in (r[:3] for r in rows):
+        named, bad = _named_files(file_cell)
+        more, bad_more = _named_files(name_cell)           # `make_camera` (`kernels/camera.py`)
+        modules = [str(q.relative_to(ROOT)) for p in named + more
+                   for q in (sorted((ROOT / p).glob("*.py")) if p.endswith("/") else [ROOT / p])
+                   if q.suffix == ".py"]
+        defs = {Path(p).stem: _definitions(p) for p in modules}
+        bare = _unparenthesized(name_cell)
+        for token in _ticked(bare):
+            parts = re.split(r"[(\s]", token)[0].split(".")
+            if "/" in token:
+                continue
+            found = any(parts[0] in names and (len(parts) == 1 or parts[1] in members.get(parts[0], ()))
+                        for names, members in defs.values())
+            found = found or (len(parts) == 2 and parts[0] in defs and parts[1] in defs[parts[0]][0])
+            found = found or (f"-> `{token}`" in bare and token in _types())
+            if not found:
+                bad.append(f"`{token}`: not in {', '.join(modules) or 'any file'}")
+        errors += [f"{step[:50]}...: {e}" for e in bad + bad_more]
+    return errors
+
+
+def test_every_file_and_function_of_the_pipeline_table_exists():
+    assert _pipeline_errors() == []
+
+
+def test_the_pipeline_check_sees_a_missing_file_and_a_missing_function():
+    text = (ROOT / "ARCHITECTURE.md").read_text()
+    bad = text.replace("| `kernels/scene_model/scene_tables.py` | `build_scene` |",
+                       "| `kernels/scene_model/scene_tablez.py` | `build_scene` |", 1)
+    bad = bad.replace("| `experiments/study/config.py` | `load_experiment` |",
+                      "| `experiments/study/config.py` | `load_experiments` |", 1)
+    assert bad.count("scene_tablez") == 1 and bad.count("load_experiments") == 1
+    assert [e.split(": ", 1)[1] for e in _pipeline_errors(bad)] == [
+        "`kernels/scene_model/scene_tablez.py`: no such file (kernels/scene_model/scene_tablez.py)",
+        "`build_scene`: not in any file",
+        "`load_experiments`: not in experiments/study/config.py"]
+
+
 def test_every_package_is_listed_for_a_non_editable_install():
     """pyproject.toml names its packages one by one (the top-level folders are mapped under drtlab):
     a folder missing there imports from a checkout but not from a built wheel."""
