@@ -298,6 +298,28 @@ def test_the_pipeline_check_sees_a_missing_file_and_a_missing_function():
         "`load_experiments`: not in experiments/study/config.py"]
 
 
+def _test_table_errors(text: str | None = None) -> list[str]:
+    """Every test file "Where the tests are" names exists: `sub/test_x.py` under tests/, and a bare
+    name in the folder of the path before it."""
+    errors = []
+    for cells in _rows(_section("Where the tests are", text)):
+        base = "tests/"
+        for token in (t for t in _ticked(cells[-1]) if t.endswith(".py")):
+            path = f"tests/{token}" if "/" in token else base + token
+            base = path.rsplit("/", 1)[0] + "/"
+            if not _exists(path):
+                errors.append(f"`{token}`: no such test file ({path})")
+    return errors
+
+
+def test_every_test_file_the_map_names_exists():
+    assert _test_table_errors() == []
+    # control: a renamed file is caught
+    text = (ROOT / "ARCHITECTURE.md").read_text().replace("`test_render_batch.py`", "`test_render_batches.py`", 1)
+    assert _test_table_errors(text) == ["`test_render_batches.py`: no such test file "
+                                        "(tests/kernels/test_render_batches.py)"]
+
+
 def test_every_package_is_listed_for_a_non_editable_install():
     """pyproject.toml names its packages one by one (the top-level folders are mapped under drtlab):
     a folder missing there imports from a checkout but not from a built wheel."""
