@@ -23,7 +23,7 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
 `drtlab.experiments` (see pyproject.toml).
 """
-__version__ = "0.1.0"
+from drtlab.version import __version__  # noqa: F401  (a leaf: imports nothing)
 
 
 def render(scene, *args, stats: bool = False, variance: bool = False, seconds: float | None = None,

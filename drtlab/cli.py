@@ -8,7 +8,7 @@ from pathlib import Path
 
 from drtlab import fields
 from drtlab.cli_args import (Help, Parser, add_cache_and_threads, add_progress_flag, flag, int_flag,
-                             resolution_flag, run_main, show_progress)
+                             parse_overrides, resolution_flag, run_main, show_progress)
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 
@@ -61,23 +61,6 @@ def cmd_samplers(args) -> int:
         print(title)
         _print_columns([(row[0].ljust(width), *row[1:]) for row in rows], indent="  ")
     return 0
-
-
-def _overrides(pairs: list[str] | None) -> dict:
-    """`--set key=value` pairs as scene overrides; a value is read as TOML (`[1, 2]`, `0.5`, `true`,
-    `"text"`), and a bare word that is not TOML is taken as a string."""
-    import tomllib
-    out: dict = {}
-    for pair in pairs or []:
-        key, sep, text = pair.partition("=")
-        if not sep or not key.strip():
-            raise InputError("--set", f"must look like key=value (e.g. camera.fov=30), got {pair!r}")
-        try:
-            value = tomllib.loads(f"v = {text}")["v"]
-        except tomllib.TOMLDecodeError:
-            value = text
-        out[key.strip()] = value
-    return out
 
 
 def _warn(lines: list[str]) -> None:
@@ -177,7 +160,7 @@ def cmd_render(args) -> int:
     from drtlab.kernels.scene_model.scene_file import load_scene
     from drtlab.render_result import result_of
 
-    scene = load_scene(args.scene, _overrides(args.set))
+    scene = load_scene(args.scene, parse_overrides(args.set))
     out = Path(args.out) if args.out else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
@@ -343,7 +326,7 @@ def _add_experiment(sub) -> None:
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="drtlab", formatter_class=Help,
                 description="Monte Carlo estimator studies for distribution ray tracing (Warp kernels).")
-    from drtlab import __version__
+    from drtlab.version import __version__
     p.add_argument("--version", action="version", version=f"drtlab {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
     sub.add_parser("scenes", help="list built-in scenes").set_defaults(func=cmd_scenes)

@@ -123,3 +123,20 @@ def add_cache_and_threads(parser) -> None:
 def add_progress_flag(parser) -> None:
     parser.add_argument("--no-progress", action="store_true",
                         help="no progress bar (there is none either when output goes to a file or pipe)")
+
+
+def parse_overrides(pairs: list[str] | None) -> dict:
+    """`--set key=value` pairs as scene overrides; a value is read as TOML (`[1, 2]`, `0.5`, `true`,
+    `"text"`), and a bare word that is not TOML is taken as a string."""
+    import tomllib
+    out: dict = {}
+    for pair in pairs or []:
+        key, sep, text = pair.partition("=")
+        if not sep or not key.strip():
+            raise InputError("--set", f"must look like key=value (e.g. camera.fov=30), got {pair!r}")
+        try:
+            value = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text
+        out[key.strip()] = value
+    return out

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help
+from drtlab.cli_args import Help, parse_overrides
 from drtlab.errors import InputError
 
 FORMATS = ("mitsuba",)
@@ -19,18 +19,13 @@ def cmd_export(args) -> int:
     if out.suffix.lower() != ".xml":
         raise InputError("OUT", f"must be a path ending in .xml, got {str(out)!r}")
     fields.writable_location(out, "OUT")
-    overrides = _overrides(args.set)
+    overrides = parse_overrides(args.set)
     scene = load_scene(args.scene, overrides)
     check_exportable(scene)
     out.parent.mkdir(parents=True, exist_ok=True)
     written = export_mitsuba(scene, out, scene_data(args.scene, overrides))
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
-
-
-def _overrides(items):
-    from drtlab.cli import _overrides as parse
-    return parse(items)
 
 
 def add_export_command(sub) -> None:

@@ -95,7 +95,7 @@ def render_result(scene, spp=None, sampler: str = DEFAULT_SAMPLER, integrator=No
 def result_of(scene, stats, wall_seconds: float, seconds_budget: float | None = None) -> RenderResult:
     """The RenderResult of `stats` (a kernels.render.RenderStats) rendered from `scene`, within
     `seconds_budget` when it was a time-budget render."""
-    from drtlab import __version__
+    from drtlab.version import __version__
     from drtlab.kernels import CODE_VERSION
     meta = {"scene": scene.name, "scene_hash": scene.content_hash(), "spp": stats.spp,
             "sampler": sampler_label(stats.sampler, stats.integrator),

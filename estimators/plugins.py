@@ -87,7 +87,7 @@ def _source_fingerprint(*functions) -> str:
 
 def _reserved(name: str) -> str | None:
     from drtlab.estimators import registry
-    if name in registry._POINTSET_MODULES:
+    if name in registry.POINTSET_MODULES:
         return "a built-in point set"
     if name in registry.PRESETS:
         return "a built-in preset"

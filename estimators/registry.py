@@ -2,7 +2,7 @@
 or a point set's name alone.
 
 Adding a built-in point set: one file in `pointsets/` defining POINTSET, named after it, and its
-name in `_POINTSET_MODULES`. A user's point set is a plugin (`estimators/plugins.py`): registered by
+name in `POINTSET_MODULES`. A user's point set is a plugin (`estimators/plugins.py`): registered by
 `drtlab.register_pointset`, found here like a built-in.
 """
 import importlib
@@ -18,7 +18,7 @@ BUILT_IN_STRATEGIES = tuple(STRATEGIES)       # before any plugin adds its own
 from drtlab.errors import InputError
 
 # The modules of pointsets/, each named after the POINTSET it defines, in the order listings show.
-_POINTSET_MODULES = ("independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
+POINTSET_MODULES = ("independent", "stratified", "lhs", "cmj", "halton", "sobol", "zsobol", "pmj02",
                      "presampled", "presampled_random")
 
 
@@ -72,7 +72,7 @@ def _entry_points() -> None:
     load_entry_points()
 
 
-POINTSETS: MutableMapping[str, PointSet] = _PointSets(_POINTSET_MODULES)
+POINTSETS: MutableMapping[str, PointSet] = _PointSets(POINTSET_MODULES)
 
 
 def __getattr__(name: str):

@@ -2,13 +2,29 @@
 fills it with `upload`), its nested parts and the shape-kind codes."""
 import warp as wp
 
-from drtlab.kernels.environment import EnvironmentData
 from drtlab.kernels.intersection.primitives import QuadGeom
 
 # Shape kinds (Hit.kind, LightData.shape_kind).
 SPHERE = wp.constant(0)
 QUAD = wp.constant(1)
 MESH = wp.constant(2)           # Hit.index: the face's index in the per-face arrays (tri_*)
+
+
+# The environment light's tables (kernels/environment.py fills them with `environment_data`).
+@wp.struct
+class EnvironmentData:
+    radiance: wp.array(dtype=wp.vec3)          # H x W texels, row-major, row 0 = +y
+    texel_pdf: wp.array(dtype=float)           # per texel: the image sampler's density over (u, v)
+    marginal: wp.array(dtype=float)            # H + 1: cdf over rows
+    conditional: wp.array(dtype=float)         # H x (W + 1): cdf over columns, per row
+    width: int
+    height: int
+    pick_power: float                          # P(environment) when lights are picked by power
+    pick_uniform: float                        # ... and when picked uniformly: 1 / (area lights + 1)
+    rotated: int                               # 1: to_world turns the map (else both identity)
+    to_world: wp.mat33                         # the map's frame -> world
+    to_local: wp.mat33                         # its transpose
+    bilinear: int                              # 1: lookup = "bilinear" (environment_map.py)
 
 
 @wp.struct

@@ -1,4 +1,5 @@
-"""The environment light on the device: its tables (EnvironmentData, filled by `environment_data`)
+"""The environment light on the device: its tables (device_scene.EnvironmentData, filled by
+`environment_data`)
 and its Warp functions, built per strategy by `make_environment(strategy)` -> Environment:
     env_pick(env) -> the probability that next-event estimation samples the environment rather
         than an area light (by power or uniformly over lights, as the strategy picks lights)
@@ -24,26 +25,12 @@ import warp as wp
 from drtlab.estimators.domain_maps import (INV_2PI, INV_4PI, INV_PI, PI, frame_to_world,
                                            square_to_cosine_hemisphere, square_to_uniform_sphere)
 from drtlab.estimators.strategies import Strategy
+from drtlab.kernels.device_scene import EnvironmentData
+from drtlab.kernels.light_selection import selection_of
 from drtlab.kernels.scene_model.environment_map import EnvironmentMap, sampling_tables
 
 # d omega = 2 pi^2 sin(theta) du dv over the lat-long square.
 LATLONG_JACOBIAN = wp.constant(2.0 * math.pi * math.pi)
-
-
-@wp.struct
-class EnvironmentData:
-    radiance: wp.array(dtype=wp.vec3)          # H x W texels, row-major, row 0 = +y
-    texel_pdf: wp.array(dtype=float)           # per texel: the image sampler's density over (u, v)
-    marginal: wp.array(dtype=float)            # H + 1: cdf over rows
-    conditional: wp.array(dtype=float)         # H x (W + 1): cdf over columns, per row
-    width: int
-    height: int
-    pick_power: float                          # P(environment) when lights are picked by power
-    pick_uniform: float                        # ... and when picked uniformly: 1 / (area lights + 1)
-    rotated: int                               # 1: to_world turns the map (else both identity)
-    to_world: wp.mat33                         # the map's frame -> world
-    to_local: wp.mat33                         # its transpose
-    bilinear: int                              # 1: lookup = "bilinear" (environment_map.py)
 
 
 @wp.struct
@@ -197,7 +184,6 @@ def sample_image(env: EnvironmentData, u: wp.vec2) -> wp.vec3:
 
 def make_environment(strategy: Strategy) -> Environment:
     SAMPLER = strategy.environment_sampler
-    from drtlab.kernels.light_selection import selection_of      # it imports device_scene, which imports us
     POWER_PICK = selection_of(strategy).environment_share == "power"
 
     @wp.func

@@ -127,7 +127,7 @@ def check_image_size(width: int, height: int, moments: bool = False, field: str 
                                 f"{memory / 2**30:.1f} GiB of memory")
 
 
-def _resolve_scene(scene, res) -> Scene:
+def resolve_scene(scene, res) -> Scene:
     if not isinstance(scene, Scene):
         from drtlab.kernels.scene_model.scene_file import load_scene
         scene = load_scene(scene)
@@ -141,7 +141,7 @@ def _resolve_job(scene, sampler, integrator: str | None, res) -> tuple:
     """(sampler spec, Scene at `res`, integrator name) of a render's arguments; `sampler` is a name
     or a SamplerSpec (a tool's own point set, outside the registry: `drtlab sources`' pickfreeze)."""
     spec = sampler if isinstance(sampler, SamplerSpec) else parse_sampler(sampler)
-    scene = _resolve_scene(scene, res)
+    scene = resolve_scene(scene, res)
     return spec, scene, parse_integrator(integrator if integrator is not None else scene.integrator).name
 
 

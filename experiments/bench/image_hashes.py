@@ -26,17 +26,17 @@ def _hash(img) -> str:
 
 def _renders():
     """(label, a function rendering it) of every render the file hashes."""
-    import drtlab
+    from drtlab.kernels.render import render
     from drtlab.kernels.scene_model.material_kinds import KINDS
-    from drtlab.kernels.scene_model.scene_file import builtin_names
+    from drtlab.kernels.scene_model.scene_file import builtin_names, load_scene
     for name in builtin_names():
         for s in SAMPLERS:
-            yield f"{name} {s}", lambda name=name, s=s: drtlab.render(name, spp=4, seed=3, sampler=s, res=(48, 36))
-        yield f"{name} whitted", lambda name=name: drtlab.render(name, spp=4, seed=3, integrator="whitted",
+            yield f"{name} {s}", lambda name=name, s=s: render(name, spp=4, seed=3, sampler=s, res=(48, 36))
+        yield f"{name} whitted", lambda name=name: render(name, spp=4, seed=3, integrator="whitted",
                                                                  res=(48, 36))
 
     def as_kind(kind, integrator):
-        scene = drtlab.load_scene("glossy-ggx", {"scene.resolution": [24, 18], "scene.integrator": integrator})
+        scene = load_scene("glossy-ggx", {"scene.resolution": [24, 18], "scene.integrator": integrator})
         for m in scene.materials:
             if m.kind == "ggx":
                 m.kind = kind
@@ -47,8 +47,8 @@ def _renders():
         for integrator in ("drt", "path"):
             for s in KIND_SAMPLERS:
                 yield (f"kind:{k.name} {integrator} {s}",
-                       lambda k=k, i=integrator, s=s: drtlab.render(as_kind(k.name, i), spp=4, sampler=s, seed=5))
-        yield f"kind:{k.name} whitted", lambda k=k: drtlab.render(as_kind(k.name, "whitted"), spp=4, seed=5)
+                       lambda k=k, i=integrator, s=s: render(as_kind(k.name, i), spp=4, sampler=s, seed=5))
+        yield f"kind:{k.name} whitted", lambda k=k: render(as_kind(k.name, "whitted"), spp=4, seed=5)
 
 
 def main(argv=None) -> int:

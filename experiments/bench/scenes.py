@@ -168,7 +168,7 @@ def _command(args) -> int:
     cache = tempfile.mkdtemp(prefix="drtlab-bench-cache-")
     import warp as wp
     wp.config.kernel_cache_dir = cache
-    from drtlab import __version__
+    from drtlab.version import __version__
     from drtlab.kernels import CODE_VERSION
     from drtlab.warp_runtime import warp as _wp
 

@@ -223,7 +223,7 @@ def write_analysis(result: Analysis, out_dir: Path, argv=None) -> list[Path]:
 
 def _manifest(result: Analysis, argv) -> dict:
     import datetime as dt
-    from drtlab import __version__
+    from drtlab.version import __version__
     from drtlab.experiments.provenance import machine_info, package_versions, peak_rss_mib
     from drtlab.kernels import CODE_VERSION
     return {"what": "drtlab pointset analysis", "command": argv if argv is not None else sys.argv,

@@ -103,7 +103,7 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     from drtlab.estimators.registry import SamplerSpec
     from drtlab.estimators.strategies import STRATEGIES
     from drtlab.experiments.stats.sobol_indices import pick_freeze_terms, sobol_indices
-    from drtlab.kernels.render import _resolve_scene, render_batch_with_stats, render_with_stats
+    from drtlab.kernels.render import resolve_scene, render_batch_with_stats, render_with_stats
     t_start = time.perf_counter()
     n = check_samples(spp)
     names = check_groups(groups)
@@ -114,7 +114,7 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
         raise InputError("strategy", f"must be one of {', '.join(STRATEGIES)}, got {strat!r}")
     spec = SamplerSpec(POINTSET if pointset is None else pointset, STRATEGIES[strat])
     sampler = spec.name
-    scene = _resolve_scene(scene, res)
+    scene = resolve_scene(scene, res)
     from drtlab.estimators.registry import parse_integrator
     if parse_integrator(integrator if integrator is not None else scene.integrator).name == "whitted":
         raise InputError("integrator", "whitted draws no random numbers (a fixed grid), so it has no "

@@ -138,7 +138,7 @@ def write_sources(s: Sources, out_dir: Path, argv=None) -> list[Path]:
     manifest last)."""
     import datetime as dt
 
-    from drtlab import __version__
+    from drtlab.version import __version__
     from drtlab.experiments.files import atomic_write_bytes, atomic_write_json
     from drtlab.experiments.provenance import git_info, machine_info, package_versions, peak_rss_mib
     from drtlab.kernels import CODE_VERSION

@@ -8,6 +8,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable
 
+# The study estimate's speed probe (estimate.py): renders at a spp raised until one takes this long.
+PROBE_SECONDS = 0.05
+
 
 @dataclass
 class RenderResult:
@@ -76,15 +79,9 @@ def default_backend(device: str = "cpu") -> Backend:
         return compile_variants(jobs, threads=threads, device=device)
 
     def speed(scene, sampler, integrator, res, threads=None):
-        from drtlab.experiments.study.estimate import PROBE_SECONDS
         from drtlab.kernels.render import measured_speed
         return measured_speed(scene, sampler, integrator, res=res, threads=threads, device=device,
                               probe_seconds=PROBE_SECONDS, full_size=True)
 
     return Backend(load_scene=load_scene, render=render, code_version=CODE_VERSION,
                    name=f"warp-{device}", precompile=precompile, render_batch=render_batch, speed=speed)
-
-
-def default_scene_loader():
-    from drtlab.kernels.scene_model.scene_file import load_scene
-    return load_scene

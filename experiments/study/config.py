@@ -59,7 +59,7 @@ from drtlab.errors import InputError
 # The model's names, importable from here as before the model had its own module.
 from drtlab.experiments.study.experiment_model import (  # noqa: F401
     DEFAULT_PROFILE, DEFAULTS, EXPERIMENT_DIR, EXPERIMENT_KEYS, MAX_RUNS_PER_CELL, MAX_STUDY_SECONDS,
-    MIN_GT_BATCHES, SCENE_KEYS, SETTINGS_KEYS, STUDY_KEYS, Experiment, SceneRef, Settings, Study, _freeze)
+    MIN_GT_BATCHES, SCENE_KEYS, SETTINGS_KEYS, STUDY_KEYS, Experiment, SceneRef, Settings, Study, freeze)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -210,7 +210,7 @@ def scene_ref(entry, fld, base: Path | None = None) -> SceneRef:
     if bad:
         raise InputError(f"{fld}.label", f"may hold letters, digits and - _ . ~ only, got {label!r}")
     return SceneRef(name=name, label=label,
-                    overrides=tuple(sorted((k, _freeze(v)) for k, v in overrides.items())))
+                    overrides=tuple(sorted((k, freeze(v)) for k, v in overrides.items())))
 
 
 def _canonical_sampler(name, fld) -> str:
@@ -395,8 +395,7 @@ def load_experiment(name_or_path: str | Path | dict, profile: str = DEFAULT_PROF
     if check_scenes:
         loader = scene_loader
         if loader is None:
-            from drtlab.experiments.study.backend import default_scene_loader
-            loader = default_scene_loader()
+            from drtlab.kernels.scene_model.scene_file import load_scene as loader
         checked = set()
         for si, st in enumerate(studies):
             for j, sc in enumerate(st.scenes):

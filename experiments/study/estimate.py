@@ -4,7 +4,7 @@ caller says yes (`drtlab experiment --yes`, `run_experiment(..., yes=True)`).
 
 Time: each group's pending samples (its reference's and the runs not stored yet) over the speed of the reference's sampler,
 `stratified+importance` (one of the slower ones, so the estimate errs high), measured by the
-backend's `speed`: renders of the group's image at a spp raised until one takes PROBE_SECONDS
+backend's `speed`: renders of the group's image at a spp raised until one takes backend.PROBE_SECONDS
 (kernels/render.py `measured_speed`). The probe runs after the sweep's kernels are compiled, so it
 pays no compile of its own; on a Dask cluster nothing is probed here.
 
@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 from drtlab.errors import InputError
 
-PROBE_SECONDS = 0.05
 MAX_HOURS = 24.0              # estimated rendering beyond this needs yes
 MEMORY_SHARE = 0.9            # of this machine's memory: an estimate beyond it needs yes
 BASE_MIB = 800.0

@@ -138,11 +138,11 @@ class Experiment:
         return list(seen)
 
 
-def _freeze(v):
+def freeze(v):
     if isinstance(v, list):
-        return tuple(_freeze(x) for x in v)
+        return tuple(freeze(x) for x in v)
     if isinstance(v, dict):
-        return tuple(sorted((k, _freeze(x)) for k, x in v.items()))
+        return tuple(sorted((k, freeze(x)) for k, x in v.items()))
     return v
 
 

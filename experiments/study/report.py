@@ -14,10 +14,10 @@ from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.error_metrics import METRICS
 from drtlab.experiments.parallel import pmap
 from drtlab.experiments.study.report_sections import (
-    _ci, _cmp_ratio, _cost_section, _diagnostics_section, _noise_floor_section, _ratio,
-    _reproduce_section, _where_section, fmt, fmt_ci,
+    interval_text, comparison_ratio, cost_section, diagnostics_section, noise_floor_section, ratio_text,
+    reproduce_section, where_section, fmt, fmt_ci,
 )
-from drtlab.experiments.study.report_sources import _sources_section
+from drtlab.experiments.study.report_sources import sources_section
 from drtlab.experiments.study.results import SceneResult, StudyResult, Summary
 from drtlab.experiments.stats.slopes import RESOLVED_WIDTH
 
@@ -146,15 +146,15 @@ def _table_row(study: StudyResult, scene: SceneResult, s: str) -> str:
     typical = fmt_ci(fit.typical_slope, fit.typical_slope_lo, fit.typical_slope_hi) \
         if fit and fit.typical_slope is not None else "–"
     top = scene.cell(s, top_n)
-    error = (_ci(top.error(study.metric)) + ("" if top.resolved is not False else " ◊")) if top else "–"
+    error = (interval_text(top.error(study.metric)) + ("" if top.resolved is not False else " ◊")) if top else "–"
     r = scene.row(s, top_n)
     if s == base:
         return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | 1 (baseline) | – | – | – |")
     mr = "–" if r is None else ("not resolved" if not r.resolved else
                                 fmt_ci(1 / r.mse_ratio, 1 / r.mse_ratio_hi, 1 / r.mse_ratio_lo))
     claim = CLAIM_MARK[r.claim] if r else "–"
-    return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mr} | {_cmp_ratio(r, 'speedup')} | "
-            f"{_cmp_ratio(r, 'efficiency')} | {claim} |")
+    return (f"| {scene.scene} | `{s}` | {slope} | {typical} | {error} | {mr} | {comparison_ratio(r, 'speedup')} | "
+            f"{comparison_ratio(r, 'efficiency')} | {claim} |")
 
 
 def _study_table(study: StudyResult) -> list[str]:
@@ -328,9 +328,9 @@ def _comparison_table(study: StudyResult) -> list[str]:
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for scene in study.scenes:
         for r in scene.comparisons:
-            sp = _ratio(*r.ratio("speedup")) + (" (extrap.)" if r.extrapolated else "")
-            lines.append(f"| {scene.scene} | `{r.sampler}` | {r.spp} | {_ratio(*r.ratio('mse_ratio'))} | "
-                         f"{_ratio(*r.ratio('efficiency'))} | {fmt(r.target_rmse)} | "
+            sp = ratio_text(*r.ratio("speedup")) + (" (extrap.)" if r.extrapolated else "")
+            lines.append(f"| {scene.scene} | `{r.sampler}` | {r.spp} | {ratio_text(*r.ratio('mse_ratio'))} | "
+                         f"{ratio_text(*r.ratio('efficiency'))} | {fmt(r.target_rmse)} | "
                          f"{fmt(r.samples_to_target)} | {sp} | {r.claim} (on {r.claim_on}) | "
                          f"{fmt(r.p_adjusted)} | {r.why or ''} |")
     lines.append("\nEstimates of comparisons that are not resolved are listed for completeness; they are "
@@ -353,9 +353,9 @@ def _cell_table(study: StudyResult) -> list[str]:
     for scene in study.scenes:
         for c in scene.cells:
             b = c.bias
-            values = " | ".join(_ci(getattr(c, f)) for _, f in PER_RUN_COLUMNS)
+            values = " | ".join(interval_text(getattr(c, f)) for _, f in PER_RUN_COLUMNS)
             lines.append(
-                f"| {scene.scene} | `{c.sampler}` | {c.spp} | {_ci(c.rmse_of_mean_mse)} | {values} | "
+                f"| {scene.scene} | `{c.sampler}` | {c.spp} | {interval_text(c.rmse_of_mean_mse)} | {values} | "
                 f"{fmt_ci(b.signed, b.lo, b.hi)}{' ⚠' if b.significant else ''} | "
                 f"{fmt(b.pixel_variance)} | {_seconds(c)} | {fmt(c.measured_seconds)}"
                 f"{' †' if c.timing_below_resolution else ''} | {fmt(c.efficiency_of(study.metric))} | "
@@ -381,16 +381,16 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
         lines += _study_intro(study)
         lines += table
         lines += _findings(study)
-        lines += _sources_section(study, study_cfg, out_dir)
+        lines += sources_section(study, study_cfg, out_dir)
         lines += _resolution_warning(study)
         lines += _precision_section(study)
         lines += _figure_links(study, study_cfg, plots[study.name], strips, out_dir)
         lines += comparisons
         lines += _cell_table(study)
-    lines += _noise_floor_section(summary)
-    lines += _cost_section(summary)
-    lines += _diagnostics_section(summary)
-    lines += _where_section(records)
-    lines += _reproduce_section(exp)
+    lines += noise_floor_section(summary)
+    lines += cost_section(summary)
+    lines += diagnostics_section(summary)
+    lines += where_section(records)
+    lines += reproduce_section(exp)
     atomic_write_text(out_dir / "report.md", "\n".join(lines) + "\n")
     write_report_html(exp, summary, plan, records, out_dir, gts, plots, tables)

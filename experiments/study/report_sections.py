@@ -26,7 +26,7 @@ def fmt_ci(m, lo, hi, digits=3) -> str:
     return f"{fmt(m, digits)} [{fmt(lo, digits)}, {fmt(hi, digits)}]"
 
 
-def _ratio(x, lo, hi) -> str:
+def ratio_text(x, lo, hi) -> str:
     """A ratio with its interval, as `2.1× [1.8, 2.4]`."""
     if x is None or not math.isfinite(x):
         return "–"
@@ -36,21 +36,21 @@ def _ratio(x, lo, hi) -> str:
     return txt + (f" [{fmt(lo)}, {fmt(hi)}]" if math.isfinite(hi) else f" [{fmt(lo)}, ∞)")
 
 
-def _cmp_ratio(r, kind: str) -> str:
+def comparison_ratio(r, kind: str) -> str:
     """A comparison's ratio with its interval, or 'not resolved' (the estimate is no finding)."""
     if r is None:
         return "–"
     ok = r.speedup_resolved if kind == "speedup" else r.resolved
     if not ok:
         return "not resolved"
-    return _ratio(*r.ratio(kind))
+    return ratio_text(*r.ratio(kind))
 
 
-def _ci(iv: Interval) -> str:
+def interval_text(iv: Interval) -> str:
     return fmt_ci(iv.mean, iv.lo, iv.hi)
 
 
-def _noise_floor_section(summary: Summary) -> list[str]:
+def noise_floor_section(summary: Summary) -> list[str]:
     lines = ["## Ground truth and noise floor\n",
              "The reference is itself noisy: its mean per-pixel variance Var_GT adds to every measured MSE, "
              "and is subtracted from every MSE above (MAE and ΔE00 are not corrected: they carry about half "
@@ -75,7 +75,7 @@ def _noise_floor_section(summary: Summary) -> list[str]:
     return lines
 
 
-def _cost_section(summary: Summary) -> list[str]:
+def cost_section(summary: Summary) -> list[str]:
     """Each scene's cost models (one per sampler) and whether the machine's load moved."""
     lines = ["## Cost models\n",
              "CPU seconds of a batch = per call + repetitions × (per repetition + per sample × samples), "
@@ -106,7 +106,7 @@ def _cost_section(summary: Summary) -> list[str]:
     return lines
 
 
-def _diagnostics_section(summary: Summary) -> list[str]:
+def diagnostics_section(summary: Summary) -> list[str]:
     ch = summary.chains
     lines = ["## Slope-fit diagnostics\n",
              f"Model (`slopes.fit_rmse_slope`): each run's MSE is Gamma-distributed with mean "
@@ -138,7 +138,7 @@ def _diagnostics_section(summary: Summary) -> list[str]:
     return lines
 
 
-def _where_section(records: dict) -> list[str]:
+def where_section(records: dict) -> list[str]:
     """How many runs each process rendered (`worker` in runs.csv: local, or a Dask worker)."""
     counts: dict[str, int] = {}
     for rec in records.values():
@@ -150,7 +150,7 @@ def _where_section(records: dict) -> list[str]:
             "; ".join(f"`{w}`: {n} runs" for w, n in sorted(counts.items())) + ".\n"]
 
 
-def _reproduce_section(exp) -> list[str]:
+def reproduce_section(exp) -> list[str]:
     return ["## Reproduce\n",
             f"`drtlab experiment {exp.name} --profile {exp.profile}` reruns only what is missing; "
             f"`--fresh` starts over (the ground truth cache in `results/ground-truth/` is kept). Every run's "

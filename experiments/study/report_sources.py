@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drtlab.experiments.study.report_sections import _cmp_ratio
+from drtlab.experiments.study.report_sections import comparison_ratio
 from drtlab.experiments.study.results import StudyResult
 
 
@@ -18,7 +18,7 @@ def _share(v: float) -> str:
     return f"{v:.2f}" if round(v, 2) != 0 else "0.00"
 
 
-def _sources_section(study: StudyResult, study_cfg, out_dir: Path) -> list[str]:
+def sources_section(study: StudyResult, study_cfg, out_dir: Path) -> list[str]:
     """The study's variance decompositions (`variance_sources` setting): a table of S / T per
     group and, per scene, whether its variance is first-order (what stratifying each group's
     dimensions reaches) beside the samplers' measured speed-ups."""
@@ -59,7 +59,7 @@ def _sources_section(study: StudyResult, study_cfg, out_dir: Path) -> list[str]:
         if not src:
             continue
         tops = [sc.row(s, study.spp[-1]) for s in study.samplers if s != study.baseline]
-        gains = [f"`{r.sampler}` {_cmp_ratio(r, 'speedup')}" for r in tops if r is not None]
+        gains = [f"`{r.sampler}` {comparison_ratio(r, 'speedup')}" for r in tops if r is not None]
         widest = max(max(g["first_order_hi"] - g["first_order_lo"], g["total_hi"] - g["total_lo"])
                      for g in src["groups"])
         outside = [g["group"] for g in src["groups"]

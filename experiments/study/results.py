@@ -440,11 +440,3 @@ class Summary:
         """summary.json's content back as a Summary. Its scenes' `costs` stay the plain dicts
         CostModel.to_json wrote: without the covariance it leaves out, no interval can be drawn."""
         return from_json(cls, data)
-
-
-def __getattr__(name: str):
-    # ExperimentResult lives in experiment_result.py (it imports this module); old imports still work.
-    if name == "ExperimentResult":
-        from drtlab.experiments.study.experiment_result import ExperimentResult
-        return ExperimentResult
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

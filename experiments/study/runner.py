@@ -35,7 +35,7 @@ from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
 from drtlab.experiments.study.metrics import compile_metric_kernels, reference_lab, score_batch
 from drtlab.experiments.error_metrics import plugin_metrics
-from drtlab.experiments.study.results import ExperimentResult
+from drtlab.experiments.study.experiment_result import ExperimentResult
 from drtlab.experiments.study import run_store as store
 from drtlab.experiments.seeds import run_seed, short_hash
 

@@ -426,7 +426,7 @@ def _manifest(result: LobeResult, argv) -> dict:
     )
     from drtlab.kernels import CODE_VERSION
 
-    from drtlab import __version__
+    from drtlab.version import __version__
     S = result.summary
     return {"what": "drtlab lobe", "command": argv if argv is not None else sys.argv,
             "finished": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),

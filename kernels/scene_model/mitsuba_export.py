@@ -5,8 +5,11 @@ transforms applied), so that importing the file (mitsuba_import.py) gives back t
 the same image bit for bit. What Mitsuba 3 has no counterpart for is refused in one line naming the
 scene key, before anything is written: the drt and whitted integrators, Phong lobes (glossy,
 glossy_dielectric, plastic), drtlab's GGX (height-correlated masking; Mitsuba's is separable),
-checker textures, moving shapes, a background, pixel filters other than box and mitchell, environments other
-than a constant one. Meshes are written beside the XML as binary PLY files in float64.
+checker textures, moving shapes, a shutter, a background, pixel filters other than box, mitchell and
+mitsuba_gaussian, environments other than a constant one. What it maps is said by tables
+(`BSDF_OF_KIND`, `CAMERA_FIELDS`, `SCENE_FIELDS`): a material kind, camera field or scene field
+they lack (a new one) is refused until it is mapped, never written as something else. Meshes are
+written beside the XML as binary PLY files in float64.
 """
 from __future__ import annotations
 
@@ -16,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.errors import InputError
-from drtlab.kernels.scene_model.scene import Scene
+import dataclasses
 
-PHONG_KINDS = ("glossy", "glossy_dielectric", "plastic")
-GGX_KINDS = ("ggx", "ggx_dielectric")
+from drtlab.errors import InputError
+from drtlab.kernels.scene_model.scene import Camera, Scene
+
 # drtlab's kinds that are Mitsuba's roughconductor (material "none"), by its `distribution`.
 ROUGH_CONDUCTORS = {"beckmann": "beckmann", "ggx_separable": "ggx", "beckmann_conductor": "beckmann",
                     "ggx_conductor": "ggx"}
@@ -30,6 +33,34 @@ METALS = ("conductor", "beckmann_conductor", "ggx_conductor")
 ROUGH_DIELECTRICS = {"beckmann_dielectric": "beckmann", "ggx_dielectric_separable": "ggx"}
 # ... and its plastic (None) and roughplastic, by distribution; the `_nonlinear` kinds with nonlinear.
 PLASTICS = {"smooth_plastic": None, "beckmann_plastic": "beckmann", "ggx_plastic": "ggx"}
+# Every kind the exporter writes, and the Mitsuba 3 BSDF it becomes (mitsuba_materials.py reads it
+# back as the same kind); a kind not here is refused.
+BSDF_OF_KIND = {"diffuse": "diffuse", "emitter": "diffuse", "mirror": "conductor", "conductor": "conductor",
+                "dielectric": "dielectric", **dict.fromkeys(ROUGH_CONDUCTORS, "roughconductor"),
+                **dict.fromkeys(ROUGH_DIELECTRICS, "roughdielectric"),
+                **{f"{k}{nl}": "plastic" if d is None else "roughplastic" for k, d in PLASTICS.items()
+                   for nl in ("", "_nonlinear")}}
+# Why the kinds Mitsuba 3 has no counterpart for are refused (any other unmapped kind: not mapped).
+SEPARABLE = "uses height-correlated Smith masking; Mitsuba 3's GGX uses the separable form (kind {})"
+NO_COUNTERPART = {**dict.fromkeys(("glossy", "glossy_dielectric", "plastic"),
+                                  "has a modified-Phong lobe, which Mitsuba 3 lacks"),
+                  "ggx": SEPARABLE.format("ggx_separable"),
+                  "ggx_dielectric": SEPARABLE.format("ggx_dielectric_separable")}
+# The camera's fields and where the sensor holds them; any other must keep its default.
+CAMERA_FIELDS = {"position": "to_world lookat origin", "look_at": "to_world lookat target",
+                 "up": "to_world lookat up", "vfov_deg": "fov (fov_axis y)",
+                 "aperture_radius": "thinlens aperture_radius",
+                 "focus_distance": "thinlens focus_distance (a pinhole reads none)",
+                 "filter": "the film's rfilter", "filter_stddev": "the rfilter's stddev",
+                 "filter_clip": "the film's sample_border (false: the filter cut at the film's edge)"}
+# The scene's fields the exporter writes or checks (the integrator: path only; the background:
+# black only), and those that only name and describe it; any other is refused.
+SCENE_FIELDS = ("width", "height", "spp", "integrator", "max_depth", "rr_depth", "russian_roulette",
+                "background", "camera", "materials", "shapes", "point_lights", "directional_lights",
+                "environment")
+SCENE_METADATA = ("name", "description", "source", "text")
+UNMAPPED_WHY = {"shutter": "the shutter only moves shapes, and moving shapes are not exported; "
+                           "leave it closed"}
 # The procedural environment's default lat-long size: what an imported constant emitter becomes.
 DEFAULT_ENV_SHAPE = (32, 64)
 
@@ -47,13 +78,10 @@ def check_exportable(scene: Scene) -> None:
                                           "of that name differs or is missing; exportable: box, mitchell, "
                                           "mitsuba_gaussian)")
     for m in scene.materials:
-        if m.kind in PHONG_KINDS:
-            raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' has a modified-Phong lobe, which "
-                                                         "Mitsuba 3 lacks")
-        if m.kind in GGX_KINDS:
-            raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' uses height-correlated Smith "
-                                                         "masking; Mitsuba 3's GGX uses the separable form "
-                                                         "(kind ggx_separable)")
+        if m.kind not in BSDF_OF_KIND:
+            why = NO_COUNTERPART.get(m.kind, "is not mapped to a Mitsuba 3 BSDF")
+            raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' {why} (exportable: "
+                                                         f"{', '.join(BSDF_OF_KIND)})")
         if m.checker is not None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
     for i, s in enumerate(scene.shapes):
@@ -65,6 +93,33 @@ def check_exportable(scene: Scene) -> None:
         raise InputError("environment", "only a constant environment of the default resolution is "
                                         f"exported (Mitsuba's constant emitter), got {env.kind} "
                                         f"{env.width}x{env.height}")
+    _check_fields(scene)
+
+
+def _default(f: dataclasses.Field):
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    return f.default_factory() if f.default_factory is not dataclasses.MISSING else dataclasses.MISSING
+
+
+def _same(a, b) -> bool:
+    return np.array_equal(np.asarray(a), np.asarray(b)) if b is not dataclasses.MISSING else False
+
+
+def _check_fields(scene: Scene) -> None:
+    """A scene or camera field the tables do not map must keep its default (a field without one is
+    refused): what the export does not write cannot change the render."""
+    for f in dataclasses.fields(Camera):
+        value = getattr(scene.camera, f.name)
+        if f.name not in CAMERA_FIELDS and not _same(value, _default(f)):
+            why = UNMAPPED_WHY.get(f.name, f"is not exported (a Mitsuba export writes only "
+                                           f"{', '.join(CAMERA_FIELDS)}); leave it at its default")
+            raise InputError(f"camera.{f.name}", f"{value!r}: {why}")
+    for f in dataclasses.fields(Scene):
+        value = getattr(scene, f.name)
+        if f.name not in SCENE_FIELDS + SCENE_METADATA and not _same(value, _default(f)):
+            raise InputError(f"scene.{f.name}", f"is not exported (a Mitsuba export writes only "
+                                                f"{', '.join(SCENE_FIELDS)}); leave it at its default")
 
 
 def export_mitsuba(scene: Scene, out: Path, data: dict | None = None) -> list[Path]:
@@ -206,9 +261,11 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _num(b, "float", "ext_ior", 1.0)
             _num(b, "boolean", "nonlinear", "true" if m.kind.endswith("_nonlinear") else "false")
             _vec(b, "rgb", "diffuse_reflectance", m.albedo)
-        else:
+        elif BSDF_OF_KIND[m.kind] == "diffuse":
             b = ET.SubElement(outer, "bsdf", type="diffuse")
             _vec(b, "rgb", "reflectance", m.albedo)
+        else:       # a row of BSDF_OF_KIND without its branch here: never written as something else
+            raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' is in BSDF_OF_KIND but not written")
     return ids
 
 

@@ -77,10 +77,10 @@ def _bsdf_kernel_hash(kinds: frozenset, microfacet: str = "vndf") -> bytes:
     import dataclasses
 
     import warp as wp
-    from drtlab.experiments.stats.chi2.adapters import _routine_variant
+    from drtlab.experiments.stats.chi2.adapters import routine_variant
     from drtlab.kernels.materials import make_bsdf
     from drtlab.kernels.materials.material_at import MaterialAt
-    features, strategy = _routine_variant(microfacet=microfacet)
+    features, strategy = routine_variant(microfacet=microfacet)
     b = make_bsdf(dataclasses.replace(features, kinds=kinds), strategy)
     sample_bsdf, eval_bsdf = b.sample_bsdf, b.eval_bsdf
 

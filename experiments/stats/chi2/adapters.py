@@ -31,13 +31,13 @@ def _vec3_array(pts: np.ndarray):
     return wp.array(a, dtype=wp.vec3, device="cpu")
 
 
-def _as_vec3(v):
+def as_vec3(v):
     wp = _wp()
     v = np.asarray(v, dtype=np.float64).reshape(3)
     return wp.vec3(float(v[0]), float(v[1]), float(v[2]))
 
 
-def _input_points(pts, n: int):
+def input_points(pts, n: int):
     """(points, launch size): the given points and their count (evaluation), or a one-point
     placeholder and n (sampling, pts None)."""
     wp = _wp()
@@ -47,7 +47,7 @@ def _input_points(pts, n: int):
     return inp, int(inp.shape[0])
 
 
-def _outputs(n: int, *dtypes) -> list:
+def outputs(n: int, *dtypes) -> list:
     """Zeroed CPU output arrays of length n, one per dtype."""
     wp = _wp()
     return [wp.zeros(n, dtype=d, device="cpu") for d in dtypes]
@@ -78,7 +78,7 @@ class WarpsAdapter:
     def launch(cls, mode: int, which: int, param: float, n: int, seed: int = 0, pts=None):
         wp = _wp()
         k = cls.kernel()
-        inp, n = _input_points(pts, n)
+        inp, n = input_points(pts, n)
         out_v = wp.zeros(n if mode == 0 else 1, dtype=wp.vec3, device="cpu")
         out_p = wp.zeros(n, dtype=float, device="cpu")
         wp.launch(k, dim=n, device="cpu", inputs=[int(mode), int(which), float(param),
@@ -168,7 +168,7 @@ KIND_INDEX = MATERIAL_CODE
 ALL_KINDS = frozenset(MATERIAL_KINDS)
 
 
-def _routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick=False,
+def routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick=False,
                     meshes: bool = False, faults: frozenset = frozenset(),
                     microfacet: str = "vndf", lobes: tuple = ()) -> tuple:
     """(features, strategy) to build one sampling routine from, as the kernel factories take them:
@@ -219,16 +219,16 @@ class BSDFAdapter:
         wp = _wp()
         kind, albedo, exponent, ior, nrm, wo, *metal = case
         eta, k = metal or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
-        inp, n = _input_points(pts, n)
-        arrays = _outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
+        inp, n = input_points(pts, n)
+        arrays = outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
         from drtlab.kernels.materials.material_at import MaterialAt
         mat = MaterialAt()
         mat.kind = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
-        mat.albedo, mat.shape, mat.ior = _as_vec3(albedo), float(exponent), float(ior)
-        mat.eta, mat.k = _as_vec3(eta), _as_vec3(k)
+        mat.albedo, mat.shape, mat.ior = as_vec3(albedo), float(exponent), float(ior)
+        mat.eta, mat.k = as_vec3(eta), as_vec3(k)
         mat.table, mat.row = _table(mat.kind, albedo, exponent, ior), 0
         wp.launch(self.kernel, dim=n, device="cpu",
-                  inputs=[int(mode), mat, _as_vec3(nrm), _as_vec3(wo), wp.uint32(seed), inp, *arrays])
+                  inputs=[int(mode), mat, as_vec3(nrm), as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, case, n: int, seed: int = 0) -> BSDFSamples:
@@ -276,7 +276,7 @@ def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
     from drtlab.kernels.materials import make_bsdf
     from drtlab.kernels.materials.material_at import MaterialAt
 
-    b = make_bsdf(*_routine_variant(lobe=lobe, microfacet=microfacet, lobes=lobes))
+    b = make_bsdf(*routine_variant(lobe=lobe, microfacet=microfacet, lobes=lobes))
     sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")

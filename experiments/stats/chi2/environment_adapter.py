@@ -9,8 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drtlab.experiments.stats.chi2.adapters import (_as_vec3, _input_points, _outputs, _wp,
+from drtlab.experiments.stats.chi2.adapters import (as_vec3, input_points, outputs,
                                                     uniform)
+from drtlab.warp_runtime import warp as _wp
 from drtlab.experiments.stats.chi2.harness import PdfFunc, SampleFunc
 
 
@@ -51,10 +52,10 @@ class EnvironmentAdapter:
 
     def _launch(self, mode, env, n_axis, n, seed, pts=None):
         wp = _wp()
-        inp, n = _input_points(pts, n)
-        arrays = _outputs(n, wp.vec3, float, int, wp.vec3)
+        inp, n = input_points(pts, n)
+        arrays = outputs(n, wp.vec3, float, int, wp.vec3)
         wp.launch(self.kernel, dim=n, device="cpu",
-                  inputs=[int(mode), env, _as_vec3(n_axis), wp.uint32(seed), inp, *arrays])
+                  inputs=[int(mode), env, as_vec3(n_axis), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, env, n_axis, n: int, seed: int = 0) -> EnvSamples:
@@ -81,7 +82,8 @@ class EnvironmentAdapter:
 def _make_env_kernel(sampler: str):
     wp = _wp()
     from drtlab.estimators.strategies import LightSampling, Strategy
-    from drtlab.kernels.environment import EnvironmentData, make_environment
+    from drtlab.kernels.device_scene import EnvironmentData
+    from drtlab.kernels.environment import make_environment
 
     env_fns = make_environment(Strategy("chi2", "the environment adapter's sampler", "lobe",
                                         LightSampling("solid_angle", "power", environment=sampler)))

@@ -8,8 +8,9 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from drtlab.experiments.stats.chi2.adapters import (_as_vec3, _input_points, _outputs, _routine_variant, _wp,
+from drtlab.experiments.stats.chi2.adapters import (as_vec3, input_points, outputs, routine_variant,
                                                     uniform)
+from drtlab.warp_runtime import warp as _wp
 from drtlab.experiments.stats.chi2.harness import PdfFunc, SampleFunc
 from drtlab.kernels.device_scene import SPHERE, SceneData
 from drtlab.kernels.features import LIGHT_JACOBIAN, MESH_PDF_HIGH_10PCT
@@ -63,10 +64,10 @@ class LightAdapter:
 
     def _launch(self, mode, sd, x, n, seed, pts=None):
         wp = _wp()
-        inp, n = _input_points(pts, n)
-        arrays = _outputs(n, *self._OUTPUTS)
+        inp, n = input_points(pts, n)
+        arrays = outputs(n, *self._OUTPUTS)
         wp.launch(self.kernel, dim=n, device="cpu",
-                  inputs=[int(mode), sd, _as_vec3(x), wp.uint32(seed), inp, *arrays])
+                  inputs=[int(mode), sd, as_vec3(x), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
 
     def sample(self, sd, x, n: int, seed: int = 0) -> LightSamples:
@@ -111,7 +112,7 @@ def make_light_kernel(solid_angle: bool, power_pick, wrong_jacobian: bool,
     if mesh_fault:
         faults.add(MESH_PDF_HIGH_10PCT)
     motion = make_motion(moving=False)
-    L = make_lights(*_routine_variant(solid_angle=solid_angle, power_pick=power_pick, meshes=meshes,
+    L = make_lights(*routine_variant(solid_angle=solid_angle, power_pick=power_pick, meshes=meshes,
                                      faults=frozenset(faults)), motion=motion)
     nearest_in_mesh = make_mesh_rays(motion=motion).nearest_in_mesh
     pick_light, light_pdf, sample_light, pick_pmf = (L.pick_light, L.light_pdf, L.sample_light,

@@ -167,7 +167,7 @@ def test_scheduler_without_workers_is_refused(tmp_path, capsys, monkeypatch):
 def test_cli_passes_the_cluster_to_the_runner(cluster, tmp_path, monkeypatch, capsys):
     """--scheduler reaches the running cluster; --workers N starts N workers; neither: in-process."""
     import drtlab.experiments.study.runner as runner
-    from drtlab.experiments.study.results import ExperimentResult
+    from drtlab.experiments.study.experiment_result import ExperimentResult
     seen = []
 
     def fake_run(exp, executor=None, out_dir=None, **kw):

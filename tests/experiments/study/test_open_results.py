@@ -175,9 +175,3 @@ def test_a_results_folder_given_as_an_experiment_points_to_open_results(finished
     with pytest.raises(InputError) as e:
         drtlab.load_experiment(str(out))
     assert "drtlab.open_results" in e.value.message and len(str(e.value).splitlines()) == 1
-
-
-def test_experiment_result_still_imports_from_results():
-    from drtlab.experiments.study.experiment_result import ExperimentResult
-    from drtlab.experiments.study.results import ExperimentResult as old
-    assert old is ExperimentResult
