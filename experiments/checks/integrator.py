@@ -103,7 +103,7 @@ def _unbiased_lines(name: str, faults, seed: int, per_line: float, judged: bool)
         worst = int(np.argmax(np.abs(c.z)))
         out.append(Line(f"unbiased: {effect}", (not c.rejected) if judged else None,
                         f"{RUNS} runs x {SPP} spp against {REFERENCE}'s, {c.regions} regions: chi2 {c.chi2:.1f}, "
-                        f"p = {c.p:.3g}; worst region z = {c.z[worst]:+.1f} ({c.rel_err[worst]:.1%} off)", c.p))
+                        f"p = {c.p:.3g}; largest |z| {abs(c.z[worst]):.1f} (region {worst})", c.p))
     scene, exact = S.furnace()
     images, _ = render_runs(scene, name, _seeds(seed, name, "furnace"), SPP, faults)
     est = _estimate(images)
