@@ -33,6 +33,12 @@ unbiased, the mean passes the region test against the closed form) must be rejec
 is 166 times the correct one's with the power heuristic, 37 times with the balance heuristic (the
 closed forms; the light subtends up to 80 degrees here, where BSDF sampling is not hopeless).
 
+The same plane under a constant environment of radiance L_ENV (no sphere light): one sample's
+variance is the same at every point (nothing occludes the sky), a 1D quadrature over theta, row by
+row of the environment's lat-long table for its image sampler (environment_map.direction_pdf);
+env-cosine's MIS of two cosine-distributed techniques is exact (zero variance: float32 rounding
+only). Negative controls: the swap under the image and the uniform samplers (22 times the variance).
+
 Veach's bound (Theorem 9.2, one sample per technique): the balance heuristic's variance is at most
 any other combination's, light or BSDF sampling alone included, plus (1 - 1/2) mu^2; checked on the
 closed forms, which the swapped balance heuristic violates.
@@ -71,7 +77,12 @@ STRATEGIES = {"importance": ("cone", "power", True), "importance-balance": ("con
               "uniform": ("area", None, False), "bsdf": (None, None, True)}
 CASES = [(i, s) for i in UNBIASED for s in STRATEGIES]
 CONTROLS = [("path", "importance"), ("path", "importance-balance")]
-ALPHA_TEST = sidak(ALPHA, len(CASES) + len(CONTROLS))
+# The plane under a constant environment instead (no sphere light): strategy -> environment sampler.
+L_ENV = 2.0
+ENV_STRATEGIES = {"importance": "image", "env-uniform": "uniform", "env-cosine": "cosine"}
+ENV_CASES = [(i, s) for i in UNBIASED for s in ENV_STRATEGIES]
+ENV_CONTROLS = [("path", "importance"), ("path", "env-uniform")]   # env-cosine's densities are equal
+ALPHA_TEST = sidak(ALPHA, len(CASES) + len(CONTROLS) + len(ENV_CASES) + len(ENV_CONTROLS))
 HEURISTICS = {"power": lambda a, b: a * a / (a * a + b * b), "balance": lambda a, b: a / (a + b)}
 
 
@@ -127,15 +138,20 @@ def test_the_swapped_heuristic_is_the_other_techniques_weight():
 # Closed forms
 # ---------------------------------------------------------------------------------------------------
 
-def _scene() -> dict:
-    return {"scene": {"description": "a diffuse plane under a sphere light", "resolution": list(RES),
-                      "spp": SPP, "integrator": "path", "max_depth": 2},
-            "camera": dict(CAMERA),
-            "materials": {"plane": {"kind": "diffuse", "albedo": [RHO] * 3},
-                          "lamp": {"kind": "emitter", "emission": [LE] * 3}},
-            "shapes": [{"kind": "quad", "material": "plane", "origin": [-20.0, 0.0, -20.0],
-                        "edge_u": [0.0, 0.0, 40.0], "edge_v": [40.0, 0.0, 0.0]},
-                       {"kind": "sphere", "material": "lamp", "center": CENTER.tolist(), "radius": R_LIGHT}]}
+def _scene(environment: bool = False) -> dict:
+    d = {"scene": {"description": "a diffuse plane under a sphere light", "resolution": list(RES),
+                   "spp": SPP, "integrator": "path", "max_depth": 2},
+         "camera": dict(CAMERA),
+         "materials": {"plane": {"kind": "diffuse", "albedo": [RHO] * 3},
+                       "lamp": {"kind": "emitter", "emission": [LE] * 3}},
+         "shapes": [{"kind": "quad", "material": "plane", "origin": [-20.0, 0.0, -20.0],
+                     "edge_u": [0.0, 0.0, 40.0], "edge_v": [40.0, 0.0, 0.0]},
+                    {"kind": "sphere", "material": "lamp", "center": CENTER.tolist(), "radius": R_LIGHT}]}
+    if environment:
+        d["scene"]["description"] = "a diffuse plane under a constant environment"
+        d["shapes"] = d["shapes"][:1]
+        d["environment"] = {"kind": "constant", "radiance": [L_ENV] * 3}
+    return d
 
 
 def _plane_points() -> tuple[np.ndarray, np.ndarray]:
@@ -212,6 +228,41 @@ def closed_form(strategy: str, swapped: bool = False, nt: int = 24) -> dict:
     return {"mean": mean, "var": (var_x + mu ** 2) @ q - mean ** 2, "mu2": float(np.mean((mu ** 2) @ q))}
 
 
+def closed_form_environment(strategy: str, swapped: bool = False, per_row: int = 8) -> tuple[float, float]:
+    """(mean, variance) of one sample at any point of the plane under the constant environment (the
+    same everywhere: nothing occludes the sky of an unbounded plane). The environment's density:
+    uniform 1 / 4 pi, cosine cos / pi, or the image sampler's (environment_map.direction_pdf: its
+    rows' probabilities over their solid angle, piecewise in theta), integrated row by row."""
+    from drtlab.kernels.scene_model.environment_map import direction_pdf
+    env = scene_from_dict(_scene(environment=True)).environment
+    rows = env.height // 2                                       # the upper hemisphere's rows
+    x, wx = gauss01(per_row)
+    theta = ((np.arange(rows)[:, None] + x) * math.pi / env.height).ravel()
+    dtheta = np.tile(wx * math.pi / env.height, rows)
+    w = 2.0 * math.pi * np.sin(theta) * dtheta                   # solid angle of each node's ring
+    cos_t = np.cos(theta)
+    g = RHO / math.pi * L_ENV * cos_t
+    p_bsdf = cos_t / math.pi
+    sampler = ENV_STRATEGIES[strategy]
+    if sampler == "uniform":
+        p_light = np.full_like(g, 1.0 / (4.0 * math.pi))
+    elif sampler == "cosine":
+        p_light = p_bsdf
+    else:
+        dirs = np.stack([np.sin(theta), cos_t, np.zeros_like(theta)], axis=-1)
+        p_light = direction_pdf(env.image, dirs, env=env)
+    h = HEURISTICS["power"]
+    w_light, w_bsdf = h(p_light, p_bsdf), h(p_bsdf, p_light)
+    if swapped:
+        w_light, w_bsdf = w_bsdf, w_light
+    mean = var = 0.0
+    for wt, p in ((w_light, p_light), (w_bsdf, p_bsdf)):
+        m = float(np.sum(wt * g * w))
+        mean += m
+        var += float(np.sum(wt ** 2 * g ** 2 / p * w)) - m * m
+    return mean, var
+
+
 def test_the_closed_forms_agree_and_meet_veachs_bound():
     """The quadrature's own checks: every unbiased combination has the same mean; the techniques'
     variances order as they must; the balance heuristic meets Veach's bound, the swapped one breaks it."""
@@ -227,6 +278,14 @@ def test_the_closed_forms_agree_and_meet_veachs_bound():
     assert swapped["importance-balance"] > 5 * bound
     assert v["light"] < v["uniform"] and v["light"] < v["bsdf"]
     assert swapped["importance"] > 100 * v["importance"] and swapped["importance-balance"] > 20 * v["importance-balance"]
+    for st in ENV_STRATEGIES:                        # every environment sampler: the same mean, rho L
+        mean, var = closed_form_environment(st)
+        assert math.isclose(mean, RHO * L_ENV, rel_tol=1e-9) and var >= 0, st
+        assert math.isclose(closed_form_environment(st, per_row=16)[1], var, rel_tol=1e-4, abs_tol=1e-12), st
+    # cosine light samples of a cosine integrand under a uniform sky: both techniques are perfect
+    assert closed_form_environment("env-cosine")[1] < 1e-12
+    for st in ("importance", "env-uniform"):
+        assert closed_form_environment(st, swapped=True)[1] > 1.2 * closed_form_environment(st)[1], st
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -238,9 +297,9 @@ def _ensure_balance():
         drtlab.register_strategy("importance-balance", "importance, balance heuristic", heuristic="balance")
 
 
-def _measure(integrator: str, strategy: str, faults=()):
-    b = render_batch_with_stats(scene_from_dict(_scene()), [seed_for("mis-variance", integrator, strategy, faults, k)
-                                                            for k in range(RUNS)],
+def _measure(integrator: str, strategy: str, faults=(), environment: bool = False):
+    key = ("mis-variance", integrator, strategy, faults, environment)
+    b = render_batch_with_stats(scene_from_dict(_scene(environment)), [seed_for(*key, k) for k in range(RUNS)],
                                 spp=SPP, sampler=f"independent+{strategy}", integrator=integrator,
                                 variance=True, faults=faults, progress=False)
     return np.asarray(b.images), np.asarray(b.variances)
@@ -279,4 +338,27 @@ def test_swapped_mis_weights_are_unbiased_and_rejected(clean_registry, integrato
     print(f"\n{integrator} {strategy} with {MIS_SWAPPED}: variance {ratio:.0f} x the correct estimator's")
     assert 2 * stats.norm.sf(abs(z)) < ALPHA_TEST and ratio > 20
     z_swapped, _ = _variance_z(s2, closed_form(strategy, swapped=True)["var"])
+    assert 2 * stats.norm.sf(abs(z_swapped)) >= ALPHA_TEST, z_swapped
+
+
+@pytest.mark.parametrize("integrator, strategy", ENV_CASES)
+def test_pixel_variance_under_the_environment_is_the_closed_form(integrator, strategy):
+    images, s2 = _measure(integrator, strategy, environment=True)
+    mean, var = closed_form_environment(strategy)
+    if var < 1e-12:                                  # a zero-variance estimator: float32 rounding only
+        assert np.max(s2) < 1e-9 * mean ** 2 and np.allclose(images, mean, rtol=1e-5), np.max(s2)
+        return
+    z, ratio = _variance_z(s2, np.full(s2.shape[1:3], var))
+    p = 2 * stats.norm.sf(abs(z))
+    print(f"\n{integrator} {strategy} (environment): variance {ratio:.4f} x the closed form, z = {z:+.2f}")
+    assert p >= ALPHA_TEST, f"{integrator} {strategy}: variance {ratio:.4f} x the closed form (z = {z:+.2f})"
+
+
+@pytest.mark.parametrize("integrator, strategy", ENV_CONTROLS)
+def test_swapped_environment_mis_weights_are_rejected(integrator, strategy):
+    images, s2 = _measure(integrator, strategy, faults=(MIS_SWAPPED,), environment=True)
+    z, ratio = _variance_z(s2, np.full(s2.shape[1:3], closed_form_environment(strategy)[1]))
+    print(f"\n{integrator} {strategy} (environment) with {MIS_SWAPPED}: variance {ratio:.2f} x the correct one")
+    assert 2 * stats.norm.sf(abs(z)) < ALPHA_TEST
+    z_swapped, _ = _variance_z(s2, np.full(s2.shape[1:3], closed_form_environment(strategy, swapped=True)[1]))
     assert 2 * stats.norm.sf(abs(z_swapped)) >= ALPHA_TEST, z_swapped
