@@ -11,11 +11,14 @@ from types import SimpleNamespace
 
 import pytest
 
+from drtlab.cli import main
 from drtlab.estimators import integrators
 from drtlab.experiments.checks import integrator as check_module
 from drtlab.experiments.checks.integrator import check, claims, claims_unbiased
 from drtlab.experiments.checks.integrator_scenes import EFFECTS
 from drtlab.kernels.features import DROP_COSINE, RR_NO_REWEIGHT
+
+from cli_util import assert_one_line_error
 
 
 def _verdicts(card) -> dict:
@@ -74,3 +77,11 @@ def test_the_claims_come_from_the_registration(monkeypatch):
     assert claims("mine") == ("direct", "caustics") and not claims_unbiased("mine")
     monkeypatch.setitem(integrators.INTEGRATORS, "plain", SimpleNamespace(name="plain", biased=False))
     assert claims("plain") == check_module.DEFAULT_CLAIMS and claims_unbiased("plain")
+
+
+def test_an_unknown_name_is_one_line_naming_the_integrators(tmp_path, capsys):
+    rc = main(["check", "no-such-integrator", "--out", str(tmp_path / "card.json")])
+    err = capsys.readouterr().err
+    assert rc == 2 and not list(tmp_path.iterdir())
+    assert_one_line_error(err, "NAME")
+    assert "integrators: " + ", ".join(integrators.INTEGRATORS) in err
