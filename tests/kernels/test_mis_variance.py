@@ -19,7 +19,10 @@ and a pixel's (its position uniform over the pixel, box filter):
 Both are computed in float64 by quadrature: Gauss-Legendre over the pixel (6 x 6 camera rays, the
 kernel's own ray generation: scene_pieces.camera_rays), over cos(angle to the cone axis) with the
 substitution t = cos_max + (1 - cos_max) s^2 (it makes the area density's square-root edge smooth)
-and the periodic trapezoid rule in the azimuth. Weights: the strategy's heuristic for MIS, (1, 0)
+and the periodic trapezoid rule in the azimuth. The same plane under a square quad light in the
+sphere's place: Gauss-Legendre over the quad's area, each node the solid angle cos_l A / d^2, light
+samples uniform in the solid angle (the spherical rectangle) or by area (density d^2 / (A cos_l)).
+Weights: the strategy's heuristic for MIS, (1, 0)
 for light sampling alone (`light`, `uniform`: area light samples), (0, 1) for BSDF sampling alone
 (`bsdf`).
 
@@ -27,11 +30,14 @@ Test. Each render (variance=True) gives every pixel's unbiased sample variance s
 over RUNS seeds x all pixels the differences s^2 - V_pix are independent with mean 0 when the kernel
 is the estimator the closed form describes, and bounded (every estimator here is), so
     z = mean(s^2 - V_pix) / (sd(s^2 - V_pix) / sqrt(n))
-is standard normal; two-sided, level ALPHA = 0.01 Sidak-corrected over the module's CASES +
-CONTROLS tests. Negative control: MIS_SWAPPED (each technique weighted by the other's weight: still
-unbiased, the mean passes the region test against the closed form) must be rejected: its variance
-is 166 times the correct one's with the power heuristic, 37 times with the balance heuristic (the
-closed forms; the light subtends up to 80 degrees here, where BSDF sampling is not hopeless).
+is standard normal; two-sided, level ALPHA = 0.01 Sidak-corrected over the module's renders (CASES,
+CONTROLS, ENV_CASES, ENV_CONTROLS). Cases: every unbiased built-in integrator x every strategy of
+STRATEGIES under the sphere, path x each under the quad. Negative control: MIS_SWAPPED (each
+technique weighted by the other's weight: still unbiased, the mean passes the region test against
+the closed form) must be rejected, and its variance must be the swapped closed form's: 166 times the
+correct one's under the sphere with the power heuristic, 37 times with the balance heuristic (the
+light subtends up to 80 degrees there, where BSDF sampling is not hopeless), 590 times under the
+quad.
 
 The same plane under a constant environment of radiance L_ENV (no sphere light): one sample's
 variance is the same at every point (nothing occludes the sky), a 1D quadrature over theta, row by
@@ -72,11 +78,16 @@ RES, SPP, RUNS = (16, 12), 32, 4
 CAMERA = {"position": [1.5, 3.0, -3.0], "look_at": [0.8, 0.0, -0.8], "up": [0.0, 1.0, 0.0], "fov": 24.0}
 UNBIASED = [name for name, i in INTEGRATORS.items() if not i.biased]
 # strategy -> (light sampling: "cone" | "area" | None, heuristic name or None for no MIS, bsdf counted)
-STRATEGIES = {"importance": ("cone", "power", True), "importance-balance": ("cone", "balance", True),
-              "importance-area": ("area", "power", True), "light": ("cone", None, False),
+STRATEGIES = {"importance": ("solid_angle", "power", True), "importance-balance": ("solid_angle", "balance", True),
+              "importance-area": ("area", "power", True), "light": ("solid_angle", None, False),
               "uniform": ("area", None, False), "bsdf": (None, None, True)}
-CASES = [(i, s) for i in UNBIASED for s in STRATEGIES]
-CONTROLS = [("path", "importance"), ("path", "importance-balance")]
+# The same plane under a square quad light (one-sided, facing down) in the sphere's place: sampled
+# by solid angle (the spherical rectangle: every visible point is well inside lights.py's thresholds
+# for it) or by area; path only (the estimators are the sphere's).
+QUAD_ORIGIN, QUAD_SIDE = np.array([-0.4, 0.9, -0.4]), 0.8
+CASES = [(i, s, "sphere") for i in UNBIASED for s in STRATEGIES] + [("path", s, "quad") for s in STRATEGIES]
+CONTROLS = [("path", "importance", "sphere"), ("path", "importance-balance", "sphere"),
+            ("path", "importance", "quad")]
 # The plane under a constant environment instead (no sphere light): strategy -> environment sampler.
 L_ENV = 2.0
 ENV_STRATEGIES = {"importance": "image", "env-uniform": "uniform", "env-cosine": "cosine"}
@@ -138,8 +149,9 @@ def test_the_swapped_heuristic_is_the_other_techniques_weight():
 # Closed forms
 # ---------------------------------------------------------------------------------------------------
 
-def _scene(environment: bool = False) -> dict:
-    d = {"scene": {"description": "a diffuse plane under a sphere light", "resolution": list(RES),
+def _scene(light: str = "sphere") -> dict:
+    """The plane under a "sphere" or "quad" light, or under a constant "environment"."""
+    d = {"scene": {"description": f"a diffuse plane under a {light} light", "resolution": list(RES),
                    "spp": SPP, "integrator": "path", "max_depth": 2},
          "camera": dict(CAMERA),
          "materials": {"plane": {"kind": "diffuse", "albedo": [RHO] * 3},
@@ -147,8 +159,10 @@ def _scene(environment: bool = False) -> dict:
          "shapes": [{"kind": "quad", "material": "plane", "origin": [-20.0, 0.0, -20.0],
                      "edge_u": [0.0, 0.0, 40.0], "edge_v": [40.0, 0.0, 0.0]},
                     {"kind": "sphere", "material": "lamp", "center": CENTER.tolist(), "radius": R_LIGHT}]}
-    if environment:
-        d["scene"]["description"] = "a diffuse plane under a constant environment"
+    if light == "quad":
+        d["shapes"][1] = {"kind": "quad", "material": "lamp", "origin": QUAD_ORIGIN.tolist(),
+                          "edge_u": [QUAD_SIDE, 0.0, 0.0], "edge_v": [0.0, 0.0, QUAD_SIDE]}   # u x v = -y
+    if light == "environment":
         d["shapes"] = d["shapes"][:1]
         d["environment"] = {"kind": "constant", "radiance": [L_ENV] * 3}
     return d
@@ -160,10 +174,12 @@ def _plane_points() -> tuple[np.ndarray, np.ndarray]:
     t = -o[..., 1] / d[..., 1]
     assert np.all(t > 0)
     x = o + d * t[..., None]
-    # the camera must not see the light: no ray meets the sphere before the plane
+    # the camera must see neither light: no ray meets the sphere, nor the quad's plane within it
     oc = CENTER - o
     tc = np.sum(oc * d, axis=-1)
-    assert np.all((np.sum(oc * oc, axis=-1) - tc ** 2 > R_LIGHT ** 2) | (tc < 0)), "the light is in view"
+    assert np.all((np.sum(oc * oc, axis=-1) - tc ** 2 > R_LIGHT ** 2) | (tc < 0)), "the sphere is in view"
+    y = o + d * ((QUAD_ORIGIN[1] - o[..., 1]) / d[..., 1])[..., None] - QUAD_ORIGIN
+    assert not np.any((y[..., 0] >= 0) & (y[..., 0] <= QUAD_SIDE) & (y[..., 2] >= 0) & (y[..., 2] <= QUAD_SIDE))
     return x, q
 
 
@@ -196,17 +212,35 @@ def _cone_quadrature(x: np.ndarray, nt: int = 24, nphi: int = 48):
     return cos_theta.reshape(m, -1), w.reshape(m, -1), p_area.reshape(m, -1), cos_max
 
 
-def closed_form(strategy: str, swapped: bool = False, nt: int = 24) -> dict:
+def _quad_quadrature(x: np.ndarray, n: int = 24):
+    """As _cone_quadrature for the quad light: Gauss-Legendre over its area, each node's solid angle
+    cos_l A / d^2; returns the solid angle it subtends in place of the cone's 1 - cos_max."""
+    s, ws = gauss01(n)
+    a, b = np.meshgrid(s, s, indexing="ij")
+    y = QUAD_ORIGIN + QUAD_SIDE * np.stack([a.ravel(), np.zeros(a.size), b.ravel()], axis=-1)   # (K, 3)
+    d = y[None] - x[:, None]                                                    # (M, K, 3)
+    dist2 = np.sum(d * d, axis=-1)
+    cos_theta = d[..., 1] / np.sqrt(dist2)                  # plane normal +y; the light's normal -y
+    area = QUAD_SIDE ** 2
+    w = np.outer(ws, ws).ravel()[None] * area * cos_theta / dist2
+    p_area = dist2 / (area * cos_theta)
+    return cos_theta, w, p_area, w.sum(axis=1)
+
+
+def closed_form(strategy: str, swapped: bool = False, nt: int = 24, light_kind: str = "sphere") -> dict:
     """Per pixel (H, W): the expected value of one sample and its variance; and the image means of
     E_u[mu^2] (Veach's bound's term)."""
     light, heuristic, counts_bsdf = STRATEGIES[strategy]
     x, q = _plane_points()
     shape = x.shape[:3]
-    cos_t, w, p_area, cos_max = _cone_quadrature(x.reshape(-1, 3), nt=nt, nphi=2 * nt)
+    if light_kind == "sphere":
+        cos_t, w, p_area, cos_max = _cone_quadrature(x.reshape(-1, 3), nt=nt, nphi=2 * nt)
+        omega = 2.0 * math.pi * (1.0 - cos_max)
+    else:
+        cos_t, w, p_area, omega = _quad_quadrature(x.reshape(-1, 3), n=nt)
     assert np.all(cos_t > 0), "the light must lie above every visible point's horizon"
     g = RHO / math.pi * LE * cos_t
-    omega = 2.0 * math.pi * (1.0 - cos_max)
-    p_light = np.broadcast_to((1.0 / omega)[:, None], g.shape) if light == "cone" else p_area
+    p_light = np.broadcast_to((1.0 / omega)[:, None], g.shape) if light == "solid_angle" else p_area
     p_bsdf = cos_t / math.pi
     if heuristic is None:
         w_light = np.full_like(g, 1.0 if light else 0.0)
@@ -234,7 +268,7 @@ def closed_form_environment(strategy: str, swapped: bool = False, per_row: int =
     uniform 1 / 4 pi, cosine cos / pi, or the image sampler's (environment_map.direction_pdf: its
     rows' probabilities over their solid angle, piecewise in theta), integrated row by row."""
     from drtlab.kernels.scene_model.environment_map import direction_pdf
-    env = scene_from_dict(_scene(environment=True)).environment
+    env = scene_from_dict(_scene("environment")).environment
     rows = env.height // 2                                       # the upper hemisphere's rows
     x, wx = gauss01(per_row)
     theta = ((np.arange(rows)[:, None] + x) * math.pi / env.height).ravel()
@@ -271,6 +305,13 @@ def test_the_closed_forms_agree_and_meet_veachs_bound():
         assert np.allclose(f["mean"], forms["light"]["mean"], rtol=1e-6), s
     for s in ("importance", "importance-area"):      # the quadrature has converged (the area density's edge)
         assert np.allclose(closed_form(s, nt=40)["var"], forms[s]["var"], rtol=1e-6), s
+        assert np.allclose(closed_form(s, nt=40, light_kind="quad")["var"],
+                           closed_form(s, light_kind="quad")["var"], rtol=1e-6), s
+    quad = {s: closed_form(s, light_kind="quad") for s in STRATEGIES}
+    for s, f in quad.items():
+        assert np.allclose(f["mean"], quad["light"]["mean"], rtol=1e-6), s
+    vq = {s: float(np.mean(f["var"])) for s, f in quad.items()}
+    assert vq["importance-balance"] <= min(vq["light"], vq["bsdf"]) + 0.5 * quad["light"]["mu2"]
     v = {s: float(np.mean(f["var"])) for s, f in forms.items()}
     swapped = {s: float(np.mean(closed_form(s, swapped=True)["var"])) for s in ("importance", "importance-balance")}
     bound = min(v["light"], v["bsdf"]) + 0.5 * forms["light"]["mu2"]
@@ -297,9 +338,9 @@ def _ensure_balance():
         drtlab.register_strategy("importance-balance", "importance, balance heuristic", heuristic="balance")
 
 
-def _measure(integrator: str, strategy: str, faults=(), environment: bool = False):
-    key = ("mis-variance", integrator, strategy, faults, environment)
-    b = render_batch_with_stats(scene_from_dict(_scene(environment)), [seed_for(*key, k) for k in range(RUNS)],
+def _measure(integrator: str, strategy: str, faults=(), light: str = "sphere"):
+    key = ("mis-variance", integrator, strategy, faults, light)
+    b = render_batch_with_stats(scene_from_dict(_scene(light)), [seed_for(*key, k) for k in range(RUNS)],
                                 spp=SPP, sampler=f"independent+{strategy}", integrator=integrator,
                                 variance=True, faults=faults, progress=False)
     return np.asarray(b.images), np.asarray(b.variances)
@@ -312,38 +353,38 @@ def _variance_z(s2: np.ndarray, exact: np.ndarray) -> tuple[float, float]:
     return z, float(s2[..., 0].mean() / exact.mean())
 
 
-@pytest.mark.parametrize("integrator, strategy", CASES)
-def test_pixel_variance_is_the_closed_form(clean_registry, integrator, strategy):
+@pytest.mark.parametrize("integrator, strategy, light", CASES)
+def test_pixel_variance_is_the_closed_form(clean_registry, integrator, strategy, light):
     _ensure_balance()
-    images, s2 = _measure(integrator, strategy)
-    form = closed_form(strategy)
+    images, s2 = _measure(integrator, strategy, light=light)
+    form = closed_form(strategy, light_kind=light)
     assert np.all(np.isfinite(s2)) and np.allclose(s2[..., 0], s2[..., 2], rtol=1e-4, atol=1e-9)  # grey
     z, ratio = _variance_z(s2, form["var"])
     p = 2 * stats.norm.sf(abs(z))
-    print(f"\n{integrator} {strategy}: variance {ratio:.4f} x the closed form, z = {z:+.2f}, p = {p:.3g}")
+    print(f"\n{integrator} {strategy} ({light}): variance {ratio:.4f} x the closed form, z = {z:+.2f}, p = {p:.3g}")
     assert p >= ALPHA_TEST, f"{integrator} {strategy}: variance {ratio:.4f} x the closed form (z = {z:+.2f})"
 
 
-@pytest.mark.parametrize("integrator, strategy", CONTROLS)
-def test_swapped_mis_weights_are_unbiased_and_rejected(clean_registry, integrator, strategy):
+@pytest.mark.parametrize("integrator, strategy, light", CONTROLS)
+def test_swapped_mis_weights_are_unbiased_and_rejected(clean_registry, integrator, strategy, light):
     _ensure_balance()
-    images, s2 = _measure(integrator, strategy, faults=(MIS_SWAPPED,))
-    form = closed_form(strategy)
+    images, s2 = _measure(integrator, strategy, faults=(MIS_SWAPPED,), light=light)
+    form = closed_form(strategy, light_kind=light)
     # unbiased: its mean passes the region test against the closed form ...
     exact = Estimate.exact(region_values(np.repeat(form["mean"][..., None], 3, axis=2), 4))
     c = compare(Estimate.from_images(images.sum(axis=3), 4), exact, ALPHA_TEST)
     assert not c.rejected, c.summary()
     # ... and wasteful: the variance test rejects it, and it is the swapped closed form's
     z, ratio = _variance_z(s2, form["var"])
-    print(f"\n{integrator} {strategy} with {MIS_SWAPPED}: variance {ratio:.0f} x the correct estimator's")
-    assert 2 * stats.norm.sf(abs(z)) < ALPHA_TEST and ratio > 20
-    z_swapped, _ = _variance_z(s2, closed_form(strategy, swapped=True)["var"])
+    print(f"\n{integrator} {strategy} ({light}) with {MIS_SWAPPED}: variance {ratio:.0f} x the correct estimator's")
+    assert 2 * stats.norm.sf(abs(z)) < ALPHA_TEST and ratio > 5
+    z_swapped, _ = _variance_z(s2, closed_form(strategy, swapped=True, light_kind=light)["var"])
     assert 2 * stats.norm.sf(abs(z_swapped)) >= ALPHA_TEST, z_swapped
 
 
 @pytest.mark.parametrize("integrator, strategy", ENV_CASES)
 def test_pixel_variance_under_the_environment_is_the_closed_form(integrator, strategy):
-    images, s2 = _measure(integrator, strategy, environment=True)
+    images, s2 = _measure(integrator, strategy, light="environment")
     mean, var = closed_form_environment(strategy)
     if var < 1e-12:                                  # a zero-variance estimator: float32 rounding only
         assert np.max(s2) < 1e-9 * mean ** 2 and np.allclose(images, mean, rtol=1e-5), np.max(s2)
@@ -356,7 +397,7 @@ def test_pixel_variance_under_the_environment_is_the_closed_form(integrator, str
 
 @pytest.mark.parametrize("integrator, strategy", ENV_CONTROLS)
 def test_swapped_environment_mis_weights_are_rejected(integrator, strategy):
-    images, s2 = _measure(integrator, strategy, faults=(MIS_SWAPPED,), environment=True)
+    images, s2 = _measure(integrator, strategy, faults=(MIS_SWAPPED,), light="environment")
     z, ratio = _variance_z(s2, np.full(s2.shape[1:3], closed_form_environment(strategy)[1]))
     print(f"\n{integrator} {strategy} (environment) with {MIS_SWAPPED}: variance {ratio:.2f} x the correct one")
     assert 2 * stats.norm.sf(abs(z)) < ALPHA_TEST
