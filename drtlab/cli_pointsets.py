@@ -19,15 +19,18 @@ def _pointset_name(text: str, field: str) -> str:
 
 
 def _checkable_name(text: str, field: str) -> str:
-    """A registered point set, light selection or lobe sampler (what `drtlab check` scores)."""
+    """A registered point set, light selection, lobe sampler or integrator (what `drtlab check`
+    scores)."""
+    from drtlab.estimators.integrators import INTEGRATORS
     from drtlab.estimators.registry import POINTSETS
     from drtlab.kernels.light_selection import LIGHT_SELECTIONS
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
-    if text in POINTSETS or text in LIGHT_SELECTIONS or text in LOBE_SAMPLERS:
+    if text in POINTSETS or text in LIGHT_SELECTIONS or text in LOBE_SAMPLERS or text in INTEGRATORS:
         return text
-    raise InputError(field, f"unknown point set, light selection or lobe sampler {text!r}; point sets: "
-                            f"{', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}; "
-                            f"lobe samplers: {', '.join(LOBE_SAMPLERS) or 'none (yours: --plugin)'}")
+    raise InputError(field, f"unknown point set, light selection, lobe sampler or integrator {text!r}; "
+                            f"point sets: {', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}; "
+                            f"lobe samplers: {', '.join(LOBE_SAMPLERS) or 'none (yours: --plugin)'}; "
+                            f"integrators: {', '.join(INTEGRATORS)}")
 
 
 def _level_text(text: str, field: str) -> float:
@@ -79,6 +82,7 @@ def _battery_arguments(p, name_help: str, level_help: str, name_type=_pointset_n
 
 
 def cmd_check(args) -> int:
+    from drtlab.estimators.integrators import INTEGRATORS
     from drtlab.estimators.registry import POINTSETS
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
@@ -89,6 +93,9 @@ def cmd_check(args) -> int:
     elif args.name in LOBE_SAMPLERS:
         from drtlab.experiments.checks import lobe_sampler
         card = lobe_sampler.check(args.name, seed=args.seed, level=args.level)
+    elif args.name in INTEGRATORS:
+        from drtlab.experiments.checks import integrator
+        card = integrator.check(args.name, seed=args.seed, level=args.level)
     else:
         from drtlab.experiments.checks import light_selection
         card = light_selection.check(args.name, seed=args.seed, level=args.level)
@@ -147,9 +154,10 @@ def add_pointset_commands(sub) -> None:
 
     c = sub.add_parser(
         "check", formatter_class=Help,
-        help="the scorecard a built-in point set, light selection or lobe sampling gets, for any "
-             "registered one (yours: --plugin)",
-        description="Every check drtlab runs on its own point sets or light selections, as one "
+        help="the scorecard a built-in point set, light selection, lobe sampling or integrator "
+             "gets, for any registered one (yours: --plugin)",
+        description="Every check drtlab runs on its own point sets, light selections, lobe "
+                    "samplers or integrators, as one "
                     "scorecard. A point set: purity (same key, same value), bit-identical renders "
                     "across threads and tiles, the range [0, 1), the statistical battery of `drtlab "
                     "validate`, unbiasedness in the renderer (a white furnace with an exact answer), "
@@ -163,9 +171,13 @@ def add_pointset_commands(sub) -> None:
                     "its directions against its pdf (chi-square) at three angles, its directional "
                     "albedo against the built-in sampler's, finite values at grazing angles and "
                     "extreme lobe shapes, the furnace for a diffuse sampler, and its sampling cost "
-                    "(about 10 s). Exit 0 when "
+                    "(about 10 s). An integrator: unbiasedness against path on a small scene per "
+                    "effect it claims to handle, the white furnace against its exact value, "
+                    "bit-identical renders across threads and tiles, finite non-negative pixels in "
+                    "hard cases, its convergence rate and its cost beside path's (about 5 s after "
+                    "its kernels compile). Exit 0 when "
                     "every judged line passes, 1 when any fails.")
-    _battery_arguments(c, "a registered point set, light selection or lobe sampler (`drtlab "
+    _battery_arguments(c, "a registered point set, light selection, lobe sampler or integrator (`drtlab "
                           "samplers` lists the point sets; a plugin's with --plugin)",
                        "false-alarm probability of the scorecard's tests together", _checkable_name)
     c.add_argument("--out", type=Path, default=None, metavar="FILE.json",

@@ -45,7 +45,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     POINTS = f.point_lights
     DIRS = f.dir_lights
     MIS = strategy.mis
-    mis_weight = heuristic_of(strategy)
+    mis_weight = heuristic_of(strategy, f.faults)
     COUNT_HITS = strategy.counts_hits
     FAULT_DROP_COSINE = DROP_COSINE in f.faults
     MESHES = f.meshes

@@ -43,7 +43,7 @@ def oriented(ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
 def make_environment_lighting(f: Features, strategy: Strategy, *, rays: SceneRays,
                               bsdf: Bsdf) -> EnvironmentLighting:
     MIS = strategy.mis
-    mis_weight = heuristic_of(strategy)
+    mis_weight = heuristic_of(strategy, f.faults)
     COUNT_HITS = strategy.counts_hits
     MESHES = f.meshes
     FAULT_DROP_COSINE = DROP_COSINE in f.faults

@@ -33,6 +33,10 @@ SPHERICAL_MIS_AREA = "spherical_mis_area"    # light_pdf claims the area density
 # vertex sampled: solid angle where a later vertex used area
 SPHERICAL_MIS_FIRST_VERTEX = "spherical_mis_first_vertex"
 SPHERICAL_FAULTS = (SPHERICAL_LINEAR, SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX)
+# Faults that leave an estimator unbiased and only waste its samples: no unbiasedness test can see
+# them; tests/kernels/test_mis_variance.py controls them by the pixel variance.
+MIS_SWAPPED = "mis_swapped"         # each MIS technique weighted by the other's weight (b/(a+b) for a)
+VARIANCE_FAULTS = (MIS_SWAPPED,)
 # Not faults but the profile's probes (`profile_kernels components`): the kernel does one part of a
 # sample's work twice, the second time on perturbed inputs folded into the radiance at 1e-30 (so the
 # compiler cannot drop it, and the image moves by no more than rounding); the extra time is what

@@ -6,8 +6,15 @@ w(a, b) + w(b, a) = 1 wherever either density is positive, so the combination st
     power    a^2 / (a^2 + b^2): Veach's recommendation (exponent 2), the built-in strategies' choice
     balance  a / (a + b): provably within a factor of the best combination's variance; a study can
              set one against the other (`drtlab.register_strategy(..., heuristic="balance")`)
+
+The fault features.MIS_SWAPPED (a test's negative control, compiled into that variant only) gives
+each technique the other's weight, w(b, a): the weights still sum to 1 and the image stays unbiased,
+but each technique keeps its samples where it is the worse one, and the variance grows by orders of
+magnitude (tests/kernels/test_mis_variance.py).
 """
 import warp as wp
+
+from drtlab.kernels.features import MIS_SWAPPED
 
 
 @wp.func
@@ -23,6 +30,16 @@ def balance_heuristic(a: float, b: float) -> float:
 HEURISTICS = {"power": power_heuristic, "balance": balance_heuristic}
 
 
-def heuristic_of(strategy) -> wp.Function:
-    """The weight function of a strategy that combines by MIS (power where it names none)."""
-    return HEURISTICS[strategy.light.heuristic if strategy.light is not None else "power"]
+def swapped(weight: wp.Function) -> wp.Function:
+    """`weight` with its techniques exchanged: w(b, a) for w(a, b) (MIS_SWAPPED)."""
+    @wp.func
+    def other_weight(a: float, b: float) -> float:
+        return weight(b, a)
+    return other_weight
+
+
+def heuristic_of(strategy, faults=frozenset()) -> wp.Function:
+    """The weight function of a strategy that combines by MIS (power where it names none); with the
+    fault MIS_SWAPPED among `faults`, its swapped twin."""
+    weight = HEURISTICS[strategy.light.heuristic if strategy.light is not None else "power"]
+    return swapped(weight) if MIS_SWAPPED in faults else weight
