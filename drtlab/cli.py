@@ -170,7 +170,7 @@ def _note(lines: list[str]) -> None:
 
 
 def cmd_render(args) -> int:
-    from drtlab.kernels.imageio import write_png
+    from drtlab.kernels.imageio import nonfinite_note, write_png
     from drtlab.kernels import render as R
     from drtlab.kernels.render import check_image_size
     from drtlab.kernels.scene_model.scene_checks import image_warnings, scene_warnings
@@ -210,6 +210,11 @@ def cmd_render(args) -> int:
           f"{estimator}, render {stats.render_seconds:.3f} s, compile {stats.compile_seconds:.2f} s, "
           f"{result.samples_per_second / 1e6:.2f} M samples/s")
     _warn(image_warnings(scene, stats.image))
+    bad = nonfinite_note(stats.image)
+    if bad:
+        print(f"drtlab: image: {bad} (a value overflowed float32 in the render); the files are kept "
+              "to show where", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -82,7 +82,9 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     settings = parse_settings(data.get("scene", REQUIRED))
     camera = _parse_camera(data.get("camera", REQUIRED))
     materials = _parse_materials(data.get("materials", {}))
-    shapes = _parse_shapes(data.get("shapes", []), materials)
+    groups = _parse_shapes(data.get("shapes", []), materials)
+    _check_emitter_sizes(groups, data["shapes"], materials, camera)
+    shapes = [s for g in groups for s in g]
     point_lights, directional_lights = _parse_lights(data.get("lights", []))
     environment = parse_environment(data["environment"]) if "environment" in data else None
     if environment is not None and np.any(settings["background"] > 0.0):
@@ -248,7 +250,10 @@ def _parse_material(name: str, value: Any) -> Material:
         return m
     m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
     if spec.phong:
-        m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
+        m.exponent = fields.number(t.get("exponent", 100.0, ""), t.field("exponent"),
+                            f"in [0, {fields.PHONG_EXPONENT_MAX:.0f}] (2^24: a narrower lobe is below "
+                            "what float32 cosines resolve)",
+                            lambda x: 0.0 <= x <= fields.PHONG_EXPONENT_MAX)
     if spec.microfacet:
         m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
                              f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
@@ -277,15 +282,50 @@ def _checker(v: Any, field: str) -> tuple[int, int]:
     return int(v[0]), int(v[1])
 
 
-def _parse_shapes(value: Any, materials: list[Material]) -> list[Shape]:
+def _parse_shapes(value: Any, materials: list[Material]) -> list[list[Shape]]:
+    """The shapes of each [[shapes]] entry (a box is six quads, a sphere grid many spheres)."""
     if not isinstance(value, list) or not value:
         raise InputError("shapes", "a scene needs at least one [[shapes]] entry (kind = "
                                    f"{' | '.join(SHAPE_FILE_KINDS)}), got {show(value)}")
     index = {m.name: i for i, m in enumerate(materials)}
-    shapes: list[Shape] = []
-    for i, body in enumerate(value):
-        shapes.extend(_transformed(i, body, _parse_shape(i, body, materials, index), materials))
-    return shapes
+    groups = [_transformed(i, body, _parse_shape(i, body, materials, index), materials)
+              for i, body in enumerate(value)]
+    return groups
+
+
+def _check_emitter_sizes(groups: list[list[Shape]], entries: list, materials: list[Material],
+                         camera: Camera) -> None:
+    """Every emitting shape's area at least EMITTER_AREA_SHARE of the scene's extent squared (the
+    camera and every shape's box): its light density, squared by MIS in float32, stays finite."""
+    points = [camera.position[None, :]]
+    for shape in (s for g in groups for s in g):
+        points.append(_corners(shape))
+    pts = np.concatenate(points)
+    extent2 = float(np.sum((pts.max(axis=0) - pts.min(axis=0)) ** 2))
+    least = fields.EMITTER_AREA_SHARE * extent2
+    for i, group in enumerate(groups):
+        for s in group:
+            if not materials[s.material].emissive:
+                continue
+            area = s.area()
+            if not area >= least:
+                key = ("transform" if "transform" in entries[i] else
+                       {"quad": "edge_v", "sphere": "radius", "box": "max"}.get(entries[i]["kind"], "kind"))
+                raise InputError(f"shapes[{i}].{key}",
+                                 f"an emitting shape needs an area of at least {least:.3g} (the scene's "
+                                 f"extent squared, {extent2:.3g}, x {fields.EMITTER_AREA_SHARE:.2g}: "
+                                 "its light density is squared in float32), got area "
+                                 f"{area:.3g}; make it larger or use a point light")
+
+
+def _corners(shape: Shape) -> np.ndarray:
+    """Points whose box holds the shape (its defining points)."""
+    if shape.kind == "sphere":
+        return np.stack([shape.center - shape.radius, shape.center + shape.radius])
+    if shape.kind == "mesh":
+        return shape.mesh.vertices
+    o, u, v = shape.origin, shape.edge_u, shape.edge_v
+    return np.stack([o, o + u, o + v, o + u + v])
 
 
 def _transformed(i: int, value: dict, shapes: list[Shape], materials: list[Material]) -> list[Shape]:
@@ -368,9 +408,14 @@ def _check_area(shape: Shape, field: str, emissive: bool) -> None:
             area = shape.area()
     except OverflowError:           # a Python-float radius ** 2 overflows instead of giving inf
         area = math.inf
+    what = "an emitting shape" if emissive else "a shape"
     if not (math.isfinite(area) and area > 0.0):
-        what = "an emitting shape" if emissive else "a shape"
         raise InputError(field, f"{what} needs a finite area > 0, got area {area:g}")
+    if shape.kind == "quad" and not area >= fields.FLOAT32_TINY:
+        # The kernels hold edge_u x edge_v in float32: below its smallest normal value the normal
+        # normalize(edge_u x edge_v) is 0 / 0.
+        raise InputError(field, f"{what} needs an area float32 holds (>= {fields.FLOAT32_TINY:.3g}, "
+                                f"the kernels trace in float32), got area {area:.3g}")
 
 
 # The six faces of a box as (name suffix, corner, edge_u, edge_v) in units of the box's size d,

@@ -1,0 +1,220 @@
+"""Inputs that passed validation and rendered NaN/Inf or something other than what was asked, and
+flags or values drtlab took without a word. Each test failed before its fix."""
+from __future__ import annotations
+
+import tomllib
+import warnings
+
+import numpy as np
+import pytest
+
+from drtlab.cli import main
+from drtlab.errors import InputError, NonFiniteImageWarning
+
+from cli_util import GOOD_SCENE, assert_one_line_error
+
+
+def _scene(**light) -> dict:
+    """GOOD_SCENE as a dict, its quad light (shapes[1]) changed by `light`."""
+    d = tomllib.loads(GOOD_SCENE)
+    d["shapes"][1].update(light)
+    return d
+
+
+def _refused(d: dict, field: str) -> str:
+    import drtlab
+    with pytest.raises(InputError) as e:
+        drtlab.load_scene(d)
+    assert e.value.field == field, e.value
+    return e.value.message
+
+
+# ---------------------------------------------------------------------------------------------------
+# Derived quantities checked against float32 at validation
+# ---------------------------------------------------------------------------------------------------
+
+def test_a_light_quad_whose_area_float32_cannot_hold_is_refused():
+    # 1e-20 x 1e-20: area 1e-40, below float32's smallest normal number; it rendered NaN pixels.
+    msg = _refused(_scene(edge_u=[1e-20, 0, 0], edge_v=[0, 0, 1e-20]), "shapes[1].edge_v")
+    assert "float32" in msg and "1e-40" in msg
+
+
+def test_a_quad_scaled_to_nothing_is_refused_at_its_transform():
+    msg = _refused(_scene(transform={"scale": 1e-30}), "shapes[1].transform")
+    assert "float32" in msg
+
+
+@pytest.mark.parametrize("edge, ok", [(1e-10, False), (1e-5, True)])
+def test_an_emitter_too_small_for_its_squared_density_is_refused(edge, ok):
+    # Measured: edges of 1e-10 two units from the sphere rendered 6 NaN pixels of 48 (MIS squares
+    # d^2 / A = 4e20), 1e-9 none; the bound is relative to the scene's extent.
+    import drtlab
+    d = _scene(edge_u=[edge, 0, 0], edge_v=[0, 0, edge])
+    if ok:
+        drtlab.load_scene(d)
+    else:
+        assert "squared in float32" in _refused(d, "shapes[1].edge_v")
+
+
+@pytest.mark.parametrize("exponent, ok", [(1e15, False), (1e9, False), (2.0 ** 24, True), (1e6, True)])
+def test_a_phong_exponent_beyond_float32_cosines_is_refused(exponent, ok):
+    import drtlab
+    d = tomllib.loads(GOOD_SCENE)
+    d["materials"]["grey"] = {"kind": "glossy", "exponent": exponent}
+    if ok:
+        drtlab.load_scene(d)
+    else:
+        assert "16777216" in _refused(d, "materials.grey.exponent")
+
+
+def test_the_largest_phong_exponent_renders_finite_pixels():
+    import drtlab
+    d = tomllib.loads(GOOD_SCENE)
+    d["materials"]["grey"] = {"kind": "glossy", "exponent": 2.0 ** 24}
+    for sampler in ("importance", "independent+bsdf"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", NonFiniteImageWarning)
+            image = drtlab.render(drtlab.load_scene(d), spp=16, sampler=sampler)
+        assert np.isfinite(image).all()
+
+
+@pytest.mark.parametrize("environment", [
+    {"kind": "constant", "radiance": [1e15, 1e15, 1e15], "scale": 1e15},
+    {"kind": "image", "file": "HUGE", "scale": 10.0},
+])
+def test_environment_radiance_times_scale_is_checked(environment, tmp_path):
+    from drtlab.kernels.imageio import write_exr
+    if environment.get("file") == "HUGE":
+        write_exr(tmp_path / "huge.exr", np.full((4, 8, 3), 3e38))
+        environment["file"] = str(tmp_path / "huge.exr")
+    d = tomllib.loads(GOOD_SCENE)
+    d["environment"] = environment
+    assert "at most 1e+15" in _refused(d, "environment.scale")
+
+
+# ---------------------------------------------------------------------------------------------------
+# A render with NaN or Inf pixels never reports success silently
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.fixture
+def nan_render(monkeypatch):
+    """The real render, with two pixels of its image made NaN and Inf (what an overflow gives)."""
+    from drtlab.kernels import render as R
+    real = R.render_with_stats
+
+    def poisoned(*args, **kwargs):
+        stats = real(*args, **kwargs)
+        stats.image[0, 0, 1] = np.nan
+        stats.image[1, 2, :] = np.inf
+        return stats
+    monkeypatch.setattr(R, "render_with_stats", poisoned)
+
+
+def test_render_with_non_finite_pixels_says_how_many_and_fails(nan_render, tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text(GOOD_SCENE)
+    assert main(["render", str(scene), "--out", str(tmp_path / "x.exr")]) == 1
+    err = capsys.readouterr().err
+    line = [x for x in err.splitlines() if x.startswith("drtlab: image:")]
+    assert len(line) == 1 and "2 of 48 pixels are NaN or Inf" in line[0], err
+
+
+def test_render_of_finite_pixels_succeeds(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text(GOOD_SCENE)
+    assert main(["render", str(scene), "--out", str(tmp_path / "x.exr")]) == 0
+    assert "drtlab: image:" not in capsys.readouterr().err
+
+
+def test_python_render_warns_of_non_finite_pixels(nan_render):
+    import drtlab
+    with pytest.warns(NonFiniteImageWarning, match="2 of 48 pixels"):
+        result = drtlab.render(tomllib.loads(GOOD_SCENE), stats=True)
+    assert np.isnan(result.image[0, 0, 1])       # the image is returned as rendered
+
+
+def test_nonfinite_note_counts_pixels_not_values():
+    from drtlab.kernels.imageio import nonfinite_note
+    image = np.zeros((3, 4, 3))
+    assert nonfinite_note(image) is None
+    image[0, 0, :] = np.nan
+    image[2, 3, 0] = -np.inf
+    assert nonfinite_note(image) == "2 of 12 pixels are NaN or Inf"
+
+
+@pytest.mark.parametrize("image, words", [
+    (np.full((2, 2, 3), 1 + 2j), "real numbers"),
+    (np.full((2, 2, 3), 1e39), "exceed float32"),
+])
+def test_write_exr_refuses_what_float32_cannot_store(image, words, tmp_path):
+    import drtlab
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")           # no numpy warning on the way
+        with pytest.raises(InputError) as e:
+            drtlab.write_exr(tmp_path / "x.exr", image)
+    assert e.value.field == "image" and words in e.value.message
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_exr_keeps_nan_and_inf_it_is_given(tmp_path):
+    import drtlab
+    image = np.array([[[np.nan, np.inf, 1.0]]])
+    drtlab.write_exr(tmp_path / "x.exr", image)
+    back, _ = drtlab.read_exr(tmp_path / "x.exr")
+    assert np.isnan(back[0, 0, 0]) and np.isinf(back[0, 0, 1]) and back[0, 0, 2] == 1.0
+
+
+# ---------------------------------------------------------------------------------------------------
+# Environment maps of 2 channels, Mitsuba area emitters of nothing
+# ---------------------------------------------------------------------------------------------------
+
+def _env_file(tmp_path, channels: int):
+    from drtlab.kernels.imageio import write_exr
+    path = tmp_path / f"env{channels}.exr"
+    write_exr(path, np.linspace(0.1, 2.0, 4 * 8 * channels).reshape(4, 8, channels))
+    return path
+
+
+def test_a_two_channel_environment_map_is_refused(tmp_path):
+    d = tomllib.loads(GOOD_SCENE)
+    d["environment"] = {"kind": "image", "file": str(_env_file(tmp_path, 2))}
+    msg = _refused(d, "environment.file")
+    assert "2 channels (R, G)" in msg and "Mitsuba" in msg
+
+
+@pytest.mark.parametrize("channels", [1, 3, 4])
+def test_grey_rgb_and_rgba_environment_maps_read_as_mitsuba_reads_them(channels, tmp_path):
+    import drtlab
+    from drtlab.kernels.imageio import read_exr
+    path = _env_file(tmp_path, channels)
+    d = tomllib.loads(GOOD_SCENE)
+    d["environment"] = {"kind": "image", "file": str(path)}
+    image = drtlab.load_scene(d).environment.image
+    pixels = read_exr(path)[0].astype(np.float64)
+    want = np.repeat(pixels, 3, axis=2) if channels == 1 else pixels[..., :3]
+    np.testing.assert_array_equal(image, want)
+
+
+def test_a_two_channel_mitsuba_envmap_is_refused(tmp_path, capsys):
+    _env_file(tmp_path, 2).rename(tmp_path / "env.exr")
+    (tmp_path / "s.xml").write_text(
+        '<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm">'
+        '<integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>'
+        '<emitter type="envmap"><string name="filename" value="env.exr"/></emitter>'
+        '<shape type="sphere"/></scene>')
+    assert main(["render", str(tmp_path / "s.xml"), "--out", str(tmp_path / "x.exr")]) == 2
+    err = capsys.readouterr().err
+    assert "2 channels (R, G)" in err and len(err.splitlines()) == 1, err
+    assert not (tmp_path / "x.exr").exists()
+
+
+def test_a_mitsuba_area_emitter_of_no_radiance_is_refused(tmp_path, capsys):
+    (tmp_path / "s.xml").write_text(
+        '<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm">'
+        '<integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>'
+        '<shape type="sphere"/><shape type="rectangle"><emitter type="area">'
+        '<rgb name="radiance" value="0, 0, 0"/></emitter></shape></scene>')
+    assert main(["render", str(tmp_path / "s.xml"), "--out", str(tmp_path / "x.exr")]) == 2
+    err = capsys.readouterr().err
+    assert "radiance" in err and "at least one channel > 0" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x.exr").exists()
