@@ -266,10 +266,20 @@ class SlopeFit:
     def to_json(self) -> dict:
         return _fields_json(self, skip_none=True)
 
+    @property
+    def stated(self) -> bool:
+        """Whether the slope may be stated and drawn as a number: fitted, its interval resolved and
+        its runs not heavy-tailed (a few repetitions of rare, huge errors cannot pin a rate down,
+        whatever the interval says). The one rule the findings, the summary line and the figures
+        follow."""
+        return bool(self.ok) and self.resolved is not False and not self.erratic
+
     def slope_text(self, digits: int = 2) -> str:
-        """'b=-0.50 [-0.51,-0.49]', or the interval alone when the runs do not resolve the slope."""
+        """'b=-0.50 [-0.51,-0.49]', or the interval alone when the slope is not `stated`."""
         ci = f"[{self.slope_lo:.{digits}f}, {self.slope_hi:.{digits}f}]"
-        return f"b={self.slope:.{digits}f} {ci}" if self.resolved is not False else f"b not resolved {ci}"
+        if self.stated:
+            return f"b={self.slope:.{digits}f} {ci}"
+        return f"b not resolved{' (heavy tails)' if self.erratic else ''} {ci}"
 
     def table_row(self) -> dict:
         return {"ok": self.ok, "slope": self.slope, "slope_lo": self.slope_lo,

@@ -251,8 +251,8 @@ def _parse_material(name: str, value: Any) -> Material:
     m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
     if spec.phong:
         m.exponent = fields.number(t.get("exponent", 100.0, ""), t.field("exponent"),
-                            f"in [0, {fields.PHONG_EXPONENT_MAX:.0f}] (2^24: a narrower lobe is below "
-                            "what float32 cosines resolve)",
+                            f">= 0 and at most {fields.PHONG_EXPONENT_MAX:.0f} (2^24: a narrower lobe "
+                            "is below what float32 cosines resolve)",
                             lambda x: 0.0 <= x <= fields.PHONG_EXPONENT_MAX)
     if spec.microfacet:
         m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
