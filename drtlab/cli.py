@@ -7,8 +7,8 @@ import time
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import (Help, Parser, add_cache_and_threads, add_progress_flag, flag, int_flag,
-                             resolution_flag, run_main, show_progress)
+from drtlab.cli_args import (Given, Help, Parser, add_cache_and_threads, add_progress_flag, flag,
+                             given_flags, int_flag, resolution_flag, run_main, show_progress)
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 
@@ -171,19 +171,16 @@ def _note(lines: list[str]) -> None:
 
 def _refuse_what_whitted_ignores(scene, args) -> None:
     """The whitted integrator is deterministic (a fixed sub-pixel grid, no random samples): a flag
-    that only chooses or seeds random samples would change nothing, so it is refused, not ignored.
-    Then --seed and --sampler take their defaults."""
+    that only chooses or seeds random samples would change nothing, so it is refused, not ignored."""
     from drtlab.estimators.registry import parse_integrator
     whitted = parse_integrator(args.integrator or scene.integrator, "--integrator").name == "whitted"
     if whitted:
-        for flag, given in (("--variance", args.variance), ("--seed", args.seed is not None),
-                            ("--sampler", args.sampler is not None)):
+        for flag, given in (("--variance", args.variance), ("--seed", "seed" in given_flags(args)),
+                            ("--sampler", "sampler" in given_flags(args))):
             if given:
                 what = "it has no standard error" if flag == "--variance" else "it would change nothing"
                 raise InputError(flag, "the whitted integrator is deterministic (a fixed sub-pixel "
                                        f"grid, no random samples): {what}; use drt or path")
-    args.seed = 0 if args.seed is None else args.seed
-    args.sampler = DEFAULT_SAMPLER if args.sampler is None else args.sampler
 
 
 def cmd_render(args) -> int:
@@ -297,15 +294,14 @@ def _add_render(sub) -> None:
                             "in T seconds of rendering (at least one; the compile and a speed probe "
                             "at the full resolution come first, not counted); the EXR's drtlab:spp "
                             "says how many, and the image is that spp's, bit for bit")
-    r.add_argument("--sampler", default=None,
+    r.add_argument("--sampler", default=DEFAULT_SAMPLER, action=Given,
                    help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
-                        f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them (default: "
-                        f"{DEFAULT_SAMPLER}; not with the whitted integrator, which samples nothing)")
+                        f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them (not with the "
+                        "whitted integrator, which samples nothing)")
     r.add_argument("--integrator", default=None,
                    help="whitted, drt or path (default: the scene's)")
-    r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=None,
-                   help="root seed (default: 0; not with the whitted integrator, which samples "
-                        "nothing)")
+    r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, action=Given,
+                   help="root seed (not with the whitted integrator, which samples nothing)")
     r.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,

@@ -44,6 +44,20 @@ class Parser(argparse.ArgumentParser):
         raise InputError("arguments", message)
 
 
+class Given(argparse.Action):
+    """Stores a flag's value as argparse does and notes that the command line gave it: a check can
+    tell `--seed 0` from the default 0 (`given_flags`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, "given_flags", given_flags(namespace) | {self.dest})
+
+
+def given_flags(args) -> set[str]:
+    """The dests of the `Given` flags the command line set."""
+    return getattr(args, "given_flags", set())
+
+
 class Help(argparse.ArgumentDefaultsHelpFormatter):
     """Shows a flag's default where it has one; defaults that depend on the scene say so in words."""
 

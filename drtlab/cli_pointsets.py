@@ -25,6 +25,12 @@ def _checkable_name(text: str, field: str) -> str:
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if text in POINTSETS or text in LIGHT_SELECTIONS or text in LOBE_SAMPLERS:
         return text
+    from drtlab.experiments.error_metrics.base import METRICS
+    if text in METRICS:
+        raise InputError(field, f"{text!r} is an error metric, and metrics have no check: a check "
+                                "scores a sampling routine against its own density and an exact "
+                                "render, and a metric samples nothing; a study that names it "
+                                "(metric = ...) ranks its samplers by it")
     raise InputError(field, f"unknown point set, light selection or lobe sampler {text!r}; point sets: "
                             f"{', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}; "
                             f"lobe samplers: {', '.join(LOBE_SAMPLERS) or 'none (yours: --plugin)'}")

@@ -29,7 +29,7 @@ from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.estimate import check_budget, estimate
 from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
-                                           plan_runs, run_fingerprint, run_record)
+                                           integrator_notes, plan_runs, run_fingerprint, run_record)
 from drtlab.experiments.study.progress import Progress
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
@@ -77,6 +77,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     held: list[str] = []
     held.append(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
         + (f"{samples / 1e6:.1f} M samples" if samples >= 1e5 else f"{samples:,} samples"))
+    held += integrator_notes(exp, backend)
     gt_pending = {g: gtmod.pending_samples(g[0], g[1], g[2], req[0], req[1], backend, gt_root)
                   for g, req in gt_req.items()}
     # Runs a resumed sweep has stored are not estimated (read only: nothing is written yet).

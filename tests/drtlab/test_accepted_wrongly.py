@@ -218,3 +218,157 @@ def test_a_mitsuba_area_emitter_of_no_radiance_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "radiance" in err and "at least one channel > 0" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "x.exr").exists()
+
+
+# ---------------------------------------------------------------------------------------------------
+# Flags that would change nothing are refused, as --variance with whitted already was
+# ---------------------------------------------------------------------------------------------------
+
+def _write_images(tmp_path, **images) -> dict:
+    from drtlab.kernels.imageio import write_exr
+    paths = {}
+    for name, pixels in images.items():
+        paths[name] = tmp_path / f"{name}.exr"
+        write_exr(paths[name], pixels)
+    return paths
+
+
+@pytest.mark.parametrize("argv, field, words", [
+    (["ground-truth", "aa-edges", "--profile", "full"], "--profile", "--experiment"),
+    (["render", "aa-edges", "--integrator", "whitted", "--seed", "3"], "--seed", "deterministic"),
+    (["render", "aa-edges", "--integrator", "whitted", "--sampler", "uniform"], "--sampler",
+     "deterministic"),
+])
+def test_a_flag_that_changes_nothing_is_refused(argv, field, words, tmp_path, capsys):
+    out = (["--out", str(tmp_path / "x.exr")] if argv[0] == "render"
+           else ["--gt-dir", str(tmp_path / "gt")])
+    assert main(argv + out) == 2
+    assert_one_line_error(capsys.readouterr().err, field)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_compare_stderr_without_per_pixel_z_is_refused(tmp_path, capsys):
+    rng = np.random.default_rng(1)
+    p = _write_images(tmp_path, a=rng.random((4, 6, 3)), b=rng.random((4, 6, 3)),
+                      se=rng.random((4, 6, 3)))
+    assert main(["compare", str(p["a"]), str(p["b"]), "--stderr", str(p["se"]),
+                 "--out-dir", str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "--stderr")
+    assert "--per-pixel-z" in err and not (tmp_path / "cmp").exists()
+
+
+def test_whitted_renders_without_seed_or_sampler(tmp_path, capsys):
+    scene = tmp_path / "s.toml"
+    scene.write_text(GOOD_SCENE)
+    assert main(["render", str(scene), "--integrator", "whitted", "--out", str(tmp_path / "w.exr")]) == 0
+    assert main(["render", str(scene), "--seed", "3", "--sampler", "uniform",
+                 "--out", str(tmp_path / "d.exr")]) == 0
+
+
+# ---------------------------------------------------------------------------------------------------
+# compare: standard errors, channels, non-finite pixels
+# ---------------------------------------------------------------------------------------------------
+
+def test_a_negative_standard_error_is_refused(tmp_path, capsys):
+    rng = np.random.default_rng(2)
+    se = rng.random((4, 6, 3))
+    se[1, 2, 0] = -0.5
+    p = _write_images(tmp_path, a=rng.random((4, 6, 3)), b=rng.random((4, 6, 3)), se=se)
+    assert main(["compare", str(p["a"]), str(p["b"]), "--per-pixel-z", "--stderr", str(p["se"]),
+                 "--out-dir", str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "--stderr")
+    assert "1 values" in err and ">= 0" in err and not (tmp_path / "cmp").exists()
+
+
+def test_compare_of_two_and_three_channels_names_the_channels(tmp_path, capsys):
+    rng = np.random.default_rng(3)
+    p = _write_images(tmp_path, a=rng.random((12, 16, 3)), two=rng.random((12, 16, 2)))
+    assert main(["compare", str(p["a"]), str(p["two"]), "--out-dir", str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "B")
+    assert "2 channels" in err and "3" in err and "resolution" not in err
+
+
+@pytest.mark.parametrize("which", ["A", "B"])
+def test_compare_of_an_image_with_inf_is_one_line(which, tmp_path, capsys):
+    rng = np.random.default_rng(4)
+    images = {"a": rng.random((4, 6, 3)), "b": rng.random((4, 6, 3))}
+    images[which.lower()][0, 0, 0] = np.inf
+    p = _write_images(tmp_path, **images)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rc = main(["compare", str(p["a"]), str(p["b"]), "--out-dir", str(tmp_path / "cmp")])
+    captured = capsys.readouterr()
+    assert rc == 2 and "nan" not in captured.out.lower()
+    assert_one_line_error(captured.err, which)
+    assert "1 of 24 pixels are NaN or Inf" in captured.err
+
+
+# ---------------------------------------------------------------------------------------------------
+# Values that start with a minus reach their own checks
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("argv, field, shown", [
+    (["render", "aa-edges", "--res", "-16x12"], "--res", "'-16x12'"),
+    (["lobe", "diffuse", "--albedo", "-1,0,0"], "--albedo", "'-1,0,0'"),
+    (["render", "aa-edges", "--spp", "-3"], "--spp", "-3"),
+])
+def test_a_negative_value_is_checked_as_a_value(argv, field, shown, tmp_path, capsys):
+    assert main(argv + ["--out", str(tmp_path / ("x.exr" if argv[0] == "render" else "l"))]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, field)
+    assert "expected one argument" not in err and shown in err
+
+
+# ---------------------------------------------------------------------------------------------------
+# sources --seed: the range said is the range enforced
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("spp", [2, 8, 64])
+def test_sources_seed_range_said_is_enforced(spp, tmp_path, capsys):
+    import re
+    from drtlab.experiments.sources.decompose import check_seed, max_seed
+    assert main(["sources", "aa-edges", "--spp", str(spp), "--seed", str(1 << 30),
+                 "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, "--seed")
+    low, high = map(int, re.search(r"in \[(\d+), (\d+)\]", err).groups())
+    assert (low, high) == (0, max_seed(spp))
+    assert check_seed(high, spp) == high               # the last value said is accepted
+    with pytest.raises(InputError):
+        check_seed(high + 1, spp)                      # and the next one refused
+    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT
+    assert high + spp + 1 < BASE_LIMIT                 # the pilot's base, seed + spp, fits too
+
+
+# ---------------------------------------------------------------------------------------------------
+# Plugins that end the program
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("code", ["", "0", "3"])
+def test_a_plugin_that_exits_at_import_is_one_line(code, tmp_path, capsys):
+    plugin = tmp_path / f"quits{code}.py"
+    plugin.write_text(f"import sys\nsys.exit({code})\n")
+    assert main(["samplers", "--plugin", str(plugin)]) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, f"--plugin {plugin.name}")
+    assert "sys.exit" in err
+
+
+def test_registers_nothing_names_every_registration(tmp_path, capsys):
+    plugin = tmp_path / "empty.py"
+    plugin.write_text("x = 1\n")
+    assert main(["samplers", "--plugin", str(plugin)]) == 2
+    err = capsys.readouterr().err
+    for call in ("register_pointset", "register_light_selection", "register_lobe_sampler",
+                 "register_strategy", "register_metric"):
+        assert call in err
+
+
+def test_plugin_help_names_every_kind_of_registration(capsys):
+    with pytest.raises(SystemExit):
+        main(["render", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "lobe samplers" in text and "light selections" in text and "error metrics" in text
