@@ -127,7 +127,7 @@ INTEGRANDS = {
 }
 
 
-def _convergence(name: str, seed: int, per_line: float) -> list[Line]:
+def convergence(name: str, seed: int, per_line: float) -> list[Line]:
     """One line per integrand: pass unless the slope is surely shallower than MC_SLOPE (bootstrap
     p of "b <= MC_SLOPE", the share of resampled slopes at or below it, under `per_line`)."""
     rng = np.random.default_rng(seed)
@@ -170,7 +170,7 @@ def check(name: str, seed: int = 0, level: float = 0.01, pixels: int | None = No
             card.lines.append(Line("stratification claims", None,
                                    ", ".join(f"{k} {v:.3g}" for k, v in strat.items())))
     card.lines.append(furnace_unbiased(name, seed, _per_line(level)))
-    card.lines += _convergence(name, seed, _per_line(level))
+    card.lines += convergence(name, seed, _per_line(level))
     card.lines.append(furnace_cost(name, "independent", "independent's"))
     card.seconds = time.perf_counter() - t0
     return card
