@@ -162,3 +162,93 @@ def test_check_of_a_metric_says_metrics_have_no_check(capsys, clean_registry):
         err = capsys.readouterr().err
         assert err.startswith(f"drtlab: NAME: '{name}' is an error metric") and "unknown" not in err
         assert len(err.splitlines()) == 1
+
+
+# ---------------------------------------------------------------------------------------------------
+# report.html: a plugin metric in the crop table, and a table that fits its panel
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def plugin_metric_report(tmp_path_factory):
+    """A tiny study ranked by the example plugin metric (edge MSE), three samplers, on the fake
+    renderer: report.html's crop table then has every column it can have."""
+    from drtlab.estimators import plugins
+    from drtlab.estimators.plugins import load_plugin
+    from drtlab.experiments.error_metrics import METRICS
+    from drtlab.experiments.study import analysis
+    from repo_paths import PLUGIN_EXAMPLES
+    from test_runner import TINY, run, tiny_experiment
+    tmp = tmp_path_factory.mktemp("plugin-metric-report")
+    metrics, loaded = dict(METRICS), dict(plugins._loaded)
+    load_plugin(str(PLUGIN_EXAMPLES / "edge_mse.py"))
+    text = TINY.replace('samplers = ["uniform", "stratified"]',
+                        'samplers = ["uniform", "stratified", "sobol+importance"]\nmetric = "edge-mse"')
+    try:
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(analysis, "STUDY_CHAIN", {"nsteps": 200, "burn": 50})
+            run(tiny_experiment(tmp, text), tmp / "out", tmp / "gt", analyze=True)
+        yield tmp / "out", METRICS["edge-mse"]
+    finally:
+        METRICS.clear()
+        METRICS.update(metrics)
+        plugins._loaded.clear()
+        plugins._loaded.update(loaded)
+
+
+def _page_data(out) -> dict:
+    import json
+    import re
+    page = (out / "report.html").read_text()
+    return json.loads(re.search(r'<script type="application/json" id="drt-data">(.*?)</script>', page,
+                                re.S).group(1).replace("<\\/", "</"))
+
+
+def test_the_crop_table_carries_a_plugin_metric(plugin_metric_report):
+    from drtlab.experiments.study.ground_truth import load_ground_truth
+    from drtlab.experiments.study.run_store import first_image
+    out, metric = plugin_metric_report
+    data = _page_data(out)
+    for v in data["studies"][0]:
+        assert v["metric"] == "edge MSE"
+        gt_dir = next(d for d in (out.parent / "gt").iterdir() if v["scene"] in d.name)
+        gt = load_ground_truth(gt_dir)
+        rendered = [e for e in v["images"] if e["sampler"] is not None]
+        assert len(rendered) == 12
+        for e in rendered:           # the plugin's own number for that image, as Python computes it
+            want = metric.score(first_image(out, e["key"])[None], gt.mean, gt.stderr)[0]
+            assert e["metric"] == pytest.approx(want, rel=1e-12)
+
+
+def _chromium():
+    import shutil
+    exe = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    if exe is None:
+        pytest.skip("no Chromium on PATH (Debian: apt-get install chromium)")
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed (pip install -e '.[dev]')")
+    return exe, sync_playwright
+
+
+@pytest.mark.parametrize("width", [1400, 1000])
+def test_the_crop_table_fits_its_panel(plugin_metric_report, width):
+    exe, sync_playwright = _chromium()
+    out, _ = plugin_metric_report
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=exe, args=["--no-sandbox"])
+        page = browser.new_page(viewport={"width": width, "height": 1000})
+        page.goto((out / "report.html").as_uri())
+        page.wait_for_selector(".viewer table.metrics")
+        boxes = page.evaluate("""() => [...document.querySelectorAll('.viewer')].map(v => {
+            const t = v.querySelector('table.metrics'), w = t.parentElement;
+            return {viewer: v.getBoundingClientRect().right, table: t.getBoundingClientRect().right,
+                    wrap: w.getBoundingClientRect().right, heads: t.querySelectorAll('th').length,
+                    hidden: w.scrollWidth - w.clientWidth};
+        })""")
+        browser.close()
+    assert boxes and all(b["heads"] == 7 for b in boxes)     # image, 4 of MSE/relMSE, edge MSE, s
+    if width >= 1400:                # wide enough: the whole table inside the viewer's panel
+        assert all(b["table"] <= b["viewer"] and b["hidden"] <= 0 for b in boxes), boxes
+    else:                            # narrower: it scrolls inside the panel, never past it
+        assert all(b["wrap"] <= b["viewer"] for b in boxes), boxes
