@@ -17,6 +17,7 @@ from drtlab.errors import InputError
 from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as number,
                            scene_numbers as numbers, show, string)
 from drtlab.kernels.scene_model.environment_map import parse_environment
+from drtlab.kernels.scene_model.float32_checks import check_emitter_sizes, check_float32_area
 from drtlab.kernels.filters import BOX, FILTER_NAMES, STDDEV_FILTERS, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
 from drtlab.kernels.scene_model.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
@@ -83,7 +84,7 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     camera = _parse_camera(data.get("camera", REQUIRED))
     materials = _parse_materials(data.get("materials", {}))
     groups = _parse_shapes(data.get("shapes", []), materials)
-    _check_emitter_sizes(groups, data["shapes"], materials, camera)
+    check_emitter_sizes(groups, data["shapes"], materials, camera)
     shapes = [s for g in groups for s in g]
     point_lights, directional_lights = _parse_lights(data.get("lights", []))
     environment = parse_environment(data["environment"]) if "environment" in data else None
@@ -293,41 +294,6 @@ def _parse_shapes(value: Any, materials: list[Material]) -> list[list[Shape]]:
     return groups
 
 
-def _check_emitter_sizes(groups: list[list[Shape]], entries: list, materials: list[Material],
-                         camera: Camera) -> None:
-    """Every emitting shape's area at least EMITTER_AREA_SHARE of the scene's extent squared (the
-    camera and every shape's box): its light density, squared by MIS in float32, stays finite."""
-    points = [camera.position[None, :]]
-    for shape in (s for g in groups for s in g):
-        points.append(_corners(shape))
-    pts = np.concatenate(points)
-    extent2 = float(np.sum((pts.max(axis=0) - pts.min(axis=0)) ** 2))
-    least = fields.EMITTER_AREA_SHARE * extent2
-    for i, group in enumerate(groups):
-        for s in group:
-            if not materials[s.material].emissive:
-                continue
-            area = s.area()
-            if not area >= least:
-                key = ("transform" if "transform" in entries[i] else
-                       {"quad": "edge_v", "sphere": "radius", "box": "max"}.get(entries[i]["kind"], "kind"))
-                raise InputError(f"shapes[{i}].{key}",
-                                 f"an emitting shape needs an area of at least {least:.3g} (the scene's "
-                                 f"extent squared, {extent2:.3g}, x {fields.EMITTER_AREA_SHARE:.2g}: "
-                                 "its light density is squared in float32), got area "
-                                 f"{area:.3g}; make it larger or use a point light")
-
-
-def _corners(shape: Shape) -> np.ndarray:
-    """Points whose box holds the shape (its defining points)."""
-    if shape.kind == "sphere":
-        return np.stack([shape.center - shape.radius, shape.center + shape.radius])
-    if shape.kind == "mesh":
-        return shape.mesh.vertices
-    o, u, v = shape.origin, shape.edge_u, shape.edge_v
-    return np.stack([o, o + u, o + v, o + u + v])
-
-
 def _transformed(i: int, value: dict, shapes: list[Shape], materials: list[Material]) -> list[Shape]:
     """The shapes of shapes[i] under its optional `transform` (kernels/scene_model/transforms.py), applied to
     their defining points: sphere centres (a similarity also scales the radius), quad origins and
@@ -411,11 +377,7 @@ def _check_area(shape: Shape, field: str, emissive: bool) -> None:
     what = "an emitting shape" if emissive else "a shape"
     if not (math.isfinite(area) and area > 0.0):
         raise InputError(field, f"{what} needs a finite area > 0, got area {area:g}")
-    if shape.kind == "quad" and not area >= fields.FLOAT32_TINY:
-        # The kernels hold edge_u x edge_v in float32: below its smallest normal value the normal
-        # normalize(edge_u x edge_v) is 0 / 0.
-        raise InputError(field, f"{what} needs an area float32 holds (>= {fields.FLOAT32_TINY:.3g}, "
-                                f"the kernels trace in float32), got area {area:.3g}")
+    check_float32_area(shape, area, field, what)
 
 
 # The six faces of a box as (name suffix, corner, edge_u, edge_v) in units of the box's size d,
