@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, flag, int_flag
+from drtlab.cli_args import Given, Help, flag, given_flags, int_flag
 from drtlab.errors import InputError
 from drtlab.experiments.pointsets import analysis as A
 from drtlab.experiments.pointsets import validate as V
@@ -81,7 +81,8 @@ def _battery_arguments(p, name_help: str, level_help: str, name_type=_pointset_n
     p.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
                    help=level_help)
     p.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
-                   metavar="P", help="pixels of the battery (more: more power, longer)")
+                   metavar="P", action=Given,
+                   help="pixels of the battery (more: more power, longer; a point set's only)")
 
 
 def cmd_check(args) -> int:
@@ -89,6 +90,9 @@ def cmd_check(args) -> int:
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
         fields.writable_location(args.out, "--out")
+    if "pixels" in given_flags(args) and args.name not in POINTSETS:
+        raise InputError("--pixels", f"sizes a point set's battery; {args.name} is not a point set "
+                                     "and its card has no battery: drop --pixels")
     if args.name in POINTSETS:
         from drtlab.experiments.checks.pointset import check
         card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)

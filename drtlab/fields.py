@@ -74,6 +74,10 @@ EMITTER_AREA_SHARE = 1.0 / math.sqrt(FLOAT32_MAX)   # 5.4e-20
 # n passes 2^24: its sampled cosines u^(1/(n+1)) round to 1 and its density overflows (measured:
 # NaN pixels from n = 1e9, none at 1e8).
 PHONG_EXPONENT_MAX = float(2 ** 24)
+# A conductor's Fresnel squares eta^2 + k^2 (|eta + i k|^2 of each channel): that stays finite in
+# float32 while eta^2 + k^2 <= sqrt(FLOAT32_MAX) (measured: eta = k = 3e9 renders, 1e10 gave NaN
+# pixels; real metals have both below 10).
+CONDUCTOR_NORM_MAX = math.sqrt(FLOAT32_MAX)          # 1.8e19
 
 
 def scene_number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | None = None) -> float:

@@ -267,6 +267,11 @@ def _parse_material(name: str, value: Any) -> Material:
     if spec.conductor:
         m.eta = _color(t.get("eta", [0, 0, 0], ""), t.field("eta"))
         m.k = _color(t.get("k", [1, 1, 1], ""), t.field("k"))
+        norm = m.eta ** 2 + m.k ** 2
+        if not np.all(norm <= fields.CONDUCTOR_NORM_MAX):
+            raise InputError(t.field("k"), f"eta^2 + k^2 must be at most {fields.CONDUCTOR_NORM_MAX:.3g} "
+                                           "in every channel (the Fresnel squares it in float32), got "
+                                           f"{float(norm.max()):.3g}")
     if t.has("albedo2"):
         m.albedo2 = _albedo(t.data["albedo2"], t.field("albedo2"))
         m.checker = _checker(t.get("checker", [8, 8], ""), t.field("checker"))

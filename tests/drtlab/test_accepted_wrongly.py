@@ -372,3 +372,25 @@ def test_plugin_help_names_every_kind_of_registration(capsys):
         main(["render", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "lobe samplers" in text and "light selections" in text and "error metrics" in text
+
+
+@pytest.mark.parametrize("value, ok", [(1e10, False), (1e15, False), (3e9, True), (4.0, True)])
+def test_a_conductor_whose_fresnel_float32_cannot_hold_is_refused(value, ok):
+    # Found trying further inputs: eta = k = 1e10 (each within 1e15) rendered 5 NaN pixels of 48.
+    import drtlab
+    d = tomllib.loads(GOOD_SCENE)
+    d["materials"]["grey"] = {"kind": "conductor", "eta": [value] * 3, "k": [value] * 3}
+    if ok:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", NonFiniteImageWarning)
+            assert np.isfinite(drtlab.render(drtlab.load_scene(d), spp=16)).all()
+    else:
+        assert "eta^2 + k^2" in _refused(d, "materials.grey.k")
+
+
+def test_check_pixels_for_a_routine_without_a_battery_is_refused(tmp_path, capsys):
+    # Found trying further inputs: --pixels sizes a point set's battery; a light selection's card
+    # has none, and the flag was ignored.
+    assert main(["check", "power", "--pixels", "512", "--out", str(tmp_path / "card.json")]) == 2
+    assert_one_line_error(capsys.readouterr().err, "--pixels")
+    assert list(tmp_path.iterdir()) == []
