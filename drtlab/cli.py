@@ -173,7 +173,7 @@ def _refuse_what_whitted_ignores(scene, args) -> None:
     """The whitted integrator is deterministic (a fixed sub-pixel grid, no random samples): a flag
     that only chooses or seeds random samples would change nothing, so it is refused, not ignored."""
     from drtlab.estimators.registry import parse_integrator
-    whitted = parse_integrator(args.integrator or scene.integrator, "--integrator").name == "whitted"
+    whitted = parse_integrator(args.integrator or scene.integrator).name == "whitted"
     if whitted:
         for flag, given in (("--variance", args.variance), ("--seed", "seed" in given_flags(args)),
                             ("--sampler", "sampler" in given_flags(args))):
