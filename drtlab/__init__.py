@@ -33,7 +33,8 @@ def render(scene, *args, stats: bool = False, variance: bool = False, seconds: f
     seconds, samples per second, metadata); `scene` may then also be a dict shaped like a scene
     file. `seconds=T` instead of `spp`: as many whole passes of 64 spp as fit in T seconds (the
     RenderResult's spp says how many). The default sampler is `drtlab.DEFAULT_SAMPLER`, the command
-    line's."""
+    line's. An image with NaN or Inf pixels is returned after a `drtlab.errors.NonFiniteImageWarning`
+    (`warnings.simplefilter("error", NonFiniteImageWarning)` makes it an exception)."""
     if variance and not stats:
         from drtlab.errors import InputError
         raise InputError("variance", "the standard error comes with the RenderResult: pass "
@@ -41,9 +42,22 @@ def render(scene, *args, stats: bool = False, variance: bool = False, seconds: f
     if stats or seconds is not None:
         from drtlab.render_result import render_result
         result = render_result(scene, *args, variance=variance, seconds=seconds, **kwargs)
+        _warn_nonfinite(result.image)
         return result if stats else result.image
     from drtlab.kernels.render import render as _render
-    return _render(scene, *args, **kwargs)
+    return _warn_nonfinite(_render(scene, *args, **kwargs))
+
+
+def _warn_nonfinite(image):
+    """A render's image, after a `drtlab.errors.NonFiniteImageWarning` if any pixel is NaN or Inf."""
+    from drtlab.kernels.imageio import nonfinite_note
+    note = nonfinite_note(image)
+    if note:
+        import warnings
+        from drtlab.errors import NonFiniteImageWarning
+        warnings.warn(f"{note} (a value overflowed float32 in the render)", NonFiniteImageWarning,
+                      stacklevel=3)
+    return image
 
 
 def write_exr(path, image, metadata: dict | None = None) -> None:
@@ -82,7 +96,7 @@ def render_batch(*args, **kwargs):
     """`drtlab.kernels.render.render_batch`: (R, H, W, 3) float64, one render per seed, rendered
     together; image r is bit-identical to `render(..., seed=seeds[r])`."""
     from drtlab.kernels.render import render_batch as _render_batch
-    return _render_batch(*args, **kwargs)
+    return _warn_nonfinite(_render_batch(*args, **kwargs))
 
 
 def load_scene(scene, overrides: dict | None = None):

@@ -7,8 +7,9 @@ import time
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import (Help, Parser, add_cache_and_threads, add_progress_flag, flag, int_flag,
-                             parse_overrides, resolution_flag, run_main, show_progress)
+from drtlab.cli_args import (Given, Help, Parser, add_cache_and_threads, add_progress_flag, flag,
+                             given_flags, int_flag, parse_overrides, resolution_flag, run_main,
+                             show_progress)
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 
@@ -152,8 +153,22 @@ def _note(lines: list[str]) -> None:
         tqdm.write(f"drtlab: note: {line}", file=sys.stderr)
 
 
+def _refuse_what_whitted_ignores(scene, args) -> None:
+    """The whitted integrator is deterministic (a fixed sub-pixel grid, no random samples): a flag
+    that only chooses or seeds random samples would change nothing, so it is refused, not ignored."""
+    from drtlab.estimators.registry import parse_integrator
+    whitted = parse_integrator(args.integrator or scene.integrator).name == "whitted"
+    if whitted:
+        for flag, given in (("--variance", args.variance), ("--seed", "seed" in given_flags(args)),
+                            ("--sampler", "sampler" in given_flags(args))):
+            if given:
+                what = "it has no standard error" if flag == "--variance" else "it would change nothing"
+                raise InputError(flag, "the whitted integrator is deterministic (a fixed sub-pixel "
+                                       f"grid, no random samples): {what}; use drt or path")
+
+
 def cmd_render(args) -> int:
-    from drtlab.kernels.imageio import write_png
+    from drtlab.kernels.imageio import nonfinite_note, write_png
     from drtlab.kernels import render as R
     from drtlab.kernels.render import check_image_size
     from drtlab.kernels.scene_model.scene_checks import image_warnings, scene_warnings
@@ -161,13 +176,11 @@ def cmd_render(args) -> int:
     from drtlab.render_result import result_of
 
     scene = load_scene(args.scene, parse_overrides(args.set))
+    _refuse_what_whitted_ignores(scene, args)
     out = Path(args.out) if args.out else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
     fields.writable_location(out, "--out")
-    if args.variance and (args.integrator or scene.integrator) == "whitted":
-        raise InputError("--variance", "the whitted integrator is deterministic (a fixed sub-pixel grid, "
-                                       "no random samples): it has no standard error; use drt or path")
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")
@@ -193,6 +206,11 @@ def cmd_render(args) -> int:
           f"{estimator}, render {stats.render_seconds:.3f} s, compile {stats.compile_seconds:.2f} s, "
           f"{result.samples_per_second / 1e6:.2f} M samples/s")
     _warn(image_warnings(scene, stats.image))
+    bad = nonfinite_note(stats.image)
+    if bad:
+        print(f"drtlab: image: {bad} (a value overflowed float32 in the render); the files are kept "
+              "to show where", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -260,12 +278,14 @@ def _add_render(sub) -> None:
                             "in T seconds of rendering (at least one; the compile and a speed probe "
                             "at the full resolution come first, not counted); the EXR's drtlab:spp "
                             "says how many, and the image is that spp's, bit for bit")
-    r.add_argument("--sampler", default=DEFAULT_SAMPLER,
+    r.add_argument("--sampler", default=DEFAULT_SAMPLER, action=Given,
                    help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
-                        f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them")
+                        f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them (not with the "
+                        "whitted integrator, which samples nothing)")
     r.add_argument("--integrator", default=None,
                    help="whitted, drt or path (default: the scene's)")
-    r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, help="root seed")
+    r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, action=Given,
+                   help="root seed (not with the whitted integrator, which samples nothing)")
     r.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")
     r.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,
@@ -344,7 +364,8 @@ def build_parser() -> argparse.ArgumentParser:
     for parser in [p, *sub.choices.values()]:
         parser.add_argument("--plugin", action="append", default=None, metavar="FILE_OR_MODULE",
                             help="load a plugin first: a .py file or an installed module that "
-                                 "registers point sets (repeatable; docs/plugins.md)")
+                                 "registers point sets, light selections, lobe samplers, "
+                                 "strategies or error metrics (repeatable; docs/plugins.md)")
     return p
 
 

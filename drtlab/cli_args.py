@@ -17,7 +17,15 @@ EXIT_BROKEN_PIPE = 128 + 13
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2."""
+    """argparse, but a usage error is one line (`drtlab: --spp: ...`) and exit code 2, and every
+    word that starts with a minus and a digit is a value: argparse reads only plain negative numbers
+    so, and took `--res -16x12` or `--albedo -1,0,0` for an option without its value."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # argparse's own switch for what counts as a negative number (no drtlab option starts with
+        # a digit, so none is mistaken for a value).
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str):
         m = re.match(r"argument ([^:]+): (.*)", message)
@@ -34,6 +42,20 @@ class Parser(argparse.ArgumentParser):
             # A value too many: `--res 32 24` for `--res 32x24`.
             raise InputError(extra, f"unexpected argument (each option takes one value); see `{self.prog} --help`")
         raise InputError("arguments", message)
+
+
+class Given(argparse.Action):
+    """Stores a flag's value as argparse does and notes that the command line gave it: a check can
+    tell `--seed 0` from the default 0 (`given_flags`)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, "given_flags", given_flags(namespace) | {self.dest})
+
+
+def given_flags(args) -> set[str]:
+    """The dests of the `Given` flags the command line set."""
+    return getattr(args, "given_flags", set())
 
 
 class Help(argparse.ArgumentDefaultsHelpFormatter):

@@ -16,11 +16,14 @@ def _ground_truth_jobs(args) -> list[tuple]:
     from drtlab.experiments.study.plan import gt_requirements, plan_runs
     if (args.scene is None) == (args.experiment is None):
         raise InputError("ground-truth", "give either a SCENE or --experiment NAME (one of the two)")
+    if args.profile is not None and args.experiment is None:
+        raise InputError("--profile", "is a profile of --experiment's file; a SCENE has none: give "
+                                      "--experiment NAME or drop --profile")
     if args.integrator is not None:
         parse_integrator(args.integrator, "--integrator", unbiased=True)
     backend = default_backend()
     if args.experiment is not None:
-        exp = load_experiment(args.experiment, args.profile)
+        exp = load_experiment(args.experiment, args.profile or "quick")
         jobs = []
         for (ref, integ, res), (spp, batch) in gt_requirements(exp, plan_runs(exp, backend)).items():
             if args.integrator and args.integrator != integ:
@@ -73,7 +76,8 @@ def add_ground_truth_command(sub) -> None:
                    help="N (width, scene aspect) or WxH (default: the scene's own)")
     g.add_argument("--experiment", default=None, metavar="NAME_OR_PATH",
                    help="render the references every scene of this experiment needs")
-    g.add_argument("--profile", default="quick", help="profile of --experiment to use")
+    g.add_argument("--profile", default=None,
+                   help="profile of --experiment to use (default: quick; only with --experiment)")
     add_cache_and_threads(g)
     add_progress_flag(g)
     g.set_defaults(func=cmd_ground_truth)

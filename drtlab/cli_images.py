@@ -19,9 +19,19 @@ def cmd_compare(args) -> int:
     """A against B, or with --ref each of A and B against R: metrics, error images of each pair,
     and with --per-pixel-z the z-scores (a pair's image and reference standard errors)."""
     from drtlab.experiments.tools import images as tools
+    import numpy as np
+    from drtlab.kernels.imageio import nonfinite_note
     reference = args.ref or args.b
+    if args.stderr is not None and not args.per_pixel_z:
+        raise InputError("--stderr", "is read by --per-pixel-z only (the metrics need no standard "
+                                     "error): add --per-pixel-z or drop --stderr")
     images = {path: tools.read_image(path, field)[0]
               for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
+    for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")):
+        bad = nonfinite_note(images[path]) if path else None
+        if bad:
+            raise InputError(field, f"{path}: {bad} (`drtlab info {path}` counts them): error "
+                                    "metrics of it are undefined")
     se = {}                                     # path -> (standard error, values behind it)
     if args.per_pixel_z:
         se_path = args.stderr or tools.stderr_beside(reference)
@@ -35,6 +45,10 @@ def cmd_compare(args) -> int:
             if pixels.shape[:2] != want:
                 raise InputError(field, f"the standard error {se_file} is {pixels.shape[1]}x{pixels.shape[0]} "
                                         f"but {of} is {want[1]}x{want[0]}: they must have the same resolution")
+            bad = int(np.count_nonzero(~(pixels >= 0.0)))       # negative, NaN
+            if bad or not np.isfinite(pixels).all():
+                raise InputError(field, f"the standard error {se_file} has {bad or 'Inf'} values that "
+                                        "are not finite numbers >= 0: a standard error is one")
             se[of] = (pixels, tools.samples_behind(meta))
 
         read_se(se_path, reference, "--stderr")

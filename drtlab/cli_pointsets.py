@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, flag, int_flag
+from drtlab.cli_args import Given, Help, flag, given_flags, int_flag
 from drtlab.errors import InputError
 from drtlab.experiments.pointsets import analysis as A
 from drtlab.experiments.pointsets import validate as V
@@ -27,6 +27,12 @@ def _checkable_name(text: str, field: str) -> str:
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if text in POINTSETS or text in LIGHT_SELECTIONS or text in LOBE_SAMPLERS or text in INTEGRATORS:
         return text
+    from drtlab.experiments.error_metrics.base import METRICS
+    if text in METRICS:
+        raise InputError(field, f"{text!r} is an error metric, and metrics have no check: a check "
+                                "scores a sampling routine against its own density and an exact "
+                                "render, and a metric samples nothing; a study that names it "
+                                "(metric = ...) ranks its samplers by it")
     raise InputError(field, f"unknown point set, light selection, lobe sampler or integrator {text!r}; "
                             f"point sets: {', '.join(POINTSETS)}; light selections: {', '.join(LIGHT_SELECTIONS)}; "
                             f"lobe samplers: {', '.join(LOBE_SAMPLERS) or 'none (yours: --plugin)'}; "
@@ -78,7 +84,8 @@ def _battery_arguments(p, name_help: str, level_help: str, name_type=_pointset_n
     p.add_argument("--level", type=flag(_level_text), default=V.DEFAULT_LEVEL, metavar="ALPHA",
                    help=level_help)
     p.add_argument("--pixels", type=int_flag(V.MIN_PIXELS, V.MAX_PIXELS), default=V.PIXELS,
-                   metavar="P", help="pixels of the battery (more: more power, longer)")
+                   metavar="P", action=Given,
+                   help="pixels of the battery (more: more power, longer; a point set's only)")
 
 
 def cmd_check(args) -> int:
@@ -87,6 +94,9 @@ def cmd_check(args) -> int:
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
         fields.writable_location(args.out, "--out")
+    if "pixels" in given_flags(args) and args.name not in POINTSETS:
+        raise InputError("--pixels", f"sizes a point set's battery; {args.name} is not a point set "
+                                     "and its card has no battery: drop --pixels")
     if args.name in POINTSETS:
         from drtlab.experiments.checks.pointset import check
         card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)

@@ -21,8 +21,7 @@ def _groups(text: str, field: str) -> tuple:
 def cmd_sources(args) -> int:
     from drtlab.experiments.paths import results_root
     from drtlab.experiments.sources import report
-    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT
-    from drtlab.experiments.sources.decompose import variance_sources
+    from drtlab.experiments.sources.decompose import max_seed, variance_sources
     from drtlab.kernels.render import check_image_size
     from drtlab.kernels.scene_model.scene_file import load_scene
     scene = load_scene(args.scene)
@@ -30,9 +29,10 @@ def cmd_sources(args) -> int:
     if scene.environment is None and environment_only(args.strategy):
         raise InputError("--strategy", f"{args.strategy} changes only how an environment light is sampled, "
                                        f"and {scene.name} has none: it would decompose the same estimator")
-    if args.seed + args.spp + 1 >= BASE_LIMIT:
-        raise InputError("--seed", f"must be below {BASE_LIMIT - args.spp - 1} with --spp {args.spp} "
-                                   f"(pick-freeze seeds carry the group in their top byte)")
+    if args.seed > max_seed(args.spp):
+        raise InputError("--seed", f"must be an integer in [0, {max_seed(args.spp)}] with --spp "
+                                   f"{args.spp} (the pick-freeze seeds carry the group in their "
+                                   f"top byte), got {args.seed}")
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, field="--res")
@@ -76,7 +76,9 @@ def add_sources_command(sub) -> None:
                         "with each pixel weighted by 1/(mean^2 + 0.01) as the studies' relMSE "
                         "(relmse: a few very bright pixels, such as a light's edge, no longer "
                         "decide it alone)")
-    p.add_argument("--seed", type=int_flag(0, (1 << 24) - 3), default=0, help="first base seed")
+    p.add_argument("--seed", type=int_flag(0), default=0,
+                   help="first base seed, in [0, 2^24 - N - 2] (the pick-freeze seeds carry the "
+                        "group in their top byte)")
     p.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")
     p.add_argument("--out", type=Path, default=None, metavar="DIR",

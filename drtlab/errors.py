@@ -8,3 +8,8 @@ class InputError(ValueError):
         self.field = field
         self.message = message
         super().__init__(f"{field}: {message}")
+
+
+class NonFiniteImageWarning(RuntimeWarning):
+    """A render produced NaN or Inf pixels (a value overflowed float32 somewhere in it): the Python
+    API warns with this and returns the image; `drtlab render` says so and exits 1."""

@@ -62,6 +62,22 @@ def number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | Non
 # this keeps its square, and its products with sampling weights, finite there. Beyond it a sphere
 # silently vanished or emission rendered Inf pixels.
 SCENE_LIMIT = 1e15
+# What float32 holds: derived quantities (an area, a density, a normalisation, a product of two
+# values) are checked against these, not only the values a file spells.
+FLOAT32_MAX = float(np.finfo(np.float32).max)       # 3.4e38
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)     # 1.2e-38, the smallest normal float32
+# MIS squares a light's solid-angle density d^2 / (A cos): that square stays finite while
+# A >= d^2 / sqrt(FLOAT32_MAX), i.e. an emitter's area is at least this times the scene's extent
+# squared (measured: a 1e-10 x 1e-10 quad light 2 units away rendered NaN pixels, 1e-9 did not).
+EMITTER_AREA_SHARE = 1.0 / math.sqrt(FLOAT32_MAX)   # 5.4e-20
+# A Phong lobe cos^n is narrower than float32 resolves near its axis (1 - cos steps by 2^-24) once
+# n passes 2^24: its sampled cosines u^(1/(n+1)) round to 1 and its density overflows (measured:
+# NaN pixels from n = 1e9, none at 1e8).
+PHONG_EXPONENT_MAX = float(2 ** 24)
+# A conductor's Fresnel squares eta^2 + k^2 (|eta + i k|^2 of each channel): that stays finite in
+# float32 while eta^2 + k^2 <= sqrt(FLOAT32_MAX) (measured: eta = k = 3e9 renders, 1e10 gave NaN
+# pixels; real metals have both below 10).
+CONDUCTOR_NORM_MAX = math.sqrt(FLOAT32_MAX)          # 1.8e19
 
 
 def scene_number(v: Any, field: str, rule: str = "", ok: Callable[[float], bool] | None = None) -> float:

@@ -53,6 +53,9 @@ class Plugin:
 
 
 _loaded: dict[str, Plugin] = {}       # by resolved path or module name
+# Every registration a plugin may make (docs/plugins.md, `--plugin`'s help, "registers nothing").
+REGISTER_CALLS = ("drtlab.register_pointset(...), register_light_selection(...), "
+                  "register_lobe_sampler(...), register_strategy(...) or register_metric(...)")
 _loading: list[list] = []             # registrations of the plugins being imported (nested)
 _entry_points_done = False
 
@@ -289,6 +292,12 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
         sys.modules.pop(module, None)
         raise InputError(label if e.field in (label, "pointset") else f"{label}: {e.field}",
                          e.message) from None
+    except SystemExit as e:
+        # sys.exit() (or exit()) at import would end drtlab itself, silently, with the plugin's code.
+        sys.modules.pop(module, None)
+        raise InputError(label, f"called sys.exit({'' if e.code is None else repr(e.code)}) while "
+                                "importing it: a plugin registers its routines and returns, it does "
+                                "not end the program") from None
     except Exception as e:                                        # noqa: BLE001 (user code)
         sys.modules.pop(module, None)
         where = _user_frame(e, {path} if path else set())
@@ -297,9 +306,7 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
     finally:
         _, _, registered = _loading.pop()
     if not registered:
-        raise InputError(label, "registers nothing: a plugin calls drtlab.register_pointset(...), "
-                                "register_light_selection(...), register_strategy(...) or "
-                                "register_metric(...) when imported")
+        raise InputError(label, f"registers nothing: a plugin calls {REGISTER_CALLS} when imported")
     _loaded[key] = Plugin(spec, module, path, sha, tuple(registered))
     return _loaded[key]
 

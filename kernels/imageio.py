@@ -44,7 +44,36 @@ def _write(path: Path, pixels: np.ndarray, fmt, metadata: dict | None) -> None:
 
 def write_exr(path, image: np.ndarray, metadata: dict | None = None) -> None:
     import OpenImageIO as oiio
-    _write(Path(path), np.ascontiguousarray(image, dtype=np.float32), oiio.FLOAT, metadata)
+    _write(Path(path), float32_pixels(image), oiio.FLOAT, metadata)
+
+
+def float32_pixels(image, field: str = "image") -> np.ndarray:
+    """`image` as the float32 an EXR stores: real numbers only, and no finite value float32 turns
+    into Inf (1e39); NaN and Inf already in it are kept, as written."""
+    from drtlab.errors import InputError
+    a = np.asarray(image)
+    if a.dtype.kind not in "biuf":
+        raise InputError(field, f"must hold real numbers (an EXR stores float32), got dtype {a.dtype}")
+    if a.dtype.kind == "f" and a.dtype.itemsize > 4:
+        finite = np.isfinite(a)
+        big = np.abs(a, where=finite, out=np.zeros_like(a)) > np.finfo(np.float32).max
+        if big.any():
+            raise InputError(field, f"{int(big.sum())} finite values exceed float32's range "
+                                    f"(|x| <= {np.finfo(np.float32).max:.3g}), e.g. "
+                                    f"{float(a[big].flat[0]):.3g}: an EXR would store Inf")
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def nonfinite_note(image) -> str | None:
+    """'N of M pixels are NaN or Inf' where an image has such pixels, else None."""
+    a = np.asarray(image)
+    bad = ~np.isfinite(a)
+    if a.ndim == 3:
+        bad = bad.any(axis=-1)
+    count = int(bad.sum())
+    if not count:
+        return None
+    return f"{count} of {bad.size} pixels are NaN or Inf"
 
 
 def write_png(path, image: np.ndarray, metadata: dict | None = None) -> None:
@@ -94,6 +123,18 @@ def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
         raise OSError(f"cannot read {path}: truncated or corrupt ({spec.width}x{spec.height} x "
                       f"{spec.nchannels} channels in its header; {first})")
     return pixels, meta, stored
+
+
+def channel_names(path) -> tuple[str, ...]:
+    """The channel names of an image file's header (R, G, B, A; Y for grey), () when it cannot be
+    opened."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        return ()
+    names = tuple(inp.spec().channelnames)
+    inp.close()
+    return names
 
 
 def image_size(path) -> tuple[int, int] | None:

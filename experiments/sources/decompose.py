@@ -87,6 +87,20 @@ class Sources:
         return np.where(none, -1, arg), np.where(none, np.nan, share)
 
 
+def max_seed(spp: int) -> int:
+    """The largest first base seed of a decomposition of `spp` base samples: the bases seed ...
+    seed + spp (the pilot's included) stay below the pick-freeze set's BASE_LIMIT (the seed's top
+    byte carries the group)."""
+    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT
+    return BASE_LIMIT - spp - 2
+
+
+def check_seed(seed, spp: int, field: str = "seed") -> int:
+    """`seed` as an integer in [0, max_seed(spp)]."""
+    from drtlab import fields
+    return fields.integer_in(seed, field, 0, max_seed(spp))
+
+
 def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, strategy: str | None = None,
                      integrator: str | None = None, seed: int = 0, threads: int | None = None,
                      device: str = "cpu", progress: bool = False, pointset=None,
@@ -99,7 +113,7 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     from drtlab import fields
     from drtlab.estimators.defaults import DEFAULT_SAMPLER
     from drtlab.estimators.registry import parse_sampler
-    from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT, CODE_B, POINTSET, pick_freeze_seed
+    from drtlab.estimators.pointsets.pickfreeze import CODE_B, POINTSET, pick_freeze_seed
     from drtlab.estimators.registry import SamplerSpec
     from drtlab.estimators.strategies import STRATEGIES
     from drtlab.experiments.stats.sobol_indices import pick_freeze_terms, sobol_indices
@@ -108,7 +122,7 @@ def variance_sources(scene, spp: int = DEFAULT_SAMPLES, res=None, groups=None, s
     n = check_samples(spp)
     names = check_groups(groups)
     check_metric(metric)
-    seed = fields.integer_in(seed, "seed", 0, BASE_LIMIT - 1 - n - 1)
+    seed = check_seed(seed, n)
     strat = strategy if strategy is not None else parse_sampler(DEFAULT_SAMPLER).strategy.name
     if strat not in STRATEGIES:
         raise InputError("strategy", f"must be one of {', '.join(STRATEGIES)}, got {strat!r}")

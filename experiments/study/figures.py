@@ -184,14 +184,15 @@ def scene_panels(study: StudyResult, path: Path | None, draw: Draw, *, title: st
 
 
 def plot_error_vs_spp(study: StudyResult, path: Path | None = None):
-    """Error against spp, log-log, with the fitted line and its 95% credible band; a slope the runs
-    do not resolve gets no line (its points and their intervals say all the runs know)."""
+    """Error against spp, log-log, with the fitted line and its 95% credible band; a slope that is
+    not `stated` (not resolved, or heavy-tailed runs) gets no line (its points and their intervals
+    say all the runs know)."""
     def draw(ax, scene: SceneResult, s: str, cells: list[Cell], style: dict) -> None:
         fit = scene.fit(s)
         label = s
         if fit is not None:
             label = f"{s}: {fit.slope_text()}"
-        if fit is not None and fit.resolved is not False:
+        if fit is not None and fit.stated and fit.line is not None:
             ax.plot(fit.line.n, fit.line.median, linestyle=style["linestyle"], color=style["color"], lw=1.2)
             ax.fill_between(fit.line.n, fit.line.lo, fit.line.hi, color=style["color"], alpha=0.15, lw=0)
         _errbar(ax, [c.spp for c in cells], [c.error(study.metric) for c in cells], style, label)

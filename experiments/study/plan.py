@@ -76,6 +76,24 @@ def plan_runs(exp: Experiment, backend) -> list[RunSpec]:
     return sorted(runs, key=lambda r: order[r.group])     # stable: keeps study/sampler/spp order
 
 
+def integrator_notes(exp: Experiment, backend) -> list[str]:
+    """One line per (study, scene) whose scene file names another integrator than the study's: the
+    study's `integrator` (default drt) is what renders its runs and ground truth, whatever a scene
+    file (a TOML [scene] integrator, a Mitsuba XML <integrator>) says."""
+    notes, seen = [], set()
+    for study in exp.studies:
+        for ref in study.scenes:
+            if (study.name, ref) in seen:
+                continue
+            seen.add((study.name, ref))
+            own = backend.load_scene(ref.name, ref.overrides_dict or None).integrator
+            if own != study.integrator:
+                notes.append(f"drtlab: note: study {study.name} renders {ref.name} with integrator "
+                             f"{study.integrator} (the study's `integrator`), not the scene file's "
+                             f"own {own}")
+    return notes
+
+
 def gt_requirements(exp: Experiment, plan: list[RunSpec]) -> dict:
     """(scene, integrator, resolution) -> (gt_spp, gt_batch_spp): the most any study asks for."""
     by_name = {study.name: study for study in exp.studies}

@@ -203,9 +203,11 @@ def _finding(study: StudyResult, scene: SceneResult, s: str) -> str:
     txt = f"`{s}`"
     if fit and bfit:
         rate = (f"N^{fit.slope:.2f} (95% interval {fit.slope_lo:.2f} to {fit.slope_hi:.2f})"
-                if fit.resolved is not False else
-                f"a rate these runs do not resolve (95% interval N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
-        base_rate = f"N^{bfit.slope:.2f}" if bfit.resolved is not False else "an unresolved rate"
+                if fit.stated else
+                f"a rate these {'heavy-tailed ' if fit.erratic else ''}runs do not resolve (95% "
+                f"interval N^{fit.slope_lo:.2f} to N^{fit.slope_hi:.2f})")
+        base_rate = (f"N^{bfit.slope:.2f}" if bfit.stated else
+                     f"an unresolved{' (heavy-tailed)' if bfit.erratic else ''} rate")
         txt += f" converges as {rate} against {base_rate} for `{base}`"
     if r is None:
         return txt
@@ -391,6 +393,6 @@ def write_report(exp, summary: Summary, plan, records: dict, out_dir: Path, gts:
     lines += cost_section(summary)
     lines += diagnostics_section(summary)
     lines += where_section(records)
-    lines += reproduce_section(exp)
+    lines += reproduce_section(exp, out_dir)
     atomic_write_text(out_dir / "report.md", "\n".join(lines) + "\n")
     write_report_html(exp, summary, plan, records, out_dir, gts, plots, tables)

@@ -152,6 +152,7 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
             w, h = g[2]
             v = {"scene": scene.scene, "group": g, "width": int(w), "height": int(h), "cells": cells,
                  "samplers": list(study.samplers), "spp": list(study.spp),
+                 "metric": _plugin_metric(study.metric), "metric_label": study.mse_label,
                  "seconds": {(c.sampler, c.spp): c.seconds for c in scene.cells}}
             views.setdefault(study.name, []).append(v)
             flat.append(v)
@@ -160,11 +161,13 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
     flips: dict[str, str] = {}
     clipped = False
     refs: dict = {}
+    stderrs: dict = {}
     for v in flat:
         g = v["group"]
         ref_key = "gt:" + str(gts[g]["dir"])
         if ref_key not in images:
-            refs[ref_key] = load_ground_truth(gts[g]["dir"]).mean
+            gt = load_ground_truth(gts[g]["dir"])
+            refs[ref_key], stderrs[ref_key] = gt.mean, gt.stderr
             images[ref_key], c = encode_image(refs[ref_key])
             clipped |= c
         y, x, size = choose_crop(refs[ref_key])
@@ -174,6 +177,7 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
                 cell = v["cells"].get((s, n))
                 if cell is None or (id(v), s, n) not in kept:
                     continue
+                img = None
                 if cell not in images:
                     img = first_image(out_dir, cell)
                     if img is None:
@@ -184,6 +188,10 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
                 sec = v["seconds"].get((s, n))
                 entries.append({"key": cell, "label": f"{s} N={n}", "sampler": s, "spp": n,
                                 "seconds": sec if sec is not None and np.isfinite(sec) else None})
+                if v["metric"] is not None:
+                    img = first_image(out_dir, cell) if img is None else img
+                    entries[-1]["metric"] = v["metric"].score(img[None], refs[ref_key],
+                                                              stderrs[ref_key])[0]
         v.update(images=entries, crop=[int(x), int(y), int(size), int(size)])
     total = sum(len(s) for s in images.values())
     sizes = sorted({(v["width"], v["height"]) for v in flat})
@@ -196,6 +204,14 @@ def _viewers(exp, summary, plan, records: dict, out_dir: Path, gts: dict, limit:
     if clipped:
         notes.append(f"Some pixels are brighter than float16 holds: clipped to {F16_MAX:g}.")
     return views, images, {k: v for k, v in flips.items() if v}, notes
+
+
+def _plugin_metric(name: str):
+    """The study's metric when a plugin computes it (the page's script computes MSE and relMSE
+    itself, on any crop; a plugin's metric only Python can, on the whole image), else None."""
+    from drtlab.experiments.error_metrics import METRICS
+    metric = METRICS.get(name)
+    return metric if metric is not None and metric.per_run is not None else None
 
 
 def _flip_bytes(img: np.ndarray, ref: np.ndarray) -> str:
@@ -211,7 +227,8 @@ def _flip_bytes(img: np.ndarray, ref: np.ndarray) -> str:
 
 def _view_json(v: dict) -> dict:
     return {"scene": v["scene"], "width": v["width"], "height": v["height"], "samplers": v["samplers"],
-            "spp": v["spp"], "images": v["images"], "crop": v["crop"]}
+            "spp": v["spp"], "images": v["images"], "crop": v["crop"],
+            "metric": None if v["metric"] is None else v["metric_label"]}
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -25,7 +25,7 @@ th{background:#f6f6f6}
 .port{position:relative;overflow:hidden;background:#303030;cursor:grab;flex:0 0 auto;user-select:none}
 .port canvas{position:absolute;left:0;top:0;transform-origin:0 0;image-rendering:pixelated}
 .crop{position:absolute;border:1px solid #fff;outline:1px dashed #000;pointer-events:none}
-.side{flex:1 1 320px;min-width:300px}
+.side{flex:1 1 320px;min-width:300px;max-width:100%}
 .picker button{font:12px monospace;padding:.1em .4em;cursor:pointer;background:#fff;border:1px solid #bbb}
 .picker button.on{background:#4a7ebb;color:#fff;border-color:#4a7ebb}
 .metrics tr.on td{background:#e4eefa}
@@ -166,15 +166,18 @@ class Viewer {
   metricsTable() {
     this.table = el("table", {class: "metrics"});
     const h = el("tr");
-    for (const c of ["image", "MSE (crop)", "relMSE (crop)", "MSE (whole)", "relMSE (whole)", "s per render"]) h.append(el("th", {}, c));
+    const heads = ["image", "MSE (crop)", "relMSE (crop)", "MSE (whole)", "relMSE (whole)"];
+    if (this.v.metric) heads.push(this.v.metric + " (whole)");   // a plugin's metric: Python's number
+    heads.push("s per render");
+    for (const c of heads) h.append(el("th", {}, c));
     this.cropCaption = el("div", {class: "note"});
     this.table.append(h);
     this.rows = this.v.images.map((e, i) => {
       const tr = el("tr"); tr.addEventListener("click", () => this.show(i));
-      tr.append(el("td", {}, e.label)); for (let k = 0; k < 5; k++) tr.append(el("td"));
+      tr.append(el("td", {}, e.label)); for (let k = 1; k < heads.length; k++) tr.append(el("td"));
       this.table.append(tr); return tr;
     });
-    const wrap = el("div"); wrap.append(this.cropCaption, this.table);
+    const wrap = el("div", {class: "scroll"}); wrap.append(this.cropCaption, this.table);
     return wrap;
   }
   errors(i) {                         // per pixel error of image i against the reference, this.mode
@@ -248,7 +251,10 @@ class Viewer {
         if (inside) nc += 3;
       }
       const n = 3 * this.W * this.H, cells = this.rows[i].children;
-      [sums[0] / nc, sums[1] / nc, sums[2] / n, sums[3] / n, e.seconds].forEach((v, k) => cells[k + 1].textContent = fmt(v));
+      const values = [sums[0] / nc, sums[1] / nc, sums[2] / n, sums[3] / n];
+      if (this.v.metric) values.push(e.sampler === null ? null : e.metric);
+      values.push(e.seconds);
+      values.forEach((v, k) => cells[k + 1].textContent = fmt(v));
     });
   }
   show(i) { if (i >= 0 && i < this.v.images.length && i !== this.cur) { this.prev = this.cur; this.cur = i; this.draw(); } }
@@ -264,8 +270,9 @@ class Viewer {
       if (!ds && !dn) break;
     }
   }
-  fit() {
-    const w = Math.min(720, Math.max(240, this.root.clientWidth - 360));
+  fit() {                             // the image as large as leaves the side panel its table's width
+    const side = Math.max(360, this.table.scrollWidth + 48);
+    const w = Math.min(720, Math.max(240, this.root.clientWidth - side));
     this.z = w / this.W; this.px = 0; this.py = 0;
     this.port.style.width = w + "px"; this.port.style.height = Math.round(this.H * this.z) + "px";
     this.place();

@@ -150,9 +150,27 @@ def where_section(records: dict) -> list[str]:
             "; ".join(f"`{w}`: {n} runs" for w, n in sorted(counts.items())) + ".\n"]
 
 
-def reproduce_section(exp) -> list[str]:
+def reproduce_command(exp, out_dir) -> str | None:
+    """The command that reruns this study as printed, from any folder: the experiment by its
+    built-in name or its file's absolute path, the profile, this output folder; None for an
+    experiment given as a dict (it has no file)."""
+    import shlex
+    from pathlib import Path
+    from drtlab.experiments.study.experiment_model import EXPERIMENT_DIR
+    path = Path(exp.path).resolve()
+    if "<dict>" in exp.sources or not path.is_file():
+        return None
+    target = exp.name if path.parent == EXPERIMENT_DIR.resolve() else str(path)
+    return (f"drtlab experiment {shlex.quote(target)} --profile {shlex.quote(exp.profile)} "
+            f"--out {shlex.quote(str(Path(out_dir).resolve()))}")
+
+
+def reproduce_section(exp, out_dir) -> list[str]:
+    command = reproduce_command(exp, out_dir)
+    rerun = (f"`{command}`" if command else
+             "`drtlab.run_experiment` with the same dict, profile and `out_dir`")
     return ["## Reproduce\n",
-            f"`drtlab experiment {exp.name} --profile {exp.profile}` reruns only what is missing; "
+            f"{rerun} reruns only what is missing; "
             f"`--fresh` starts over (the ground truth cache in `results/ground-truth/` is kept). Every run's "
             f"seed is in `runs.csv`; versions, machine and timings are in `manifest.json`; all numbers above "
             f"are in `summary.json`.\n"]

@@ -6,74 +6,19 @@ plain Python values (non-finite floats stay floats; the JSON writer turns them i
 """
 from __future__ import annotations
 
-import types
-import typing
-from dataclasses import MISSING, dataclass, field, fields, is_dataclass
+from dataclasses import dataclass, field, fields
 
 from drtlab.experiments.error_metrics import METRICS
 from drtlab.experiments.study.compare import Comparison
+from drtlab.experiments.study.result_json import fields_json, from_json, to_json  # noqa: F401
 
 NAN = float("nan")
-
-
-def to_json(o):
-    """A result (dataclass, dict, list, tuple or plain value) as plain JSON-ready Python values."""
-    if hasattr(o, "to_json"):
-        return o.to_json()
-    if is_dataclass(o):
-        return {f.name: to_json(getattr(o, f.name)) for f in fields(o)}
-    if isinstance(o, dict):
-        return {k: to_json(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [to_json(v) for v in o]
-    return o
-
-
-def from_json(cls, data, where: str = "summary"):
-    """The inverse of `to_json`: a result class from its JSON (as summary.json holds it), nested
-    results rebuilt from the field types. Keys the class does not name are derived values (a cell's
-    `study_error`) and are skipped; a missing required one raises ValueError naming where."""
-    if not isinstance(data, dict):
-        raise ValueError(f"{where}: expected an object, got {type(data).__name__}")
-    hints, kw = typing.get_type_hints(cls), {}
-    for f in fields(cls):
-        key = cls.json_key(f.name) if hasattr(cls, "json_key") else f.name
-        if key not in data:
-            if f.default is MISSING and f.default_factory is MISSING:
-                raise ValueError(f"{where}: no '{key}'")
-        elif data[key] is None and cls in (Interval, SlopeFit):
-            kw[f.name] = NAN        # their to_json leaves None out: a null was a non-finite float
-        else:
-            kw[f.name] = _decode(hints[f.name], data[key], f"{where}.{key}")
-    return cls(**kw)
-
-
-def _decode(tp, v, where: str):
-    if v is None:
-        return NAN if tp is float else None         # the JSON writer turned NaN and inf into null
-    origin, args = typing.get_origin(tp), [a for a in typing.get_args(tp) if a is not type(None)]
-    if origin in (typing.Union, types.UnionType):
-        return _decode(args[0], v, where)
-    if origin is list:
-        return [_decode(args[0], x, f"{where}[{i}]") for i, x in enumerate(v)]
-    if origin is dict:
-        return {k: _decode(args[1], x, f"{where}.{k}") for k, x in v.items()}
-    return from_json(tp, v, where) if is_dataclass(tp) else v
-
-
-def _fields_json(o, skip_none: bool = False, **special) -> dict:
-    """A dataclass's fields in order; `special[name](value)` where given, else `to_json(value)`."""
-    out = {}
-    for f in fields(o):
-        v = getattr(o, f.name)
-        if not (skip_none and v is None):
-            out[f.name] = special[f.name](v) if f.name in special else to_json(v)
-    return out
 
 
 @dataclass(frozen=True)
 class Interval:
     """A mean with its 95% interval over repetitions (`sd` only where it was measured)."""
+    NULLS_ARE_NAN = True        # its to_json leaves non-finite floats out (result_json.from_json)
     mean: float
     lo: float
     hi: float
@@ -208,6 +153,7 @@ class SlopeFit:
     (`slopes.fit_rmse_slope`, `estimand` "rmse"), with the typical-error slope (geometric mean of the
     runs' errors, `slopes.fit_typical_slope`) beside it. Without `ok`, only the point counts and
     `reason` are set."""
+    NULLS_ARE_NAN = True        # its to_json leaves non-finite floats out (result_json.from_json)
     n_points: int
     dropped: int
     level: float
@@ -264,12 +210,22 @@ class SlopeFit:
         return cls(**kw)
 
     def to_json(self) -> dict:
-        return _fields_json(self, skip_none=True)
+        return fields_json(self, skip_none=True)
+
+    @property
+    def stated(self) -> bool:
+        """Whether the slope may be stated and drawn as a number: fitted, its interval resolved and
+        its runs not heavy-tailed (a few repetitions of rare, huge errors cannot pin a rate down,
+        whatever the interval says). The one rule the findings, the summary line and the figures
+        follow."""
+        return bool(self.ok) and self.resolved is not False and not self.erratic
 
     def slope_text(self, digits: int = 2) -> str:
-        """'b=-0.50 [-0.51,-0.49]', or the interval alone when the runs do not resolve the slope."""
+        """'b=-0.50 [-0.51,-0.49]', or the interval alone when the slope is not `stated`."""
         ci = f"[{self.slope_lo:.{digits}f}, {self.slope_hi:.{digits}f}]"
-        return f"b={self.slope:.{digits}f} {ci}" if self.resolved is not False else f"b not resolved {ci}"
+        if self.stated:
+            return f"b={self.slope:.{digits}f} {ci}"
+        return f"b not resolved{' (heavy tails)' if self.erratic else ''} {ci}"
 
     def table_row(self) -> dict:
         return {"ok": self.ok, "slope": self.slope, "slope_lo": self.slope_lo,
@@ -373,7 +329,7 @@ class SceneResult:
         return next((x for x in self.vs_baseline.get(sampler, []) if x.spp == spp), None)
 
     def to_json(self, metric: str) -> dict:
-        return _fields_json(self, cells=lambda cells: [c.to_json(metric) for c in cells])
+        return fields_json(self, cells=lambda cells: [c.to_json(metric) for c in cells])
 
 
 @dataclass(frozen=True)
@@ -406,7 +362,7 @@ class StudyResult:
         return f"{'/'.join(map(str, runs))} repetitions at N = {'/'.join(map(str, self.spp))}"
 
     def to_json(self) -> dict:
-        return _fields_json(self, scenes=lambda scenes: [scene.to_json(self.metric) for scene in scenes])
+        return fields_json(self, scenes=lambda scenes: [scene.to_json(self.metric) for scene in scenes])
 
 
 @dataclass(frozen=True)
@@ -433,7 +389,7 @@ class Summary:
     load: dict = field(default_factory=dict)    # cost_model.load_shift over the sweep's batches
 
     def to_json(self) -> dict:
-        return _fields_json(self)
+        return fields_json(self)
 
     @classmethod
     def from_json(cls, data: dict) -> "Summary":

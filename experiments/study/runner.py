@@ -29,7 +29,7 @@ from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.estimate import check_budget, estimate
 from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
-                                           plan_runs, run_fingerprint, run_record)
+                                           integrator_notes, plan_runs, run_fingerprint, run_record)
 from drtlab.experiments.study.progress import Progress
 from drtlab.experiments.files import atomic_write_json
 from drtlab.experiments.paths import default_gt_root, default_out_dir
@@ -72,19 +72,25 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     check_image_sizes(exp, gt_req)            # before the folder, its lock or a compile
     cells = len({r.cell for r in plan})
     samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
-    log(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
+    # The plan, the compile and the estimate are said once the study has passed its limits: a
+    # refused study is one line, nothing before it.
+    held: list[str] = []
+    held.append(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
         + (f"{samples / 1e6:.1f} M samples" if samples >= 1e5 else f"{samples:,} samples"))
+    held += integrator_notes(exp, backend)
     gt_pending = {g: gtmod.pending_samples(g[0], g[1], g[2], req[0], req[1], backend, gt_root)
                   for g, req in gt_req.items()}
     # Runs a resumed sweep has stored are not estimated (read only: nothing is written yet).
     stored = {} if fresh else store.load_records(out_dir)
     pending = [r for r in plan if r.run_id not in stored]
     check_budget(estimate(pending, gt_req, gt_pending, backend, threads, probe=False), yes)   # memory
-    precompiled = _precompile(plan, backend, threads, executor, log)
+    precompiled = _precompile(plan, backend, threads, executor, held.append)
     if pending or any(gt_pending.values()):
         cost = estimate(pending, gt_req, gt_pending, backend, threads, probe=executor is None)
-        log(cost.line())
         check_budget(cost, yes)
+        held.append(cost.line())
+    for line in held:
+        log(line)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_output(out_dir)               # one sweep at a time per output folder

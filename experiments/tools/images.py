@@ -178,6 +178,9 @@ def compare_images(a: np.ndarray, b: np.ndarray, *, names=("A", "B"), se_a=None,
     (standard errors estimated from n_a and n_b values, see `z_scores`)."""
     from drtlab.experiments.study.metrics import image_metrics
     a3, b3 = np.asarray(a, dtype=np.float64)[..., :3], np.asarray(b, dtype=np.float64)[..., :3]
+    if a3.shape[:2] == b3.shape[:2] and a3.shape != b3.shape:
+        raise InputError("B", f"{names[1]} has {np.shape(b)[-1]} channels but {names[0]} has "
+                              f"{np.shape(a)[-1]}: images must have the same channels (R, G, B)")
     if a3.shape != b3.shape:
         raise InputError("B", f"{names[1]} is {b3.shape[1]}x{b3.shape[0]} but {names[0]} is "
                               f"{a3.shape[1]}x{a3.shape[0]}: images must have the same resolution")

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import (REQUIRED, Table, scene_numbers as numbers, scene_number as number, show,
+from drtlab.fields import (REQUIRED, SCENE_LIMIT, Table, scene_numbers as numbers, scene_number as number, show,
                            string)
 
 KINDS = ("constant", "two_level", "gradient", "image")
@@ -231,7 +231,7 @@ def _resolution(t: Table) -> tuple[int, int]:
 
 def _read_image(t: Table) -> tuple[np.ndarray, str]:
     path = string(t.get("file", REQUIRED, "a path to a lat-long EXR/HDR image"), t.field("file"))
-    from drtlab.kernels.imageio import read_linear
+    from drtlab.kernels.imageio import channel_names, read_linear
     try:
         pixels, _, _ = read_linear(Path(path).expanduser())
     except OSError as exc:
@@ -239,13 +239,29 @@ def _read_image(t: Table) -> tuple[np.ndarray, str]:
     px = np.asarray(pixels, dtype=np.float64)
     if px.ndim == 2:
         px = px[..., None]
-    px = np.repeat(px[..., :1], 3, axis=2) if px.shape[2] < 3 else px[..., :3]
+    px = _as_rgb(px, channel_names(Path(path).expanduser()) or ("Y",) * px.shape[2], path,
+                 t.field("file"))
     if px.shape[0] * px.shape[1] > MAX_TEXELS:
         raise InputError(t.field("file"), f"{path}: {px.shape[1]} x {px.shape[0]} texels, at most "
                                           f"{MAX_TEXELS} allowed")
     if not np.all(np.isfinite(px)) or np.any(px < 0.0):
         raise InputError(t.field("file"), f"{path}: every pixel must be finite and >= 0 (radiance)")
     return px, path
+
+
+def _as_rgb(px: np.ndarray, names: tuple[str, ...], path: str, field: str) -> np.ndarray:
+    """The RGB radiance of an image's channels as Mitsuba 3 reads a bitmap for its envmap: R, G, B
+    (and A, ignored) as colour, Y (and A) as grey; any other set of channels (two channels R, G)
+    has no colour reading and is refused, as Mitsuba refuses to convert it."""
+    short = [n.rsplit(".", 1)[-1].upper() for n in names]
+    alpha = int("A" in short)
+    if all(c in short for c in "RGB") and len(short) == 3 + alpha:
+        return px[..., [short.index(c) for c in "RGB"]]
+    if "Y" in short and len(short) == 1 + alpha:
+        return np.repeat(px[..., [short.index("Y")]], 3, axis=2)
+    raise InputError(field, f"{path} has {len(names)} channels ({', '.join(names)}): an environment "
+                            "map needs R, G, B (colour) or Y (grey), each optionally with A (read as "
+                            "Mitsuba 3 reads them)")
 
 
 def _rotation(t: Table) -> np.ndarray | None:
@@ -278,7 +294,7 @@ def parse_environment(value: Any) -> EnvironmentMap:
         if lookup == "bilinear" and image.shape[0] < 2:
             raise InputError(t.field("lookup"), f"'bilinear' needs an image of at least 2 rows (one "
                                                 f"at each pole), {source} has {image.shape[0]}")
-        return EnvironmentMap(kind, image * scale, source, lookup, _rotation(t))
+        return EnvironmentMap(kind, _scaled(image, scale, t), source, lookup, _rotation(t))
     width, height = _resolution(t)
     if kind == "constant":
         colours = dict(radiance=_color(t, "radiance", [1, 1, 1]))
@@ -298,4 +314,17 @@ def parse_environment(value: Any) -> EnvironmentMap:
         sun_l = _color(t, "sun_radiance", REQUIRED)
         row, col = texels(sun[None, :], height, width)
         image[row[0], col[0]] += sun_l          # one texel: the tiny, very bright source
-    return EnvironmentMap(kind, image * scale, kind)
+    return EnvironmentMap(kind, _scaled(image, scale, t), kind)
+
+
+def _scaled(image: np.ndarray, scale: float, t: Table) -> np.ndarray:
+    """The radiance the renderer sees, texels x scale, within the scene's range (SCENE_LIMIT): each
+    factor may be in range and their product not (3e38 x 10 is Inf in float32)."""
+    with np.errstate(over="ignore"):
+        brightest = float(image.max(initial=0.0)) * scale
+    if not brightest <= SCENE_LIMIT:
+        raise InputError(t.field("scale"), f"the radiance it gives, brightest texel "
+                                           f"{float(image.max()):.3g} x scale {scale:g} = "
+                                           f"{brightest:.3g}, must be at most {SCENE_LIMIT:g} (what "
+                                           "float32 sums and weights of it hold)")
+    return image * scale

@@ -19,6 +19,12 @@ class MaterialMapping:
         radiance = None
         if emitter is not None:
             radiance = self.colour(emitter, "radiance", 1.0)
+            if not any(x > 0 for x in radiance):
+                # An emitter of nothing is a mistake in drtlab's files too (materials.*.emission).
+                where = emitter.props["radiance"].path if "radiance" in emitter.props else emitter.path
+                self.r.fail(where, f"an area emitter needs radiance >= 0 with at least one channel "
+                                   f"> 0, got {radiance}; remove the emitter for a shape that does "
+                                   "not emit")
             self.done(emitter)
         if bsdf is None:                 # Mitsuba's default: diffuse 0.5, black on an emitter
             spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3}

@@ -17,6 +17,7 @@ from drtlab.errors import InputError
 from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as number,
                            scene_numbers as numbers, show, string)
 from drtlab.kernels.scene_model.environment_map import parse_environment
+from drtlab.kernels.scene_model.float32_checks import check_emitter_sizes, check_float32_area
 from drtlab.kernels.filters import BOX, FILTER_NAMES, STDDEV_FILTERS, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
 from drtlab.kernels.scene_model.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
@@ -82,7 +83,9 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     settings = parse_settings(data.get("scene", REQUIRED))
     camera = _parse_camera(data.get("camera", REQUIRED))
     materials = _parse_materials(data.get("materials", {}))
-    shapes = _parse_shapes(data.get("shapes", []), materials)
+    groups = _parse_shapes(data.get("shapes", []), materials)
+    check_emitter_sizes(groups, data["shapes"], materials, camera)
+    shapes = [s for g in groups for s in g]
     point_lights, directional_lights = _parse_lights(data.get("lights", []))
     environment = parse_environment(data["environment"]) if "environment" in data else None
     if environment is not None and np.any(settings["background"] > 0.0):
@@ -248,7 +251,10 @@ def _parse_material(name: str, value: Any) -> Material:
         return m
     m.albedo = _albedo(t.get("albedo", [0.5, 0.5, 0.5], ""), t.field("albedo"))
     if spec.phong:
-        m.exponent = number(t.get("exponent", 100.0, ""), t.field("exponent"), ">= 0", lambda x: x >= 0.0)
+        m.exponent = fields.number(t.get("exponent", 100.0, ""), t.field("exponent"),
+                            f">= 0 and at most {fields.PHONG_EXPONENT_MAX:.0f} (2^24: a narrower lobe "
+                            "is below what float32 cosines resolve)",
+                            lambda x: 0.0 <= x <= fields.PHONG_EXPONENT_MAX)
     if spec.microfacet:
         m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
                              f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
@@ -261,6 +267,11 @@ def _parse_material(name: str, value: Any) -> Material:
     if spec.conductor:
         m.eta = _color(t.get("eta", [0, 0, 0], ""), t.field("eta"))
         m.k = _color(t.get("k", [1, 1, 1], ""), t.field("k"))
+        norm = m.eta ** 2 + m.k ** 2
+        if not np.all(norm <= fields.CONDUCTOR_NORM_MAX):
+            raise InputError(t.field("k"), f"eta^2 + k^2 must be at most {fields.CONDUCTOR_NORM_MAX:.3g} "
+                                           "in every channel (the Fresnel squares it in float32), got "
+                                           f"{float(norm.max()):.3g}")
     if t.has("albedo2"):
         m.albedo2 = _albedo(t.data["albedo2"], t.field("albedo2"))
         m.checker = _checker(t.get("checker", [8, 8], ""), t.field("checker"))
@@ -277,15 +288,15 @@ def _checker(v: Any, field: str) -> tuple[int, int]:
     return int(v[0]), int(v[1])
 
 
-def _parse_shapes(value: Any, materials: list[Material]) -> list[Shape]:
+def _parse_shapes(value: Any, materials: list[Material]) -> list[list[Shape]]:
+    """The shapes of each [[shapes]] entry (a box is six quads, a sphere grid many spheres)."""
     if not isinstance(value, list) or not value:
         raise InputError("shapes", "a scene needs at least one [[shapes]] entry (kind = "
                                    f"{' | '.join(SHAPE_FILE_KINDS)}), got {show(value)}")
     index = {m.name: i for i, m in enumerate(materials)}
-    shapes: list[Shape] = []
-    for i, body in enumerate(value):
-        shapes.extend(_transformed(i, body, _parse_shape(i, body, materials, index), materials))
-    return shapes
+    groups = [_transformed(i, body, _parse_shape(i, body, materials, index), materials)
+              for i, body in enumerate(value)]
+    return groups
 
 
 def _transformed(i: int, value: dict, shapes: list[Shape], materials: list[Material]) -> list[Shape]:
@@ -368,9 +379,10 @@ def _check_area(shape: Shape, field: str, emissive: bool) -> None:
             area = shape.area()
     except OverflowError:           # a Python-float radius ** 2 overflows instead of giving inf
         area = math.inf
+    what = "an emitting shape" if emissive else "a shape"
     if not (math.isfinite(area) and area > 0.0):
-        what = "an emitting shape" if emissive else "a shape"
         raise InputError(field, f"{what} needs a finite area > 0, got area {area:g}")
+    check_float32_area(shape, area, field, what)
 
 
 # The six faces of a box as (name suffix, corner, edge_u, edge_v) in units of the box's size d,

@@ -2,7 +2,7 @@
 every judged line, and the negative controls fail where they must: a table served unrandomized (the
 same points in every pixel and seed) fails the battery and the renderer's unbiasedness, and a set
 that renders differently across threads fails that line. Levels: the scorecard's 0.01 (Sidak over
-its two tests), fixed seeds."""
+its four tests), fixed seeds."""
 import json
 import subprocess
 import sys
