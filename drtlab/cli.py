@@ -231,10 +231,16 @@ def cmd_experiment(args) -> int:
     backend = default_backend()
     # The cluster is reached (or started) before any rendering: an unreachable scheduler is one line.
     with open_executor(args.scheduler, args.workers, backend) as executor:
-        summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
-                                 threads=args.threads, fresh=args.fresh, progress=show_progress(args),
-                                 argv=sys.argv, executor=executor,
-                                 keep_images=True if args.keep_images else None, yes=args.yes)
+        try:
+            summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
+                                     threads=args.threads, fresh=args.fresh, progress=show_progress(args),
+                                     argv=sys.argv, executor=executor,
+                                     keep_images=True if args.keep_images else None, yes=args.yes,
+                                     allow_other_files=args.allow_other_files)
+        except InputError as e:
+            if e.field != "out_dir":
+                raise
+            raise InputError("--out", e.message) from None      # the API's argument is this flag
     out = args.out if args.out is not None else default_out_dir(exp.name)
     _print_summary(exp, summary)
     print(f"report: {out / 'report.md'} (interactive: {out / 'report.html'})")
@@ -318,7 +324,11 @@ def _add_experiment(sub) -> None:
     p.add_argument("--out", type=Path, default=None,
                    help="output folder (default: results/NAME)")
     add_cache_and_threads(p)
-    p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
+    p.add_argument("--fresh", action="store_true",
+                   help="discard this experiment's earlier runs first (only the files drtlab wrote)")
+    p.add_argument("--allow-other-files", action="store_true",
+                   help="write into an --out folder that holds files drtlab did not write (without it "
+                        "such a folder is refused); drtlab never removes or overwrites them")
     p.add_argument("--yes", action="store_true",
                    help="run even when the up-front estimate passes its limits (24 h of rendering, "
                         "90%% of this machine's memory); without it such a study is refused before "

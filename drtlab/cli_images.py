@@ -20,6 +20,8 @@ def cmd_compare(args) -> int:
     and with --per-pixel-z the z-scores (a pair's image and reference standard errors)."""
     from drtlab.experiments.tools import images as tools
     reference = args.ref or args.b
+    pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
+    stems = tools.pair_stems(pairs, ("A", "B"))        # distinct output names, checked first
     images = {path: tools.read_image(path, field)[0]
               for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
     se = {}                                     # path -> (standard error, values behind it)
@@ -50,7 +52,6 @@ def cmd_compare(args) -> int:
                                  "writes): its noise would count as a difference; render it with "
                                  "--variance (only a deterministic whitted image needs none)")
     out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
-    pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
     results = []
     for path, ref_path in pairs:
         se_img, n_img = se.get(path, (None, None))
@@ -61,9 +62,8 @@ def cmd_compare(args) -> int:
         results.append(result)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for (path, ref_path), result in zip(pairs, results):
-        stem = out_dir / f"{Path(path).stem}-vs-{Path(ref_path).stem}"
-        written += tools.write_error_images(images[path], images[ref_path], stem,
+    for (path, ref_path), stem, result in zip(pairs, stems, results):
+        written += tools.write_error_images(images[path], images[ref_path], out_dir / stem,
                                             z=None if result.z is None else result.z.image)
     print("wrote " + ", ".join(str(p) for p in written))
     return 0

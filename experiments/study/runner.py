@@ -27,7 +27,7 @@ from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.cell_growth import CellGrowth
 from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.estimate import check_budget, estimate
-from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
+from drtlab.experiments.study.output_dir import OutputRecord, lock_output, planned_files
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
                                            plan_runs, run_fingerprint, run_record)
 from drtlab.experiments.study.progress import Progress
@@ -49,14 +49,16 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                    progress: bool = True, clock: Callable[[], float] = time.perf_counter,
                    log: Callable[[str], None] | None = None, analyze: bool = True,
                    argv: list[str] | None = None, executor=None,
-                   keep_images: bool | None = None, yes: bool = False) -> ExperimentResult:
+                   keep_images: bool | None = None, yes: bool = False,
+                   allow_other_files: bool = False) -> ExperimentResult:
     """Run (or resume) the sweep, then analyse it and write every output. Returns the run counts,
     the wall time and (with `analyze`) the typed summary; `result["studies"]` reads summary.json's
     content. With an `executor` (`cluster.DaskExecutor`) the batches render on its cluster and this
     process writes their results; the timing-only batches and the analysis stay here.
     `keep_images` (default: each study's setting) keeps every repetition's image in its cell file.
     Before any output: the study's estimated rendering time and memory (estimate.py), refused past
-    its limits unless `yes`."""
+    its limits unless `yes`, and a folder holding files drtlab did not write, refused unless
+    `allow_other_files` (output_dir.py: drtlab removes only what it wrote)."""
     if backend is None:
         from drtlab.experiments.study.backend import default_backend
         backend = default_backend()
@@ -70,6 +72,9 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
     check_image_sizes(exp, gt_req)            # before the folder, its lock or a compile
+    planned = planned_files(exp, plan)
+    record = OutputRecord.load(out_dir, planned) if out_dir.is_dir() else OutputRecord(out_dir)
+    record.check(planned, allow_other_files, "out_dir", skip=gt_root)
     cells = len({r.cell for r in plan})
     samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
     log(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
@@ -89,9 +94,10 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_output(out_dir)               # one sweep at a time per output folder
     try:
+        record.enter(planned)
         if fresh:
-            clean_outputs(out_dir)
-        remove_orphaned_temps(out_dir)
+            record.remove_outputs()
+        record.remove_orphaned_temps()
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
                        records=store.load_records(out_dir), executor=executor,
                        studies={s.name: s for s in exp.studies}, keep_images=keep_images)
