@@ -27,6 +27,7 @@ from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.cell_growth import CellGrowth
 from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.estimate import check_budget, estimate
+from drtlab.experiments.study.interrupts import signals_held, stop_on_signals
 from drtlab.experiments.study.output_dir import OutputRecord, lock_output, planned_files
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
                                            plan_runs, run_fingerprint, run_record)
@@ -101,7 +102,8 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
                        records=store.load_records(out_dir), executor=executor,
                        studies={s.name: s for s in exp.studies}, keep_images=keep_images)
-        sweep.run(gt_req, gt_pending, progress, precompiled)
+        with stop_on_signals(log):            # SIGTERM, SIGHUP: the finished batches kept
+            sweep.run(gt_req, gt_pending, progress, precompiled)
         if analyze:
             sweep.calibrate()
             if any(st.settings.variance_sources for st in exp.studies):
@@ -324,23 +326,24 @@ class _Sweep(CellGrowth):
         for m in self._plugin_metrics(b.runs[0].studies):
             for row, value in zip(metrics, m.score(images, ctx.gt.mean, ctx.gt.stderr)):
                 row[m.record] = value
-        for r, fp, m in zip(b.runs, b.fingerprints, metrics):
-            self.records[r.run_id] = run_record(r, fp, b, result, wall, ctx.gt, m,
-                                                 self._code(r.sampler), worker)
-        if b.cell not in self.cell_files:
-            self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
-        self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(
-            b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]),
-            store.CellMoments(len(b.runs), sums.mean, sums.m2))
-        self.dirty.add(b.cell)
-        if time.monotonic() - self._flushed_at >= FLUSH_SECONDS:
-            self._flush()
-        self._seconds["render_total"] += float(result.render_seconds)
-        self.stats["runs_new"] += len(b.runs)
-        self.stats["batches"] += 1
-        r0 = b.runs[0]
-        self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
-                        f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
+        with signals_held():                  # a batch is reported finished once it is dirty
+            for r, fp, m in zip(b.runs, b.fingerprints, metrics):
+                self.records[r.run_id] = run_record(r, fp, b, result, wall, ctx.gt, m,
+                                                     self._code(r.sampler), worker)
+            if b.cell not in self.cell_files:
+                self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
+            self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(
+                b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]),
+                store.CellMoments(len(b.runs), sums.mean, sums.m2))
+            self.dirty.add(b.cell)
+            if time.monotonic() - self._flushed_at >= FLUSH_SECONDS:
+                self._flush()
+            self._seconds["render_total"] += float(result.render_seconds)
+            self.stats["runs_new"] += len(b.runs)
+            self.stats["batches"] += 1
+            r0 = b.runs[0]
+            self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
+                            f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
 
     def _first_runs(self, b: Batch, key: str, default: int | None) -> int | None:
         """How many of a batch's runs a per-run limit of the cell's settings (`key`: a cell's first
@@ -352,16 +355,17 @@ class _Sweep(CellGrowth):
         """Commit the batches rendered since the last flush (run_store's protocol: table, then the
         changed cell files). Mid-group the cell files are written uncompressed (the group's cells
         take turns, so each commit rewrites all of them); at the group's end each is compressed."""
-        if self.dirty:
-            store.commit(self.out_dir, self.records, [r.run_id for r in self.plan],
-                         {c: self.cell_files[c] for c in self.dirty}, compress=group_end)
-            self.loose = self.loose - self.dirty if group_end else self.loose | self.dirty
-            self.dirty.clear()
-        if group_end:
-            for c in sorted(self.loose):
-                store.save_cell(self.out_dir, c, self.cell_files[c])
-            self.loose.clear()
-        self._flushed_at = time.monotonic()
+        with signals_held():                  # a commit is never cut short
+            if self.dirty:
+                store.commit(self.out_dir, self.records, [r.run_id for r in self.plan],
+                             {c: self.cell_files[c] for c in self.dirty}, compress=group_end)
+                self.loose = self.loose - self.dirty if group_end else self.loose | self.dirty
+                self.dirty.clear()
+            if group_end:
+                for c in sorted(self.loose):
+                    store.save_cell(self.out_dir, c, self.cell_files[c])
+                self.loose.clear()
+            self._flushed_at = time.monotonic()
 
     def calibrate(self) -> None:
         """Timing-only batches for the cells whose own batches took under store.MIN_TIMED_SECONDS in all
