@@ -8,7 +8,7 @@ from pathlib import Path
 
 from drtlab import fields
 from drtlab.cli_args import (Help, Parser, add_cache_and_threads, add_progress_flag, flag, int_flag,
-                             resolution_flag, run_main, show_progress)
+                             path_flag, resolution_flag, run_main, show_progress)
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 
@@ -178,7 +178,7 @@ def cmd_render(args) -> int:
     from drtlab.render_result import result_of
 
     scene = load_scene(args.scene, _overrides(args.set))
-    out = Path(args.out) if args.out else _default_out(scene, args)
+    out = Path(args.out) if args.out is not None else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
     fields.writable_location(out, "--out")
@@ -299,7 +299,7 @@ def _add_render(sub) -> None:
     r.add_argument("--tile", type=int_flag(1, 1 << 16), default=None,
                    help="tile edge in pixels (default: 16)")
     r.add_argument("--device", default="cpu", help="cpu or cuda")
-    r.add_argument("--out", default=None,
+    r.add_argument("--out", type=path_flag, default=None,
                    help="output .exr; a .png preview is written beside it (default: "
                         "results/renders/SCENE[-HASH]-INTEGRATOR-SAMPLER-WxH-SPPspp-sSEED.exr, HASH "
                         "of the --set overrides or a scene file, no sampler and seed for whitted)")
@@ -321,7 +321,7 @@ def _add_experiment(sub) -> None:
                    help="a built-in experiment (experiments/*.toml) or a path to a .toml file")
     p.add_argument("--profile", default="quick",
                    help="profile section of the file to use (e.g. quick, full)")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("--out", type=path_flag, default=None,
                    help="output folder (default: results/NAME)")
     add_cache_and_threads(p)
     p.add_argument("--fresh", action="store_true",

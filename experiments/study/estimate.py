@@ -1,6 +1,7 @@
 """What a study will cost, said before it starts: rendering time from a short probe per scene, peak
 memory from the largest buffers the plan will hold, and a refusal beyond the limits unless the
-caller says yes (`drtlab experiment --yes`, `run_experiment(..., yes=True)`).
+caller says yes (`drtlab experiment --yes`, `run_experiment(..., yes=True)`); the same for the
+references `drtlab ground-truth` renders (`check_references`, `--yes`).
 
 Time: each group's pending samples (its reference's and the runs not stored yet) over the speed of the reference's sampler,
 `stratified+importance` (one of the slower ones, so the estimate errs high), measured by the
@@ -93,16 +94,33 @@ def estimate(plan, gt_req: dict, gt_pending: dict, backend, threads=None, probe:
     return Estimate(seconds, ref_seconds, total, memory)
 
 
-def check_budget(e: Estimate, yes: bool, field: str = "--yes") -> None:
+def check_references(jobs, backend, root, threads=None, yes: bool = False, log=None) -> None:
+    """The cost of rendering references, said and checked as a study's before any is rendered:
+    `jobs` are (scene ref, integrator, resolution or None, spp, batch spp) (`drtlab ground-truth`)."""
+    from drtlab.experiments.study.ground_truth import pending_samples, scene_key_info
+    gt_req, gt_pending = {}, {}
+    for ref, integrator, res, spp, batch in jobs:
+        g = (ref, integrator, scene_key_info(ref, integrator, res, backend)[1])
+        gt_req[g] = (spp, batch)
+        gt_pending[g] = pending_samples(ref, integrator, g[2], spp, batch, backend, root)
+    what = "these references" if len(jobs) > 1 else "this reference"
+    check_budget(estimate([], gt_req, gt_pending, backend, threads, probe=False), yes, what=what)
+    if any(gt_pending.values()):
+        cost = estimate([], gt_req, gt_pending, backend, threads)
+        (log or print)(cost.line())
+        check_budget(cost, yes, what=what)
+
+
+def check_budget(e: Estimate, yes: bool, field: str = "--yes", what: str = "this study") -> None:
     """One InputError when the estimate passes a limit and the caller has not said yes."""
     if yes:
         return
     if e.seconds is not None and e.seconds > MAX_HOURS * 3600:
-        raise InputError(field, f"this study would render for about {_duration(e.seconds)} "
+        raise InputError(field, f"{what} would render for about {_duration(e.seconds)} "
                                 f"({e.samples / 1e9:,.1f} G samples; limit {MAX_HOURS:g} h): fewer "
                                 f"repetitions, spp or pixels, or --yes to run it anyway")
     have = machine_memory_mib()
     if have is not None and e.memory_mib > MEMORY_SHARE * have:
-        raise InputError(field, f"this study would need about {e.memory_mib:,.0f} MiB of memory, "
+        raise InputError(field, f"{what} would need about {e.memory_mib:,.0f} MiB of memory, "
                                 f"{e.memory_mib / have:.0%} of this machine's {have:,.0f} MiB (limit "
                                 f"{MEMORY_SHARE:.0%}): a smaller resolution, or --yes to run it anyway")

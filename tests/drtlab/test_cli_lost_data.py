@@ -36,3 +36,95 @@ def test_compare_of_one_image_twice_against_a_reference_is_refused(tmp_path, cap
     captured = capsys.readouterr()
     assert captured.out == "" and not out.exists()
     assert_one_line_error(captured.err, "B")
+
+
+@pytest.mark.parametrize("flag", ["--spp", "--batch-spp"])
+def test_a_reference_for_days_is_estimated_and_refused_before_it_renders(flag, tmp_path, capsys):
+    gt = tmp_path / "gt"
+    rc = main(["ground-truth", "aa-edges", flag, "2147483647", "--res", "16", "--gt-dir", str(gt)])
+    err = capsys.readouterr().err.splitlines()
+    assert rc == 2
+    assert err[-1].startswith("drtlab: --yes: this reference would render for about ") and "h" in err[-1]
+    assert any(line.startswith("estimate: about ") for line in err[:-1])       # said first
+    assert not (gt.exists() and any(gt.iterdir()))
+
+
+def test_a_short_reference_says_its_cost_and_renders(tmp_path, capsys):
+    gt = tmp_path / "gt"
+    assert main(["ground-truth", "aa-edges", "--spp", "16", "--res", "16", "--gt-dir", str(gt)]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.startswith("estimate: ") and "16 spp" in captured.out
+    assert main(["ground-truth", "aa-edges", "--spp", "16", "--res", "16", "--gt-dir", str(gt)]) == 0
+    assert "estimate" not in capsys.readouterr().err                        # reused: nothing to render
+
+
+# ---------------------------------------------------------------------------------------------------
+# Empty paths: Python reads '' as the current folder, so each would write where it was not asked to
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.fixture
+def elsewhere(tmp_path, monkeypatch):
+    """A current folder to watch, and the default results root outside it."""
+    cwd = tmp_path / "cwd"
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)
+    monkeypatch.setenv("DRTLAB_RESULTS", str(tmp_path / "results"))
+    monkeypatch.delenv("DRTLAB_GT_DIR", raising=False)
+    return tmp_path
+
+
+def study_file(tmp_path):
+    from fakes import tiny_real_experiment
+    p = tmp_path / "study.toml"
+    p.write_text(tiny_real_experiment("empty paths", ["soft-shadows"]))
+    return str(p)
+
+
+def refused(argv, field, tmp_path, capsys):
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert_one_line_error(captured.err, field)
+    assert list((tmp_path / "cwd").iterdir()) == [] and not (tmp_path / "results").exists()
+
+
+@pytest.mark.parametrize("argv, field", [
+    (["render", "aa-edges", "--res", "8", "--spp", "1", "--out", ""], "--out"),
+    (["experiment", "STUDY", "--out", ""], "--out"),
+    (["experiment", "STUDY", "--gt-dir", " "], "--gt-dir"),
+    (["ground-truth", "aa-edges", "--gt-dir", ""], "--gt-dir"),
+    (["compare", "A", "A", "--out-dir", ""], "--out-dir"),
+    (["compare", "A", "A", "--ref", ""], "--ref"),
+    (["compare", "A", "A", "--stderr", "", "--per-pixel-z"], "--stderr"),
+])
+def test_an_empty_path_flag_is_refused(argv, field, elsewhere, capsys):
+    from drtlab.kernels.imageio import write_exr
+    write_exr(elsewhere / "a.exr", np.full((4, 6, 3), 0.5), {"sampler": "none"})
+    argv = [{"STUDY": study_file(elsewhere), "A": str(elsewhere / "a.exr")}.get(a, a) for a in argv]
+    refused(argv, field, elsewhere, capsys)
+
+
+@pytest.mark.parametrize("variable, argv", [
+    ("DRTLAB_RESULTS", ["render", "aa-edges", "--res", "8", "--spp", "1"]),
+    ("DRTLAB_RESULTS", ["experiment", "STUDY"]),
+    ("DRTLAB_RESULTS", ["ground-truth", "aa-edges", "--spp", "4"]),
+    ("DRTLAB_RESULTS", ["compare", "A", "A"]),
+    ("DRTLAB_GT_DIR", ["ground-truth", "aa-edges", "--spp", "4"]),
+])
+def test_an_empty_results_variable_is_refused(variable, argv, elsewhere, monkeypatch, capsys):
+    from drtlab.kernels.imageio import write_exr
+    write_exr(elsewhere / "a.exr", np.full((4, 6, 3), 0.5), {"sampler": "none"})
+    argv = [{"STUDY": study_file(elsewhere), "A": str(elsewhere / "a.exr")}.get(a, a) for a in argv]
+    monkeypatch.setenv(variable, "")
+    refused(argv, variable, elsewhere, capsys)
+    assert main(["scenes"]) == 0                    # a command that writes nothing is not stopped
+
+
+def test_the_api_refuses_an_empty_output_folder(elsewhere):
+    import drtlab
+    from drtlab.errors import InputError
+    from fakes import tiny_real_experiment
+    with pytest.raises(InputError) as e:
+        drtlab.run_experiment(study_file(elsewhere), out_dir="", progress=False)
+    assert e.value.field == "out_dir"
+    assert list((elsewhere / "cwd").iterdir()) == []
