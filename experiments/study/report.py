@@ -79,9 +79,18 @@ def strip_name(exp, study, scene) -> str:
 
 
 def figure_files(exp) -> list[str]:
-    """Every figure a report of `exp` may write, relative to its folder."""
-    return ([f"{IMAGES_DIR}/{strip_name(exp, study, scene)}" for study in exp.studies for scene in study.scenes]
-            + [f"{PLOTS_DIR}/{n}" for study in exp.studies for n in plot_files(study.name).values()])
+    """Every figure a report of `exp` may write, relative to its folder; two studies whose names
+    would give one file (`a b` and `a-b`) are refused (InputError), neither overwriting the other."""
+    from drtlab.errors import InputError
+    seen: dict = {}
+    for i, study in enumerate(exp.studies):
+        for f in [f"{IMAGES_DIR}/{strip_name(exp, study, scene)}" for scene in study.scenes] + \
+                 [f"{PLOTS_DIR}/{n}" for n in plot_files(study.name).values()]:
+            other = seen.setdefault(f, study.name)
+            if other != study.name:
+                raise InputError(f"study[{i}].name", f"'{study.name}' and '{other}' would write the same "
+                                                     f"file ({f}): give the studies distinct names")
+    return list(seen)
 
 
 def _render_figures(exp, summary: Summary, plan, records: dict, out_dir: Path, gts: dict):

@@ -170,3 +170,12 @@ def test_the_command_refuses_a_folder_of_the_users_in_one_line(tmp_path, capsys)
     assert str(out) in err and "--allow-other-files" in err
     assert files_under(out) == {"data.csv"} and not (tmp_path / "gt").exists()
     os.remove(out / "data.csv")
+
+
+def test_two_studies_whose_files_would_collide_are_refused_before_any_work(tmp_path):
+    text = TINY + '\n[[study]]\nname = "strat "\nscenes = ["glossy"]\nsamplers = ["stratified"]\n'
+    twins = tiny_experiment(tmp_path, text.replace('name = "strat"', 'name = "strat!"'))
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match="would write the same file") as e:
+        run(twins, out, tmp_path / "gt")
+    assert e.value.field == "study[1].name" and not out.exists()
