@@ -26,6 +26,7 @@ MAX_HOURS = 24.0              # estimated rendering beyond this needs yes
 MEMORY_SHARE = 0.9            # of this machine's memory: an estimate beyond it needs yes
 BASE_MIB = 800.0
 BATCH_COPIES, REFERENCE_COPIES = 3, 6
+FAST_SAMPLES_PER_SECOND = 5e7  # above a CPU's speed on the simplest scene: fewer samples need no probe
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,8 @@ class Estimate:
         t = "time unknown" if self.seconds is None else (
             f"{_duration(self.seconds)} of rendering ({_duration(self.reference_seconds)} of it "
             f"the references)")
+        if self.seconds is not None and not self.reference_seconds:
+            t = f"{_duration(self.seconds)} of rendering"
         t = t if t.startswith(("under", "time")) else "about " + t
         return f"estimate: {t}, peak memory about {self.memory_mib:,.0f} MiB"
 
@@ -109,6 +112,17 @@ def check_references(jobs, backend, root, threads=None, yes: bool = False, log=N
         cost = estimate([], gt_req, gt_pending, backend, threads)
         (log or print)(cost.line())
         check_budget(cost, yes, what=what)
+
+
+def check_render(samples: int, speed, yes: bool, what: str, log=None) -> None:
+    """A command's rendering of `samples` at `speed()` (samples per second, a probe's, asked only
+    when `samples` could take more than a minute at the fastest speeds seen): said first, refused
+    past MAX_HOURS unless `yes`."""
+    if samples < FAST_SAMPLES_PER_SECOND * 60:
+        return
+    cost = Estimate(samples / speed(), 0.0, samples, BASE_MIB)
+    (log or print)(cost.line())
+    check_budget(cost, yes, what=what)
 
 
 def check_budget(e: Estimate, yes: bool, field: str = "--yes", what: str = "this study") -> None:

@@ -96,6 +96,7 @@ def refused(argv, field, tmp_path, capsys):
     (["compare", "A", "A", "--out-dir", ""], "--out-dir"),
     (["compare", "A", "A", "--ref", ""], "--ref"),
     (["compare", "A", "A", "--stderr", "", "--per-pixel-z"], "--stderr"),
+    (["sources", "aa-edges", "--out", ""], "--out"),
 ])
 def test_an_empty_path_flag_is_refused(argv, field, elsewhere, capsys):
     from drtlab.kernels.imageio import write_exr
@@ -128,3 +129,12 @@ def test_the_api_refuses_an_empty_output_folder(elsewhere):
         drtlab.run_experiment(study_file(elsewhere), out_dir="", progress=False)
     assert e.value.field == "out_dir"
     assert list((elsewhere / "cwd").iterdir()) == []
+
+
+def test_a_decomposition_for_days_is_estimated_and_refused_before_it_renders(tmp_path, capsys):
+    out = tmp_path / "sources"
+    rc = main(["sources", "aa-edges", "--spp", "65536", "--res", "2048", "--out", str(out)])
+    err = capsys.readouterr().err.splitlines()
+    assert rc == 2
+    assert err[-1].startswith("drtlab: --yes: this decomposition would render for about "), err
+    assert err[-2].startswith("estimate: about ") and not out.exists()
