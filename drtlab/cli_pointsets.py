@@ -4,10 +4,9 @@ the flag and exit 2, checked before any work (the point sets, scipy and matplotl
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, flag, int_flag
+from drtlab.cli_args import Help, flag, int_flag, path_flag
 from drtlab.errors import InputError
 from drtlab.experiments.pointsets import analysis as A
 from drtlab.experiments.pointsets import validate as V
@@ -129,7 +128,7 @@ def add_pointset_commands(sub) -> None:
                    help="independent realisations (seeds) the numbers are averaged over")
     p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="first seed")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=path_flag, default=None, metavar="DIR",
                    help="output folder (default: results/pointsets/NAME_nN_dI-J)")
     p.set_defaults(func=cmd_pointset)
 
@@ -168,6 +167,6 @@ def add_pointset_commands(sub) -> None:
     _battery_arguments(c, "a registered point set, light selection or lobe sampler (`drtlab "
                           "samplers` lists the point sets; a plugin's with --plugin)",
                        "false-alarm probability of the scorecard's tests together", _checkable_name)
-    c.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+    c.add_argument("--out", type=path_flag, default=None, metavar="FILE.json",
                    help="also write the scorecard as JSON")
     c.set_defaults(func=cmd_check)

@@ -97,6 +97,10 @@ def refused(argv, field, tmp_path, capsys):
     (["compare", "A", "A", "--ref", ""], "--ref"),
     (["compare", "A", "A", "--stderr", "", "--per-pixel-z"], "--stderr"),
     (["sources", "aa-edges", "--out", ""], "--out"),
+    (["pointset", "sobol", "--n", "64", "--out", ""], "--out"),
+    (["validate", "sobol", "--out", ""], "--out"),
+    (["lobe", "glossy", "--out", ""], "--out"),
+    (["audit-intervals", "--studies", "2", "--out", ""], "--out"),
 ])
 def test_an_empty_path_flag_is_refused(argv, field, elsewhere, capsys):
     from drtlab.kernels.imageio import write_exr
