@@ -181,7 +181,7 @@ def cmd_render(args) -> int:
     out = Path(args.out) if args.out is not None else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
-    fields.writable_location(out, "--out")
+    out = fields.writable_location(out, "--out")          # ~ expanded: where the check looked
     if args.variance and (args.integrator or scene.integrator) == "whitted":
         raise InputError("--variance", "the whitted integrator is deterministic (a fixed sub-pixel grid, "
                                        "no random samples): it has no standard error; use drt or path")
@@ -241,7 +241,7 @@ def cmd_experiment(args) -> int:
             if e.field != "out_dir":
                 raise
             raise InputError("--out", e.message) from None      # the API's argument is this flag
-    out = args.out if args.out is not None else default_out_dir(exp.name)
+    out = summary.out_dir
     _print_summary(exp, summary)
     print(f"report: {out / 'report.md'} (interactive: {out / 'report.html'})")
     return 0

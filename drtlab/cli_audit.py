@@ -25,7 +25,7 @@ def cmd_audit_intervals(args) -> int:
     from drtlab.experiments.audit.simulate import SETTINGS
     from drtlab.experiments.paths import results_root
     out = args.out if args.out is not None else results_root() / "audit"
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     result = run_audit(args.settings or list(SETTINGS), args.studies, args.seed, args.jobs)
     ok = bool(result["pass"])
     if args.renderer:

@@ -34,7 +34,7 @@ def cmd_lobe(args) -> int:
     out = args.out if args.out is not None else L.default_out_dir(args.kind, args.exponent,
                                                                   args.ior, args.strategy,
                                                                   args.roughness)
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     result = L.analyse(args.kind, exponent=args.exponent, ior=args.ior, albedo=args.albedo,
                        incident=args.incident, strategy=args.strategy, samples=args.samples,
                        seed=args.seed, roughness=args.roughness)

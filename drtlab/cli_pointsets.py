@@ -45,7 +45,7 @@ def _dims_text(text: str, field: str) -> tuple[int, int]:
 def cmd_pointset(args) -> int:
     A.check_request(args.name, args.n, args.realisations, args.seed)
     out = args.out if args.out is not None else A.default_out_dir(args.name, args.n, args.dims)
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     result = A.analyse(args.name, args.n, args.dims, args.realisations, args.seed)
     A.write_analysis(result, out, argv=sys.argv)
     s = result.summary
@@ -81,7 +81,7 @@ def cmd_check(args) -> int:
     from drtlab.estimators.registry import POINTSETS
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
-        fields.writable_location(args.out, "--out")
+        args.out = fields.writable_location(args.out, "--out")
     if args.name in POINTSETS:
         from drtlab.experiments.checks.pointset import check
         card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)

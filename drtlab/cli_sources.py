@@ -36,7 +36,7 @@ def cmd_sources(args) -> int:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, field="--res")
     out = args.out if args.out is not None else results_root() / "sources" / scene.name
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     _check_cost(scene, args)
     s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,
                          integrator=args.integrator, seed=args.seed, threads=args.threads,

@@ -93,6 +93,11 @@ class OutputRecord:
         if clash:
             raise InputError(field, f"{self.out_dir / clash[0]} was not written by drtlab and this sweep "
                                     "would overwrite it: move it, or choose another folder")
+        for parent in sorted({f.rpartition("/")[0] for f in planned} - {""}):
+            p = self.out_dir / parent
+            if os.path.lexists(p) and not p.is_dir():
+                raise InputError(field, f"{p} is not a folder, and this sweep writes files in it: move "
+                                        "it, or choose another folder")
         if allow_other_files:
             return
         shown = []

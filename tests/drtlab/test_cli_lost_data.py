@@ -142,3 +142,15 @@ def test_a_decomposition_for_days_is_estimated_and_refused_before_it_renders(tmp
     assert rc == 2
     assert err[-1].startswith("drtlab: --yes: this decomposition would render for about "), err
     assert err[-2].startswith("estimate: about ") and not out.exists()
+
+
+@pytest.mark.parametrize("argv, wrote", [
+    (["render", "aa-edges", "--res", "8", "--spp", "1", "--out", "~/r.exr"], "r.exr"),
+    (["pointset", "sobol", "--n", "16", "--realisations", "1", "--out", "~/p"], "p"),
+])
+def test_a_path_from_home_is_written_where_it_was_checked(argv, wrote, elsewhere, monkeypatch, capsys):
+    home = elsewhere / "home"
+    home.mkdir()
+    monkeypatch.setenv("HOME", str(home))
+    assert main(argv) == 0
+    assert (home / wrote).exists() and list((elsewhere / "cwd").iterdir()) == []

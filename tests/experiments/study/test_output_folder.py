@@ -129,6 +129,11 @@ def test_a_users_file_where_drtlab_would_write_is_never_overwritten(exp, tmp_pat
     with pytest.raises(InputError, match="report.md was not written by drtlab"):
         run(exp, out, gt, allow_other_files=True)
     assert (out / "report.md").read_text() == "my report" and files_under(out) == {"report.md"}
+    (out / "report.md").unlink()
+    (out / "images").write_text("a file where drtlab's folder goes")
+    with pytest.raises(InputError, match="images is not a folder"):
+        run(exp, out, gt, allow_other_files=True)
+    assert files_under(out) == {"images"}
 
 
 def test_a_folder_an_earlier_drtlab_wrote_is_adopted(exp, tmp_path):
