@@ -28,7 +28,7 @@ RECORD = ".drtlab-record.json"
 LOCK = ".lock"
 KEPT_BY_FRESH = ("sources/",)          # a cache keyed by its parameters and the code version
 FIXED_FILES = (store.RUNS_FILE, "runs.csv", "summary.json", "report.md", "report.html", "manifest.json",
-               store.CALIBRATION_FILE, LOCK)
+               store.CALIBRATION_FILE, LOCK, RECORD)           # the record too: its own temps are drtlab's
 _TEMP = re.compile(r"^\.(?P<name>.+)\.[a-z0-9_]{8}\.tmp$")     # tempfile.mkstemp's 8 characters
 _SHOWN = 3                             # other files a refusal names
 
@@ -88,7 +88,7 @@ class OutputRecord:
     def check(self, planned: list[str], allow_other_files: bool, field: str, skip=None) -> None:
         """Refuse (before any work) a folder with files drtlab did not write, unless allowed, and
         always a file of the user's where the sweep would write one."""
-        clash = [f for f in planned if f not in self.files and f != LOCK
+        clash = [f for f in planned if f not in self.files and f not in (LOCK, RECORD)
                  and os.path.lexists(self.out_dir / f)]
         if clash:
             raise InputError(field, f"{self.out_dir / clash[0]} was not written by drtlab and this sweep "
@@ -129,7 +129,7 @@ class OutputRecord:
         """`--fresh`: the recorded files (not the lock, the record or the kept caches), then the
         recorded folders left empty, deepest first."""
         for rel in sorted(self.files):
-            if rel != LOCK and not rel.startswith(KEPT_BY_FRESH):
+            if rel not in (LOCK, RECORD) and not rel.startswith(KEPT_BY_FRESH):
                 p = self.out_dir / rel
                 if p.is_file() or p.is_symlink():
                     p.unlink()

@@ -94,9 +94,10 @@ def test_resume_removes_only_drtlabs_orphaned_temps(exp, tmp_path):
     n = len(load_records(out))
     cell = sorted((out / "cells").glob("glossy*.npz"))[0].name
     orphans = [out / ".runs.parquet.k2j4h5g6.tmp", out / "cells" / f".{cell}.ab_cd9ef.tmp",
-               out / ".calibration.json.0123abcd.tmp"]
+               out / ".calibration.json.0123abcd.tmp", out / f".{RECORD}.zz_99abc.tmp"]
     for p in orphans:
         p.write_bytes(b"a kill's temp")
+    assert set(OutputRecord.load(out, []).others()) == set(USER_FILES)   # the temps are drtlab's
     _, fake = run(exp, out, gt, allow_other_files=True)
     assert fake.calls == 0 and len(load_records(out)) == n
     assert not any(p.exists() for p in orphans)
