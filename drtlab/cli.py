@@ -98,13 +98,10 @@ def _default_out(scene, args) -> Path:
     differ never overwrite each other. Whitted reads neither sampler nor seed."""
     from drtlab.estimators.registry import parse_integrator, parse_sampler
     from drtlab.experiments.paths import results_root
-    from drtlab.kernels.scene_model.scene_file import builtin_names
+    from drtlab.kernels.scene_model.scene_file import output_stem
     integ = parse_integrator(args.integrator or scene.integrator).name
     width, height = _render_size(scene, args)
-    parts = [scene.name]
-    if args.set or args.scene not in builtin_names():
-        parts.append(scene.content_hash()[:8])
-    parts.append(integ)
+    parts = [output_stem(scene, args.scene, bool(args.set)), integ]
     if integ != "whitted":
         parts.append(parse_sampler(args.sampler).name.replace("+", "_"))
     parts += [f"{width}x{height}",

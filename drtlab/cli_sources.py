@@ -23,7 +23,7 @@ def cmd_sources(args) -> int:
     from drtlab.estimators.pointsets.pickfreeze import BASE_LIMIT
     from drtlab.experiments.sources.decompose import variance_sources
     from drtlab.kernels.render import check_image_size
-    from drtlab.kernels.scene_model.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene, output_stem
     scene = load_scene(args.scene)
     from drtlab.estimators.strategies import environment_only
     if scene.environment is None and environment_only(args.strategy):
@@ -35,7 +35,7 @@ def cmd_sources(args) -> int:
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, field="--res")
-    out = args.out if args.out is not None else results_root() / "sources" / scene.name
+    out = args.out if args.out is not None else results_root() / "sources" / output_stem(scene, args.scene)
     out = fields.writable_location(out, "--out", folder=True)
     _check_cost(scene, args)
     s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,

@@ -154,3 +154,16 @@ def test_a_path_from_home_is_written_where_it_was_checked(argv, wrote, elsewhere
     monkeypatch.setenv("HOME", str(home))
     assert main(argv) == 0
     assert (home / wrote).exists() and list((elsewhere / "cwd").iterdir()) == []
+
+
+def test_two_scene_files_of_one_name_get_their_own_default_sources_folder(elsewhere, capsys):
+    from cli_util import GOOD_SCENE
+    for d, emission in (("one", "5.0"), ("two", "2.0")):
+        (elsewhere / d).mkdir()
+        (elsewhere / d / "s.toml").write_text(GOOD_SCENE.replace("emission = [5.0, 5.0, 5.0]",
+                                                                 f"emission = [{emission}, 1.0, 1.0]"))
+        assert main(["sources", str(elsewhere / d / "s.toml"), "--spp", "2", "--res", "8"]) == 0
+    folders = sorted(p.name for p in (elsewhere / "results" / "sources").iterdir())
+    assert len(folders) == 2 and all(f.startswith("s-") for f in folders), folders
+    assert main(["sources", "aa-edges", "--spp", "2", "--res", "8"]) == 0
+    assert (elsewhere / "results" / "sources" / "aa-edges" / "sources.json").is_file()
