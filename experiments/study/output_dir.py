@@ -41,6 +41,15 @@ def planned_files(exp, plan) -> list[str]:
             + figure_files(exp) + source_files(exp.studies))
 
 
+def checked_record(out_dir: Path, exp, plan, allow_other_files: bool, gt_root: Path):
+    """(the folder's record, the files the sweep of `plan` writes), the folder checked against them
+    (`OutputRecord.check`, field `out_dir`); nothing is written."""
+    planned = planned_files(exp, plan)
+    record = OutputRecord.load(out_dir, planned) if Path(out_dir).is_dir() else OutputRecord(out_dir)
+    record.check(planned, allow_other_files, "out_dir", skip=gt_root)
+    return record, planned
+
+
 class OutputRecord:
     """The files and folders of `out_dir` that drtlab wrote (relative, '/'-separated)."""
 

@@ -28,7 +28,7 @@ from drtlab.experiments.study.cell_growth import CellGrowth
 from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.estimate import check_budget, estimate
 from drtlab.experiments.study.interrupts import signals_held, stop_on_signals
-from drtlab.experiments.study.output_dir import OutputRecord, lock_output, planned_files
+from drtlab.experiments.study.output_dir import checked_record, lock_output
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
                                            plan_runs, run_fingerprint, run_record)
 from drtlab.experiments.study.progress import Progress
@@ -73,9 +73,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
     check_image_sizes(exp, gt_req)            # before the folder, its lock or a compile
-    planned = planned_files(exp, plan)
-    record = OutputRecord.load(out_dir, planned) if out_dir.is_dir() else OutputRecord(out_dir)
-    record.check(planned, allow_other_files, "out_dir", skip=gt_root)
+    record, planned = checked_record(out_dir, exp, plan, allow_other_files, gt_root)   # before any work
     cells = len({r.cell for r in plan})
     samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
     log(f"{exp.name} ({exp.profile}): {len(plan)} runs in {cells} cells of {len(gt_req)} scene(s), "
