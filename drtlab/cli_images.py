@@ -52,8 +52,8 @@ def cmd_compare(args) -> int:
                                  "writes): its noise would count as a difference; render it with "
                                  "--variance (only a deterministic whitted image needs none)")
     from drtlab.experiments.paths import results_root
-    out_dir = fields.writable_location(args.out_dir if args.out_dir is not None else results_root() / "compare",
-                                       "--out-dir", folder=True)
+    out_dir = args.out_dir if args.out_dir is not None else results_root() / "compare"
+    out_dir = fields.writable_location(out_dir, "--out-dir", folder=True)
     results = []
     for path, ref_path in pairs:
         se_img, n_img = se.get(path, (None, None))

@@ -1,7 +1,8 @@
 """What a study will cost, said before it starts: rendering time from a short probe per scene, peak
 memory from the largest buffers the plan will hold, and a refusal beyond the limits unless the
 caller says yes (`drtlab experiment --yes`, `run_experiment(..., yes=True)`); the same for the
-references `drtlab ground-truth` renders (`check_references`, `--yes`).
+references `drtlab ground-truth` renders (`check_references`) and for any command's rendering of a
+known number of samples (`check_render`: `drtlab sources`).
 
 Time: each group's pending samples (its reference's and the runs not stored yet) over the speed of the reference's sampler,
 `stratified+importance` (one of the slower ones, so the estimate errs high), measured by the
