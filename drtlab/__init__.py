@@ -123,7 +123,7 @@ def run_experiment(experiment, profile: str = "quick", name: str = "inline", **k
     one row per run / cell / fit / sampler against the baseline at N), `.plot_convergence()`, and
     `["studies"]` (summary.json's content); `open_results` reads the same back later. Other keyword
     arguments go to `drtlab.experiments.study.runner.run_experiment` (out_dir, gt_root, threads, fresh,
-    progress)."""
+    allow_other_files, progress)."""
     from drtlab.experiments.study.config import Experiment
     from drtlab.experiments.study.runner import run_experiment as _run_experiment
     if not isinstance(experiment, Experiment):

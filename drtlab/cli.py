@@ -8,8 +8,8 @@ from pathlib import Path
 
 from drtlab import fields
 from drtlab.cli_args import (Given, Help, Parser, add_cache_and_threads, add_progress_flag, flag,
-                             given_flags, int_flag, parse_overrides, resolution_flag, run_main,
-                             show_progress)
+                             given_flags, int_flag, parse_overrides, path_flag, resolution_flag,
+                             run_main, show_progress)
 from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY
 
@@ -82,13 +82,10 @@ def _default_out(scene, args) -> Path:
     differ never overwrite each other. Whitted reads neither sampler nor seed."""
     from drtlab.estimators.registry import parse_integrator, parse_sampler
     from drtlab.experiments.paths import results_root
-    from drtlab.kernels.scene_model.scene_file import builtin_names
+    from drtlab.kernels.scene_model.scene_file import output_stem
     integ = parse_integrator(args.integrator or scene.integrator).name
     width, height = _render_size(scene, args)
-    parts = [scene.name]
-    if args.set or args.scene not in builtin_names():
-        parts.append(scene.content_hash()[:8])
-    parts.append(integ)
+    parts = [output_stem(scene, args.scene, bool(args.set)), integ]
     if integ != "whitted":
         parts.append(parse_sampler(args.sampler).name.replace("+", "_"))
     parts += [f"{width}x{height}",
@@ -177,10 +174,10 @@ def cmd_render(args) -> int:
 
     scene = load_scene(args.scene, parse_overrides(args.set))
     _refuse_what_whitted_ignores(scene, args)
-    out = Path(args.out) if args.out else _default_out(scene, args)
+    out = Path(args.out) if args.out is not None else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
-    fields.writable_location(out, "--out")
+    out = fields.writable_location(out, "--out")          # ~ expanded: where the check looked
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")
@@ -232,11 +229,17 @@ def cmd_experiment(args) -> int:
     backend = default_backend()
     # The cluster is reached (or started) before any rendering: an unreachable scheduler is one line.
     with open_executor(args.scheduler, args.workers, backend) as executor:
-        summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
-                                 threads=args.threads, fresh=args.fresh, progress=show_progress(args),
-                                 argv=sys.argv, executor=executor,
-                                 keep_images=True if args.keep_images else None, yes=args.yes)
-    out = args.out if args.out is not None else default_out_dir(exp.name)
+        try:
+            summary = run_experiment(exp, out_dir=args.out, gt_root=args.gt_dir, backend=backend,
+                                     threads=args.threads, fresh=args.fresh, progress=show_progress(args),
+                                     argv=sys.argv, executor=executor,
+                                     keep_images=True if args.keep_images else None, yes=args.yes,
+                                     allow_other_files=args.allow_other_files)
+        except InputError as e:
+            if e.field != "out_dir":
+                raise
+            raise InputError("--out", e.message) from None      # the API's argument is this flag
+    out = summary.out_dir
     _print_summary(exp, summary)
     print(f"report: {out / 'report.md'} (interactive: {out / 'report.html'})")
     return 0
@@ -296,7 +299,7 @@ def _add_render(sub) -> None:
     r.add_argument("--tile", type=int_flag(1, 1 << 16), default=None,
                    help="tile edge in pixels (default: 16)")
     r.add_argument("--device", default="cpu", help="cpu or cuda")
-    r.add_argument("--out", default=None,
+    r.add_argument("--out", type=path_flag, default=None,
                    help="output .exr; a .png preview is written beside it (default: "
                         "results/renders/SCENE[-HASH]-INTEGRATOR-SAMPLER-WxH-SPPspp-sSEED.exr, HASH "
                         "of the --set overrides or a scene file, no sampler and seed for whitted)")
@@ -318,10 +321,14 @@ def _add_experiment(sub) -> None:
                    help="a built-in experiment (experiments/*.toml) or a path to a .toml file")
     p.add_argument("--profile", default="quick",
                    help="profile section of the file to use (e.g. quick, full)")
-    p.add_argument("--out", type=Path, default=None,
+    p.add_argument("--out", type=path_flag, default=None,
                    help="output folder (default: results/NAME)")
     add_cache_and_threads(p)
-    p.add_argument("--fresh", action="store_true", help="discard this experiment's earlier runs first")
+    p.add_argument("--fresh", action="store_true",
+                   help="discard this experiment's earlier runs first (only the files drtlab wrote)")
+    p.add_argument("--allow-other-files", action="store_true",
+                   help="write into an --out folder that holds files drtlab did not write (without it "
+                        "such a folder is refused); drtlab never removes or overwrites them")
     p.add_argument("--yes", action="store_true",
                    help="run even when the up-front estimate passes its limits (24 h of rendering, "
                         "90%% of this machine's memory); without it such a study is refused before "

@@ -91,6 +91,12 @@ def _resolution_text(text: str, field: str) -> str:
 resolution_flag = flag(_resolution_text)
 
 
+def path_flag(text: str):
+    """A path flag's value as a Path; an empty one is refused (Path('') is the current folder)."""
+    from pathlib import Path
+    return Path(flag(fields.path_text)(text))
+
+
 
 
 def _silence_stdout() -> None:
@@ -136,7 +142,7 @@ def show_progress(args) -> bool:
 
 def add_cache_and_threads(parser) -> None:
     from pathlib import Path
-    parser.add_argument("--gt-dir", type=Path, default=None,
+    parser.add_argument("--gt-dir", type=path_flag, default=None,
                         help="ground-truth cache (default: $DRTLAB_GT_DIR or results/ground-truth)")
     parser.add_argument("--threads", type=int_flag(1, 1024), default=None,
                         help="CPU threads per render (default: all cores)")

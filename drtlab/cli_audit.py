@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drtlab.cli_args import Help, flag, int_flag
+from drtlab.cli_args import Help, flag, int_flag, path_flag
 from drtlab.errors import InputError
 
 
@@ -25,7 +25,7 @@ def cmd_audit_intervals(args) -> int:
     from drtlab.experiments.audit.simulate import SETTINGS
     from drtlab.experiments.paths import results_root
     out = args.out if args.out is not None else results_root() / "audit"
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     result = run_audit(args.settings or list(SETTINGS), args.studies, args.seed, args.jobs)
     ok = bool(result["pass"])
     if args.renderer:
@@ -72,7 +72,7 @@ def add_audit_command(sub) -> None:
                    help="seed of the simulations: the same seed gives the same tables")
     p.add_argument("--jobs", type=int_flag(1, 1024), default=None, metavar="J",
                    help="processes (default: the cores, at most 8; DRTLAB_JOBS)")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=path_flag, default=None, metavar="DIR",
                    help="output folder (default: results/audit)")
     p.add_argument("--no-renderer", dest="renderer", action="store_false",
                    help="leave out the audit on the renderer (a white furnace at 200 x 5 seeds, "

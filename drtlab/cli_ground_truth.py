@@ -1,6 +1,8 @@
 """`drtlab ground-truth`: render (or reuse) the high-spp references of a scene or of an experiment."""
 from __future__ import annotations
 
+import sys
+
 from drtlab import fields
 from drtlab.cli_args import Help, add_cache_and_threads, add_progress_flag, int_flag, resolution_flag, show_progress
 from drtlab.errors import InputError
@@ -49,6 +51,9 @@ def cmd_ground_truth(args) -> int:
     jobs = _ground_truth_jobs(args)
     backend = default_backend()
     root = fields.writable_location(args.gt_dir or default_gt_root(), "--gt-dir", folder=True)
+    from drtlab.experiments.study.estimate import check_references
+    check_references(jobs, backend, root, args.threads, args.yes,       # said first, refused past limits
+                     log=lambda line: print(line, file=sys.stderr))
     for ref, integ, res, spp, batch in jobs:
         gt = groundtruth.ensure_ground_truth(ref, integ, res, spp, batch, backend, root,
                                              threads=args.threads, progress=show_progress(args))
@@ -68,7 +73,7 @@ def add_ground_truth_command(sub) -> None:
                         f"{DEFAULT_GT_SPP}), rounded up to whole batches of --batch-spp and at least "
                         "2 batches (the standard error needs them); the line printed says the spp "
                         "rendered")
-    g.add_argument("--batch-spp", type=int_flag(1), default=None,
+    g.add_argument("--batch-spp", type=int_flag(1, fields.MAX_COUNT), default=None,
                    help="samples per independent batch (default: the experiment's, or spp / 8 up to 512)")
     g.add_argument("--integrator", default=None,
                    help="drt | path (default: the scene's, or the experiment's)")
@@ -78,6 +83,10 @@ def add_ground_truth_command(sub) -> None:
                    help="render the references every scene of this experiment needs")
     g.add_argument("--profile", default=None,
                    help="profile of --experiment to use (default: quick; only with --experiment)")
+    g.add_argument("--yes", action="store_true",
+                   help="render even when the up-front estimate passes its limits (24 h of rendering, "
+                        "90%% of this machine's memory); without it such a reference is refused before "
+                        "anything is rendered")
     add_cache_and_threads(g)
     add_progress_flag(g)
     g.set_defaults(func=cmd_ground_truth)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help
+from drtlab.cli_args import Help, path_flag
 from drtlab.errors import InputError
 
 
@@ -25,6 +25,8 @@ def cmd_compare(args) -> int:
     if args.stderr is not None and not args.per_pixel_z:
         raise InputError("--stderr", "is read by --per-pixel-z only (the metrics need no standard "
                                      "error): add --per-pixel-z or drop --stderr")
+    pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
+    stems = tools.pair_stems(pairs, ("A", "B"))        # distinct output names, checked first
     images = {path: tools.read_image(path, field)[0]
               for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
     for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")):
@@ -63,8 +65,9 @@ def cmd_compare(args) -> int:
                                  f"({Path(path).stem}.stderr.exr, which `drtlab render --variance` "
                                  "writes): its noise would count as a difference; render it with "
                                  "--variance (only a deterministic whitted image needs none)")
-    out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
-    pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
+    from drtlab.experiments.paths import results_root
+    out_dir = args.out_dir if args.out_dir is not None else results_root() / "compare"
+    out_dir = fields.writable_location(out_dir, "--out-dir", folder=True)
     results = []
     for path, ref_path in pairs:
         se_img, n_img = se.get(path, (None, None))
@@ -75,9 +78,8 @@ def cmd_compare(args) -> int:
         results.append(result)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for (path, ref_path), result in zip(pairs, results):
-        stem = out_dir / f"{Path(path).stem}-vs-{Path(ref_path).stem}"
-        written += tools.write_error_images(images[path], images[ref_path], stem,
+    for (path, ref_path), stem, result in zip(pairs, stems, results):
+        written += tools.write_error_images(images[path], images[ref_path], out_dir / stem,
                                             z=None if result.z is None else result.z.image)
     print("wrote " + ", ".join(str(p) for p in written))
     return 0
@@ -86,7 +88,6 @@ def cmd_compare(args) -> int:
 
 def add_image_commands(sub) -> None:
     """The `info` and `compare` subcommands on the parser's subparsers `sub`."""
-    from drtlab.experiments.paths import results_root
     i = sub.add_parser("info", help="resolution, channel statistics, NaN/Inf/negative counts and "
                                     "drtlab metadata of an EXR", formatter_class=Help)
     i.add_argument("file", metavar="FILE", help="an EXR (or any image OpenImageIO reads)")
@@ -98,12 +99,13 @@ def add_image_commands(sub) -> None:
                                    "and a false-colour error PNG of A - B.")
     c.add_argument("a", metavar="A", help="image to measure")
     c.add_argument("b", metavar="B", help="reference image (or a second image, with --ref)")
-    c.add_argument("--ref", default=None, metavar="R", help="measure A and B against this reference")
+    c.add_argument("--ref", type=path_flag, default=None, metavar="R",
+                   help="measure A and B against this reference")
     c.add_argument("--per-pixel-z", action="store_true",
                    help="per-pixel z-scores (A - B) / standard error, with the reference's standard "
                         "error (and A's, when A.stderr.exr exists)")
-    c.add_argument("--stderr", default=None, metavar="FILE",
+    c.add_argument("--stderr", type=path_flag, default=None, metavar="FILE",
                    help="standard-error image of the reference (default: found beside it)")
-    c.add_argument("--out-dir", type=Path, default=results_root() / "compare",
-                   help="where the error images go")
+    c.add_argument("--out-dir", type=path_flag, default=None,
+                   help="where the error images go (default: results/compare)")
     c.set_defaults(func=cmd_compare)

@@ -5,10 +5,9 @@ after)."""
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, flag, int_flag
+from drtlab.cli_args import Help, flag, int_flag, path_flag
 from drtlab.errors import InputError
 from drtlab.experiments.tools import lobes as L
 
@@ -35,7 +34,7 @@ def cmd_lobe(args) -> int:
     out = args.out if args.out is not None else L.default_out_dir(args.kind, args.exponent,
                                                                   args.ior, args.strategy,
                                                                   args.roughness)
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     result = L.analyse(args.kind, exponent=args.exponent, ior=args.ior, albedo=args.albedo,
                        incident=args.incident, strategy=args.strategy, samples=args.samples,
                        seed=args.seed, roughness=args.roughness)
@@ -87,6 +86,6 @@ def add_lobe_command(sub) -> None:
                    default=L.DEFAULT_SAMPLES, metavar="N", help="samples per incident angle")
     p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="root seed (angle i uses S + 7919 i)")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=path_flag, default=None, metavar="DIR",
                    help="output folder (default: results/lobes/KIND[_nE][_aA][_iorI]_STRATEGY)")
     p.set_defaults(func=cmd_lobe)

@@ -4,10 +4,9 @@ the flag and exit 2, checked before any work (the point sets, scipy and matplotl
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Given, Help, flag, given_flags, int_flag
+from drtlab.cli_args import Given, Help, flag, given_flags, int_flag, path_flag
 from drtlab.errors import InputError
 from drtlab.experiments.pointsets import analysis as A
 from drtlab.experiments.pointsets import validate as V
@@ -55,7 +54,7 @@ def _dims_text(text: str, field: str) -> tuple[int, int]:
 def cmd_pointset(args) -> int:
     A.check_request(args.name, args.n, args.realisations, args.seed)
     out = args.out if args.out is not None else A.default_out_dir(args.name, args.n, args.dims)
-    fields.writable_location(out, "--out", folder=True)
+    out = fields.writable_location(out, "--out", folder=True)
     result = A.analyse(args.name, args.n, args.dims, args.realisations, args.seed)
     A.write_analysis(result, out, argv=sys.argv)
     s = result.summary
@@ -93,7 +92,7 @@ def cmd_check(args) -> int:
     from drtlab.estimators.registry import POINTSETS
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
-        fields.writable_location(args.out, "--out")
+        args.out = fields.writable_location(args.out, "--out")
     if "pixels" in given_flags(args) and args.name not in POINTSETS:
         raise InputError("--pixels", f"sizes a point set's battery; {args.name} is not a point set "
                                      "and its card has no battery: drop --pixels")
@@ -146,7 +145,7 @@ def add_pointset_commands(sub) -> None:
                    help="independent realisations (seeds) the numbers are averaged over")
     p.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, metavar="S",
                    help="first seed")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=path_flag, default=None, metavar="DIR",
                    help="output folder (default: results/pointsets/NAME_nN_dI-J)")
     p.set_defaults(func=cmd_pointset)
 
@@ -190,6 +189,6 @@ def add_pointset_commands(sub) -> None:
     _battery_arguments(c, "a registered point set, light selection, lobe sampler or integrator (`drtlab "
                           "samplers` lists the point sets; a plugin's with --plugin)",
                        "false-alarm probability of the scorecard's tests together", _checkable_name)
-    c.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+    c.add_argument("--out", type=path_flag, default=None, metavar="FILE.json",
                    help="also write the scorecard as JSON")
     c.set_defaults(func=cmd_check)

@@ -4,10 +4,9 @@ before any work (Warp and matplotlib load after)."""
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from drtlab import fields
-from drtlab.cli_args import Help, flag, int_flag, resolution_flag
+from drtlab.cli_args import Help, flag, int_flag, path_flag, resolution_flag
 from drtlab.errors import InputError
 from drtlab.estimators.dimensions import GROUPS
 from drtlab.estimators.strategies import STRATEGIES
@@ -23,7 +22,7 @@ def cmd_sources(args) -> int:
     from drtlab.experiments.sources import report
     from drtlab.experiments.sources.decompose import max_seed, variance_sources
     from drtlab.kernels.render import check_image_size
-    from drtlab.kernels.scene_model.scene_file import load_scene
+    from drtlab.kernels.scene_model.scene_file import load_scene, output_stem
     scene = load_scene(args.scene)
     from drtlab.estimators.strategies import environment_only
     if scene.environment is None and environment_only(args.strategy):
@@ -36,8 +35,9 @@ def cmd_sources(args) -> int:
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, field="--res")
-    out = args.out if args.out is not None else results_root() / "sources" / scene.name
-    fields.writable_location(out, "--out", folder=True)
+    out = args.out if args.out is not None else results_root() / "sources" / output_stem(scene, args.scene)
+    out = fields.writable_location(out, "--out", folder=True)
+    _check_cost(scene, args)
     s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,
                          integrator=args.integrator, seed=args.seed, threads=args.threads,
                          metric=args.metric)
@@ -45,6 +45,23 @@ def cmd_sources(args) -> int:
     print("\n".join(report.table_lines(s)))
     print(f"wrote {out}/: {', '.join(report.FILES)} ({s.seconds:.1f} s, rendering {s.render_seconds:.1f} s)")
     return 0
+
+
+def _check_cost(scene, args) -> None:
+    """The decomposition's samples (each base sample renders len(groups) + 2, and the pilot), said
+    first and refused past the study limits unless --yes (study/estimate.py)."""
+    from drtlab.estimators.defaults import DEFAULT_SAMPLER
+    from drtlab.experiments.sources.decompose import PILOT_SPP, check_groups
+    from drtlab.experiments.study.estimate import PROBE_SECONDS, check_render
+    from drtlab.kernels.render import measured_speed
+    width, height = (scene.width, scene.height) if args.res is None else \
+        fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
+    samples = (args.spp * (len(check_groups(args.groups)) + 2) + PILOT_SPP) * width * height
+    sampler = f"independent+{args.strategy}" if args.strategy else DEFAULT_SAMPLER
+    check_render(samples, lambda: measured_speed(scene, sampler, args.integrator, res=(width, height),
+                                                 threads=args.threads, probe_seconds=PROBE_SECONDS,
+                                                 full_size=True),
+                 args.yes, "this decomposition", log=lambda line: print(line, file=sys.stderr))
 
 
 def add_sources_command(sub) -> None:
@@ -81,6 +98,9 @@ def add_sources_command(sub) -> None:
                         "group in their top byte)")
     p.add_argument("--threads", type=int_flag(1, 1024), default=None,
                    help="CPU threads (default: all cores)")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the up-front estimate passes 24 h of rendering (said first; "
+                        "without it such a decomposition is refused before it starts)")
+    p.add_argument("--out", type=path_flag, default=None, metavar="DIR",
                    help="output folder (default: results/sources/SCENE)")
     p.set_defaults(func=cmd_sources)

@@ -230,6 +230,14 @@ def resolution(v: Any, field: str, aspect: float | None = None,
     raise InputError(field, f"must be {allowed}, got {show(v)}")
 
 
+def path_text(text: str, field: str) -> str:
+    """A path from a flag or the environment: an empty one is refused (Python reads '' as the
+    current folder, so it would write there, or to the default, unasked)."""
+    if not text.strip():
+        raise InputError(field, "is empty: give a path, or leave it out for the default")
+    return text
+
+
 def writable_location(path, field: str, folder: bool = False):
     """Check, before any long work, that `path` (a file, or a folder with `folder`) can be written:
     its first existing ancestor is a folder in which files can be created. Folders made to probe are
@@ -237,6 +245,8 @@ def writable_location(path, field: str, folder: bool = False):
     import os
     import tempfile
     from pathlib import Path
+    if isinstance(path, str):
+        path_text(path, field)
     target = Path(path).expanduser()
     if folder and target.exists() and not target.is_dir():
         raise InputError(field, f"{target} exists and is not a folder")

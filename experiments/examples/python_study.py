@@ -50,8 +50,11 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _command(args) -> int:
+    # allow_other_files: the folder also holds this script's own figure (below), which drtlab
+    # then leaves alone (without it a rerun would refuse a folder holding files it did not write).
     result = drtlab.run_experiment(STUDY, name="example-python-study", out_dir=args.out,
-                                   gt_root=args.out / "ground-truth", progress=False)
+                                   gt_root=args.out / "ground-truth", progress=False,
+                                   allow_other_files=True)
     cells = result.cells
     print(cells[["scene", "sampler", "spp", "error", "error_lo", "error_hi"]].to_string(index=False))
     print(result.slopes[["scene", "sampler", "slope", "slope_lo", "slope_hi"]].to_string(index=False))

@@ -1,6 +1,8 @@
 """What a study will cost, said before it starts: rendering time from a short probe per scene, peak
 memory from the largest buffers the plan will hold, and a refusal beyond the limits unless the
-caller says yes (`drtlab experiment --yes`, `run_experiment(..., yes=True)`).
+caller says yes (`drtlab experiment --yes`, `run_experiment(..., yes=True)`); the same for the
+references `drtlab ground-truth` renders (`check_references`) and for any command's rendering of a
+known number of samples (`check_render`: `drtlab sources`).
 
 Time: each group's pending samples (its reference's and the runs not stored yet) over the speed of the reference's sampler,
 `stratified+importance` (one of the slower ones, so the estimate errs high), measured by the
@@ -24,6 +26,7 @@ MAX_HOURS = 24.0              # estimated rendering beyond this needs yes
 MEMORY_SHARE = 0.9            # of this machine's memory: an estimate beyond it needs yes
 BASE_MIB = 800.0
 BATCH_COPIES, REFERENCE_COPIES = 3, 6
+FAST_SAMPLES_PER_SECOND = 5e7  # above a CPU's speed on the simplest scene: fewer samples need no probe
 
 
 @dataclass(frozen=True)
@@ -37,6 +40,8 @@ class Estimate:
         t = "time unknown" if self.seconds is None else (
             f"{_duration(self.seconds)} of rendering ({_duration(self.reference_seconds)} of it "
             f"the references)")
+        if self.seconds is not None and not self.reference_seconds:
+            t = f"{_duration(self.seconds)} of rendering"
         t = t if t.startswith(("under", "time")) else "about " + t
         return f"estimate: {t}, peak memory about {self.memory_mib:,.0f} MiB"
 
@@ -92,16 +97,44 @@ def estimate(plan, gt_req: dict, gt_pending: dict, backend, threads=None, probe:
     return Estimate(seconds, ref_seconds, total, memory)
 
 
-def check_budget(e: Estimate, yes: bool, field: str = "--yes") -> None:
+def check_references(jobs, backend, root, threads=None, yes: bool = False, log=None) -> None:
+    """The cost of rendering references, said and checked as a study's before any is rendered:
+    `jobs` are (scene ref, integrator, resolution or None, spp, batch spp) (`drtlab ground-truth`)."""
+    from drtlab.experiments.study.ground_truth import pending_samples, scene_key_info
+    gt_req, gt_pending = {}, {}
+    for ref, integrator, res, spp, batch in jobs:
+        g = (ref, integrator, scene_key_info(ref, integrator, res, backend)[1])
+        gt_req[g] = (spp, batch)
+        gt_pending[g] = pending_samples(ref, integrator, g[2], spp, batch, backend, root)
+    what = "these references" if len(jobs) > 1 else "this reference"
+    check_budget(estimate([], gt_req, gt_pending, backend, threads, probe=False), yes, what=what)
+    if any(gt_pending.values()):
+        cost = estimate([], gt_req, gt_pending, backend, threads)
+        (log or print)(cost.line())
+        check_budget(cost, yes, what=what)
+
+
+def check_render(samples: int, speed, yes: bool, what: str, log=None) -> None:
+    """A command's rendering of `samples` at `speed()` (samples per second, a probe's, asked only
+    when `samples` could take more than a minute at the fastest speeds seen): said first, refused
+    past MAX_HOURS unless `yes`."""
+    if samples < FAST_SAMPLES_PER_SECOND * 60:
+        return
+    cost = Estimate(samples / speed(), 0.0, samples, BASE_MIB)
+    (log or print)(cost.line())
+    check_budget(cost, yes, what=what)
+
+
+def check_budget(e: Estimate, yes: bool, field: str = "--yes", what: str = "this study") -> None:
     """One InputError when the estimate passes a limit and the caller has not said yes."""
     if yes:
         return
     if e.seconds is not None and e.seconds > MAX_HOURS * 3600:
-        raise InputError(field, f"this study would render for about {_duration(e.seconds)} "
+        raise InputError(field, f"{what} would render for about {_duration(e.seconds)} "
                                 f"({e.samples / 1e9:,.1f} G samples; limit {MAX_HOURS:g} h): fewer "
                                 f"repetitions, spp or pixels, or --yes to run it anyway")
     have = machine_memory_mib()
     if have is not None and e.memory_mib > MEMORY_SHARE * have:
-        raise InputError(field, f"this study would need about {e.memory_mib:,.0f} MiB of memory, "
+        raise InputError(field, f"{what} would need about {e.memory_mib:,.0f} MiB of memory, "
                                 f"{e.memory_mib / have:.0%} of this machine's {have:,.0f} MiB (limit "
                                 f"{MEMORY_SHARE:.0%}): a smaller resolution, or --yes to run it anyway")

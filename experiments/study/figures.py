@@ -327,12 +327,19 @@ def plot_efficiency(study: StudyResult, path: Path | None = None):
     return path
 
 
+def plot_files(study_name: str) -> dict:
+    """The file names of a study's three plots: {"rmse_vs_spp", "rmse_vs_seconds", "efficiency"} -> name."""
+    name = slug(study_name)
+    return {"rmse_vs_spp": f"{name}-rmse-vs-spp.png", "rmse_vs_seconds": f"{name}-rmse-vs-seconds.png",
+            "efficiency": f"{name}-efficiency.png"}
+
+
 def plot_study(study: StudyResult, plots_dir: Path) -> dict:
     """The three plots of a study: {"rmse_vs_spp", "rmse_vs_seconds", "efficiency"} -> file."""
-    name = slug(study.name)
-    return {"rmse_vs_spp": plot_error_vs_spp(study, plots_dir / f"{name}-rmse-vs-spp.png"),
-            "rmse_vs_seconds": plot_error_vs_seconds(study, plots_dir / f"{name}-rmse-vs-seconds.png"),
-            "efficiency": plot_efficiency(study, plots_dir / f"{name}-efficiency.png")}
+    names = plot_files(study.name)
+    return {"rmse_vs_spp": plot_error_vs_spp(study, plots_dir / names["rmse_vs_spp"]),
+            "rmse_vs_seconds": plot_error_vs_seconds(study, plots_dir / names["rmse_vs_seconds"]),
+            "efficiency": plot_efficiency(study, plots_dir / names["efficiency"])}
 
 
 def choose_crop(gt: np.ndarray) -> tuple[int, int, int]:

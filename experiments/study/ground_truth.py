@@ -22,7 +22,6 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import math
-import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -44,6 +43,7 @@ from drtlab.experiments.seeds import gt_seed, short_hash
 # independent (disjoint seeds), so their spread is still an honest standard error.
 GT_SAMPLER = "stratified+importance"
 GT_FORMAT = 2                            # bump when the storage, seeding or estimator changes
+GT_FILES = ("gt.npz", "mean.exr", "stderr.exr", "manifest.json")     # what a reference's folder holds
 
 
 @dataclass
@@ -152,7 +152,8 @@ def ensure_ground_truth(scene_ref: SceneRef, integrator: str, resolution, spp: i
     state = _load_state(d, key)
     if isinstance(state, tuple):
         log(f"ground truth {d.name}: {state[1]} changed since it was made; recomputing")
-        shutil.rmtree(d, ignore_errors=True)
+        for name in GT_FILES:                     # the reference's own files, nothing else of the folder
+            (d / name).unlink(missing_ok=True)
         state = None
     if state is not None:
         batch_spp = int(state["batch_spp"])            # a stored reference keeps its batch size

@@ -8,7 +8,7 @@ from drtlab.experiments.study.analysis import span_text
 from drtlab.experiments.stats.comparisons import ALPHA, DRAWS
 from drtlab.experiments.stats.resolution import ERRATIC_SIGMA, TAIL_FRACTION, XI_MAX
 from drtlab.experiments.study.run_store import CAL_BATCHES, MIN_TIMED_SECONDS
-from drtlab.experiments.study.figures import plot_study, slug, strip_job
+from drtlab.experiments.study.figures import plot_files, plot_study, slug, strip_job
 from drtlab.experiments.study.ground_truth import GT_SAMPLER
 from drtlab.experiments.files import atomic_write_text
 from drtlab.experiments.error_metrics import METRICS
@@ -70,11 +70,34 @@ def _rel(p: Path, base: Path) -> str:
 # Figures
 # ---------------------------------------------------------------------------------------------------
 
+IMAGES_DIR, PLOTS_DIR = "images", "plots"
+
+
+def strip_name(exp, study, scene) -> str:
+    """The file name of a study's image strip of `scene` (a SceneRef), in `images/`."""
+    return f"{slug(study.name)}--{scene.label}.png" if len(exp.studies) > 1 else f"{scene.label}.png"
+
+
+def figure_files(exp) -> list[str]:
+    """Every figure a report of `exp` may write, relative to its folder; two studies whose names
+    would give one file (`a b` and `a-b`) are refused (InputError), neither overwriting the other."""
+    from drtlab.errors import InputError
+    seen: dict = {}
+    for i, study in enumerate(exp.studies):
+        for f in [f"{IMAGES_DIR}/{strip_name(exp, study, scene)}" for scene in study.scenes] + \
+                 [f"{PLOTS_DIR}/{n}" for n in plot_files(study.name).values()]:
+            other = seen.setdefault(f, study.name)
+            if other != study.name:
+                raise InputError(f"study[{i}].name", f"'{study.name}' and '{other}' would write the same "
+                                                     f"file ({f}): give the studies distinct names")
+    return list(seen)
+
+
 def _render_figures(exp, summary: Summary, plan, records: dict, out_dir: Path, gts: dict):
     """Every figure, in parallel (they are independent): one image strip per scene of each study
     (repetition 0), three plots per study. Returns (strips: (study, scene label) -> file,
     plots: study name -> {plot kind: file})."""
-    plots_dir, images_dir = out_dir / "plots", out_dir / "images"
+    plots_dir, images_dir = out_dir / PLOTS_DIR, out_dir / IMAGES_DIR
     plots_dir.mkdir(parents=True, exist_ok=True)
     images_dir.mkdir(parents=True, exist_ok=True)
     calls: list = []
@@ -88,7 +111,7 @@ def _render_figures(exp, summary: Summary, plan, records: dict, out_dir: Path, g
             run_ids = {(r.sampler, r.spp): r.cell for r in first}
             # The shown image's own HDR-FLIP (stored when the cell's flip_runs reaches repetition 0).
             flips = {(r.sampler, r.spp): records[r.run_id].get("flip") for r in first}
-            name = f"{slug(study.name)}--{scene.label}.png" if len(exp.studies) > 1 else f"{scene.label}.png"
+            name = strip_name(exp, study, scene)
             calls.append((strip_job, (f"{scene.label} ({study.name})", study.samplers,
                                       study.settings.strip_spp, gts[g]["dir"], run_ids, out_dir,
                                       images_dir / name), {"flips": flips}))

@@ -27,7 +27,8 @@ from drtlab.experiments.study import ground_truth as gtmod
 from drtlab.experiments.study.cell_growth import CellGrowth
 from drtlab.experiments.study.config import Experiment
 from drtlab.experiments.study.estimate import check_budget, estimate
-from drtlab.experiments.study.output_dir import clean_outputs, lock_output, remove_orphaned_temps
+from drtlab.experiments.study.interrupts import signals_held, stop_on_signals
+from drtlab.experiments.study.output_dir import checked_record, lock_output
 from drtlab.experiments.study.plan import (Batch, RunSpec, batch_ranges, check_image_sizes, gt_requirements,
                                            integrator_notes, plan_runs, run_fingerprint, run_record)
 from drtlab.experiments.study.progress import Progress
@@ -49,14 +50,16 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
                    progress: bool = True, clock: Callable[[], float] = time.perf_counter,
                    log: Callable[[str], None] | None = None, analyze: bool = True,
                    argv: list[str] | None = None, executor=None,
-                   keep_images: bool | None = None, yes: bool = False) -> ExperimentResult:
+                   keep_images: bool | None = None, yes: bool = False,
+                   allow_other_files: bool = False) -> ExperimentResult:
     """Run (or resume) the sweep, then analyse it and write every output. Returns the run counts,
     the wall time and (with `analyze`) the typed summary; `result["studies"]` reads summary.json's
     content. With an `executor` (`cluster.DaskExecutor`) the batches render on its cluster and this
     process writes their results; the timing-only batches and the analysis stay here.
     `keep_images` (default: each study's setting) keeps every repetition's image in its cell file.
     Before any output: the study's estimated rendering time and memory (estimate.py), refused past
-    its limits unless `yes`."""
+    its limits unless `yes`, and a folder holding files drtlab did not write, refused unless
+    `allow_other_files` (output_dir.py: drtlab removes only what it wrote)."""
     if backend is None:
         from drtlab.experiments.study.backend import default_backend
         backend = default_backend()
@@ -70,6 +73,7 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     plan = plan_runs(exp, backend)
     gt_req = gt_requirements(exp, plan)
     check_image_sizes(exp, gt_req)            # before the folder, its lock or a compile
+    record, planned = checked_record(out_dir, exp, plan, allow_other_files, gt_root)   # before any work
     cells = len({r.cell for r in plan})
     samples = sum(r.spp * r.resolution[0] * r.resolution[1] for r in plan)
     # The plan, the compile and the estimate are said once the study has passed its limits: a
@@ -95,13 +99,15 @@ def run_experiment(exp: Experiment, out_dir: Path | None = None, gt_root: Path |
     out_dir.mkdir(parents=True, exist_ok=True)
     lock = lock_output(out_dir)               # one sweep at a time per output folder
     try:
+        record.enter(planned)
         if fresh:
-            clean_outputs(out_dir)
-        remove_orphaned_temps(out_dir)
+            record.remove_outputs()
+        record.remove_orphaned_temps()
         sweep = _Sweep(plan, out_dir, gt_root, backend, threads, clock, log,
                        records=store.load_records(out_dir), executor=executor,
                        studies={s.name: s for s in exp.studies}, keep_images=keep_images)
-        sweep.run(gt_req, gt_pending, progress, precompiled)
+        with stop_on_signals(log):            # SIGTERM, SIGHUP: the finished batches kept
+            sweep.run(gt_req, gt_pending, progress, precompiled)
         if analyze:
             sweep.calibrate()
             if any(st.settings.variance_sources for st in exp.studies):
@@ -324,23 +330,24 @@ class _Sweep(CellGrowth):
         for m in self._plugin_metrics(b.runs[0].studies):
             for row, value in zip(metrics, m.score(images, ctx.gt.mean, ctx.gt.stderr)):
                 row[m.record] = value
-        for r, fp, m in zip(b.runs, b.fingerprints, metrics):
-            self.records[r.run_id] = run_record(r, fp, b, result, wall, ctx.gt, m,
-                                                 self._code(r.sampler), worker)
-        if b.cell not in self.cell_files:
-            self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
-        self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(
-            b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]),
-            store.CellMoments(len(b.runs), sums.mean, sums.m2))
-        self.dirty.add(b.cell)
-        if time.monotonic() - self._flushed_at >= FLUSH_SECONDS:
-            self._flush()
-        self._seconds["render_total"] += float(result.render_seconds)
-        self.stats["runs_new"] += len(b.runs)
-        self.stats["batches"] += 1
-        r0 = b.runs[0]
-        self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
-                        f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
+        with signals_held():                  # a batch is reported finished once it is dirty
+            for r, fp, m in zip(b.runs, b.fingerprints, metrics):
+                self.records[r.run_id] = run_record(r, fp, b, result, wall, ctx.gt, m,
+                                                     self._code(r.sampler), worker)
+            if b.cell not in self.cell_files:
+                self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
+            self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(
+                b.batch_id, images, [r.rep for r in b.runs], self._keeps_images(b.runs[0]),
+                store.CellMoments(len(b.runs), sums.mean, sums.m2))
+            self.dirty.add(b.cell)
+            if time.monotonic() - self._flushed_at >= FLUSH_SECONDS:
+                self._flush()
+            self._seconds["render_total"] += float(result.render_seconds)
+            self.stats["runs_new"] += len(b.runs)
+            self.stats["batches"] += 1
+            r0 = b.runs[0]
+            self.bar.update(len(b.runs) * r0.spp * r0.resolution[0] * r0.resolution[1],
+                            f"{r0.scene.label} {r0.sampler} {r0.spp}spp", runs_done=len(b.runs))
 
     def _first_runs(self, b: Batch, key: str, default: int | None) -> int | None:
         """How many of a batch's runs a per-run limit of the cell's settings (`key`: a cell's first
@@ -352,16 +359,17 @@ class _Sweep(CellGrowth):
         """Commit the batches rendered since the last flush (run_store's protocol: table, then the
         changed cell files). Mid-group the cell files are written uncompressed (the group's cells
         take turns, so each commit rewrites all of them); at the group's end each is compressed."""
-        if self.dirty:
-            store.commit(self.out_dir, self.records, [r.run_id for r in self.plan],
-                         {c: self.cell_files[c] for c in self.dirty}, compress=group_end)
-            self.loose = self.loose - self.dirty if group_end else self.loose | self.dirty
-            self.dirty.clear()
-        if group_end:
-            for c in sorted(self.loose):
-                store.save_cell(self.out_dir, c, self.cell_files[c])
-            self.loose.clear()
-        self._flushed_at = time.monotonic()
+        with signals_held():                  # a commit is never cut short
+            if self.dirty:
+                store.commit(self.out_dir, self.records, [r.run_id for r in self.plan],
+                             {c: self.cell_files[c] for c in self.dirty}, compress=group_end)
+                self.loose = self.loose - self.dirty if group_end else self.loose | self.dirty
+                self.dirty.clear()
+            if group_end:
+                for c in sorted(self.loose):
+                    store.save_cell(self.out_dir, c, self.cell_files[c])
+                self.loose.clear()
+            self._flushed_at = time.monotonic()
 
     def calibrate(self) -> None:
         """Timing-only batches for the cells whose own batches took under store.MIN_TIMED_SECONDS in all

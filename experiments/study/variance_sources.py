@@ -27,6 +27,13 @@ def stem(study, scene) -> str:
             f"{study.metric}")
 
 
+def source_files(studies) -> list[str]:
+    """Every file `decompose_studies` may write, relative to the study's folder."""
+    return [f"{SOURCES_DIR}/{stem(study, scene)}{suffix}" for study in studies
+            if study.settings.variance_sources for scene in study.scenes
+            for suffix in (".json", ".png", ".params.json")]
+
+
 def decompose_studies(studies, out_dir: Path, backend, threads=None, log=print) -> float:
     """Run (or reuse) every decomposition the studies ask for; returns the seconds spent."""
     from drtlab.experiments.files import atomic_write_bytes, atomic_write_json

@@ -191,6 +191,29 @@ def compare_images(a: np.ndarray, b: np.ndarray, *, names=("A", "B"), se_a=None,
                       mae=m["mae"], ciede2000=m["ciede2000"], mean_error=m["mean_error"], z=z)
 
 
+def pair_stems(pairs: list[tuple[str, str]], fields: tuple[str, ...]) -> list[str]:
+    """The output stem of each (image, reference) pair, `IMAGE-vs-REFERENCE` by file stems; where
+    two pairs would share one, their images are named by as many trailing folders as tell them
+    apart (`run1_img-vs-c`, `run2_img-vs-c`). Two pairs of the same image are refused (InputError
+    naming the second's field in `fields`)."""
+    import os
+
+    def tail(path: str, k: int) -> str:
+        parts = Path(os.path.abspath(path)).with_suffix("").parts
+        return "_".join(p.strip("/") or "root" for p in parts[-k:])
+
+    images = [a for a, _ in pairs]
+    for i, a in enumerate(images):
+        if os.path.abspath(a) in {os.path.abspath(x) for x in images[:i]}:
+            raise InputError(fields[i], f"{a} is given twice; each image is compared once")
+    depth = max(len(Path(os.path.abspath(a)).parts) for a in images)
+    for k in range(1, depth + 1):
+        stems = [f"{tail(a, k) if k > 1 else Path(a).stem}-vs-{Path(r).stem}" for a, r in pairs]
+        if len(set(stems)) == len(stems):
+            return stems
+    raise AssertionError("distinct paths have distinct tails")
+
+
 def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
                        z: np.ndarray | None = None) -> list[Path]:
     """`STEM.diff.exr` (signed A - B, linear) and `STEM.error.png` (false-colour |A - B| luminance,

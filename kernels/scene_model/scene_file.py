@@ -33,6 +33,14 @@ def builtin_names() -> list[str]:
     return sorted(p.stem for p in BUILTIN_DIR.glob("*.toml"))
 
 
+def output_stem(scene, given: str, overridden: bool = False) -> str:
+    """A scene's part of a default output name: its name, with a hash of its content for a scene
+    file or overrides, so that two scene files of one name never write the same default file."""
+    if overridden or given not in builtin_names():
+        return f"{scene.name}-{scene.content_hash()[:8]}"
+    return scene.name
+
+
 def builtin_descriptions() -> dict[str, str]:
     """Built-in name -> its one-line description (each scene is fully validated on the way)."""
     return {name: load_scene(name).description for name in builtin_names()}

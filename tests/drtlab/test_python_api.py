@@ -49,8 +49,10 @@ def test_example_study_runs_and_its_tables_are_tidy(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "figure redrawn" in printed and (out / "redrawn-convergence.png").stat().st_size > 1000
     result = drtlab.run_experiment(example_python_study.STUDY, name="example-python-study",
-                                   out_dir=out, gt_root=out / "ground-truth", progress=False)
+                                   out_dir=out, gt_root=out / "ground-truth", progress=False,
+                                   allow_other_files=True)   # the example's own figure is there
     assert result.stats["runs_new"] == 0                     # everything reused: a resume
+    assert (out / "redrawn-convergence.png").is_file()
     runs, cells, slopes = result.runs, result.cells, result.slopes
     setup = example_python_study.STUDY["experiment"]
     scenes = example_python_study.STUDY["study"][0]["scenes"]

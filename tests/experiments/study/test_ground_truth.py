@@ -111,3 +111,15 @@ def test_each_pixel_filter_has_its_own_reference(tmp_path):
     assert len({k["scene_hash"] for k in keys}) == 3
     assert len({gt_directory(tmp_path, r, "drt", RES) for r in refs}) == 3
     assert not parse_sampler(GT_SAMPLER).splat
+
+
+def test_a_stale_reference_is_recomputed_without_touching_other_files_in_its_folder(tmp_path):
+    gt, _ = make(tmp_path)
+    (gt.directory / "notes.txt").write_text("the user's")
+    (gt.directory / "old").mkdir()
+    (gt.directory / "old" / "mean.exr").write_bytes(b"kept")
+    fake = FakeRenderer(versions={"aa-edges": "v2"})
+    gt2, fake = make(tmp_path, fake)
+    assert fake.calls == 8 and not gt2.reused and gt2.directory == gt.directory
+    assert (gt.directory / "notes.txt").read_text() == "the user's"
+    assert (gt.directory / "old" / "mean.exr").read_bytes() == b"kept"

@@ -18,6 +18,7 @@ from drtlab.experiments.study.config import load_experiment
 from repo_paths import SUPPORT
 from fakes import fake_backend, tiny_real_experiment
 from drtlab.experiments.study.run_store import CSV_COLUMNS, TIMING_COLUMNS, first_image, load_records
+from drtlab.experiments.study.output_dir import RECORD
 from drtlab.experiments.study.runner import plan_runs, run_experiment
 
 TINY = """
@@ -247,7 +248,7 @@ def test_kill_9_mid_sweep_then_resume(tmp_path):
     a, b = pd.read_parquet(out / "runs.parquet"), pd.read_parquet(ref / "runs.parquet")
     assert a.drop(columns=list(TIMING_COLUMNS)).equals(b.drop(columns=list(TIMING_COLUMNS)))
     assert not [p for d in (out, out / "cells") for p in d.iterdir()
-                if p.name.startswith(".") and p.name != ".lock"]         # no temp file left
+                if p.name.startswith(".") and p.name not in (".lock", RECORD)]   # no temp file left
 
 
 def test_fresh_starts_over_and_keeps_ground_truth(tmp_path):
