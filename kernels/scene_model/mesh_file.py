@@ -24,7 +24,11 @@ from drtlab.kernels.scene_model.transforms import apply_transform, mirrors, pars
 
 MESH_FORMATS = (".obj", ".ply")
 MESH_SOURCE_KEYS = ("file", "generate")
-MESH_KEYS = MESH_SOURCE_KEYS + tuple(sorted({k for _, params in GENERATORS.values() for k in params}))
+MESH_KEYS = (MESH_SOURCE_KEYS + ("normals",)
+             + tuple(sorted({k for _, params in GENERATORS.values() for k in params})))
+# `normals` of a file mesh: "file" (the file's vertex normals, else flat shading) or "smooth" (the
+# file's, else Mitsuba 3's: each vertex the angle-weighted mean of its faces' normals).
+NORMALS = ("file", "smooth")
 SPHERE_GRID_KEYS = ("count", "center", "size", "radius")
 # wp.Mesh indexes vertices with int32 and its BVH with int32 node ids: far below both limits.
 MAX_TRIANGLES = 1 << 26
@@ -52,16 +56,38 @@ def parse_mesh_shape(t: Table, name: str, material: int, velocity: np.ndarray) -
         mesh = load_mesh_file(t.data["file"], t.field("file"))
     else:
         mesh = _generated(t)
+    normals = string(t.get("normals", "file", ""), t.field("normals"), NORMALS)
+    if t.has("normals") and has[0] != "file":
+        raise InputError(t.field("normals"), "applies to a file mesh only (generated meshes come "
+                                             "with their normals)")
     if t.has("transform"):
         mesh = _transformed(mesh, t.data["transform"], t.field("transform"))
+    if normals == "smooth" and mesh.normals is None:
+        # After the transform, as Mitsuba computes them from the world-space positions.
+        mesh = TriangleMesh(vertices=mesh.vertices, faces=mesh.faces,
+                            normals=smooth_normals(mesh.vertices, mesh.faces), source=mesh.source)
     mesh = checked_mesh(mesh.vertices, mesh.faces, mesh.normals, t.path, mesh.source)
     return Shape(kind="mesh", name=name, material=material, velocity=velocity, mesh=mesh)
+
+
+def smooth_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Mitsuba 3's vertex normals of a mesh without them (Mesh::compute_normals, after Thuermer and
+    Wuethrich 1998): each face's unit normal added to its corners' vertices weighted by the corner's
+    interior angle; trimesh's vertex normals are that weighting."""
+    import trimesh
+    n = np.array(trimesh.Trimesh(vertices=vertices, faces=faces, process=False).vertex_normals,
+                 dtype=np.float64)
+    # A vertex no face uses has none: Mitsuba's stand-in (1, 0, 0); no ray ever reads it.
+    with np.errstate(invalid="ignore"):
+        lone = ~(np.linalg.norm(n, axis=1) > 0.0)
+    n[lone] = [1.0, 0.0, 0.0]
+    return n
 
 
 def _only_keys(t: Table, allowed: tuple, what: str) -> None:
     """Generator parameters other than `allowed` are errors (a `radius` on a file mesh is a typo)."""
     for key in MESH_KEYS:
-        if key not in MESH_SOURCE_KEYS and key not in allowed and t.has(key):
+        if key not in MESH_SOURCE_KEYS + ("normals",) and key not in allowed and t.has(key):
             raise InputError(t.field(key), f"is not a parameter of {what}; allowed: "
                                            f"{', '.join(allowed) or '(none)'}")
 

@@ -18,7 +18,7 @@ class MaterialMapping:
         BSDF's id (or the shape's path)."""
         radiance = None
         if emitter is not None:
-            radiance = self.colour(emitter, "radiance", 1.0)
+            radiance = self.colour(emitter, "radiance", 1.0, emitter=True)
             self.done(emitter)
         if bsdf is None:                 # Mitsuba's default: diffuse 0.5, black on an emitter
             spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3}
@@ -117,7 +117,7 @@ class MaterialMapping:
             return [list(v) for v in CONDUCTOR_IOR[material]]
         out = []
         for name, default in (("eta", 0.0), ("k", 1.0)):
-            v = self.colour(o, name, default)
+            v = self.colour(o, name, default, unbounded=True)
             if min(v) < 0:
                 self.r.fail(o.props[name].path, f"must be >= 0 in every channel, got {v}")
             out.append(v)

@@ -11,8 +11,6 @@ direction of Mitsuba's frame to the one of drtlab's frame with the same (u, v).
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from drtlab.kernels.imageio import image_size
@@ -29,22 +27,47 @@ FLIP_Z = ("scale", np.diag([1.0, 1.0, -1.0, 1.0]), [1.0, 1.0, -1.0])
 
 
 class ShapeMapping:
-    def shape(self, o: Obj) -> None:
-        kind = self.kind(o, SHAPES)
+    def shape_group(self, o: Obj) -> None:
+        """A `shapegroup` renders nothing itself: its shapes are flattened into each instance."""
+        if o.id is None:
+            self.r.fail(o.path, "a shapegroup needs an id (instances refer to it)")
+        for child in self.nested(o):
+            if child.tag != "shape" or child.type in ("shapegroup", "instance"):
+                self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shapegroup is not "
+                                        "supported (shapes only, as Mitsuba)")
+        self.done(o)
+
+    def instance(self, o: Obj) -> None:
+        """An `instance` of a shapegroup: each of the group's shapes under its own to_world, then the
+        instance's (flattened at load: one drtlab shape per shape and instance)."""
         chain = self.get(o, "to_world", ("transform",), [])
+        groups = self.nested(o)
+        if len(groups) != 1 or groups[0].type != "shapegroup":
+            self.r.fail(o.path, "an instance refers to exactly one shapegroup")
+        self.instances += 1
+        for child in self.nested(groups[0]):
+            self.shape(child, list(chain), f"[instance {self.instances}]")
+        self.done(o)
+
+    def shape(self, o: Obj, outer: list | None = None, label: str = "") -> None:
+        kind = self.kind(o, SHAPES)
+        chain = list(self.get(o, "to_world", ("transform",), [])) + (outer or [])
         flip = self.get(o, "flip_normals", ("boolean",), False)
         bsdf = emitter = None
         for child in self.nested(o):
             if child.tag == "bsdf" and bsdf is None:
                 bsdf = child
             elif child.tag == "emitter" and emitter is None and child.type == "area":
+                if outer is not None:
+                    self.r.fail(child.path, "an emitter in a shapegroup is not supported (Mitsuba "
+                                            "does not instance emitters)")
                 emitter = child
             else:
                 self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shape is not "
                                         "supported (one bsdf and one area emitter)")
         shape: dict = {"material": self.material(o, bsdf, emitter)}
         if o.id is not None:
-            shape["name"] = o.id
+            shape["name"] = o.id + label
         if kind == "rectangle":
             # Each corner and edge through the chain (exact for an exporter's chain); a mirroring
             # transform or flip_normals turns the normal: drtlab's is edge_u x edge_v.
@@ -68,40 +91,39 @@ class ShapeMapping:
                 shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
                              radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
             else:
-                shape.update(kind="mesh", file=self.mesh_file(o, kind))
+                path, smooth = self.mesh_file(o, kind)
+                shape.update(kind="mesh", file=path, **({"normals": "smooth"} if smooth else {}))
             transform = drtlab_transform(chain)
             if transform is not None:
                 shape["transform"] = transform
         self.data["shapes"].append(shape)
         self.done(o)
 
-    def mesh_file(self, o: Obj, kind: str) -> str:
+    def mesh_file(self, o: Obj, kind: str) -> tuple[str, bool]:
+        """(the mesh file, whether drtlab computes Mitsuba's smooth normals for it)."""
         name = self.string(o, "filename", None)
         if name is None:
             self.r.fail(o.path, f"{kind} needs a filename")
-        path = Path(name).expanduser()
-        path = path if path.is_absolute() else self.r.folder / path
+        path = self.r.resolve(name)
         if not path.is_file():
             self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
         if path.suffix.lower() != f".{kind}":
             self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
         has_normals = file_has_vertex_normals(path)
         face_normals = self.get(o, "face_normals", ("boolean",), False)
-        if not face_normals and not has_normals:
-            self.r.fail(o.path, "the file has no vertex normals, so Mitsuba would compute smooth ones, "
-                                "which drtlab does not; set face_normals to true (flat shading)")
         if face_normals and has_normals:
             self.r.fail(o.props["face_normals"].path, "true with a file that has vertex normals is not "
                                                       "supported (drtlab shades with the file's normals)")
         self.ignore(o, "flip_tex_coords")
-        return str(path)
+        return str(path), not face_normals and not has_normals
 
     def emitter(self, o: Obj) -> None:
         kind = self.kind(o, EMITTERS[1:])
         if kind in ("constant", "envmap") and "environment" in self.data:
             self.r.fail(o.path, "a second environment emitter (constant or envmap)")
         if kind == "constant":
-            self.data["environment"] = {"kind": "constant", "radiance": self.colour(o, "radiance", 1.0)}
+            self.data["environment"] = {"kind": "constant",
+                                        "radiance": self.colour(o, "radiance", 1.0, emitter=True)}
         elif kind == "envmap":
             self.data["environment"] = self.envmap(o)
         else:
@@ -114,7 +136,7 @@ class ShapeMapping:
                 given = (chain_point(chain, [0.0] * 3) if kind == "point"
                          else chain_vector(chain, [0, 0, 1.0])).tolist()
             self.data.setdefault("lights", []).append(
-                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
+                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0, emitter=True)})
         self.done(o)
 
 
@@ -122,8 +144,7 @@ class ShapeMapping:
         name = self.string(o, "filename", None)
         if name is None:
             self.r.fail(o.path, "envmap needs a filename (an .exr or .hdr lat-long image)")
-        path = Path(name).expanduser()
-        path = path if path.is_absolute() else self.r.folder / path
+        path = self.r.resolve(name)
         if path.suffix.lower() not in ENVMAP_FORMATS:
             self.r.fail(o.props["filename"].path, f"must name an .exr or .hdr image, got '{name}'")
         if not path.is_file():
