@@ -145,7 +145,7 @@ class _Importer(ShapeMapping, MaterialMapping):
             elif child.tag == "shape":
                 self.shape(child)
             elif child.tag == "texture" and child.id is not None:
-                pass            # read where a property refers to it
+                self.constant_texture(child, False, True)     # checked here, read where referred to
             elif child.tag == "emitter":
                 self.emitter(child)
             elif child.tag == "bsdf":

@@ -52,7 +52,11 @@ class MaterialMapping:
                                             f"({', '.join(one_sided)})")
             self.done(o)
             return self.bsdf(nested[0])
-        for child in self.nested(o):
+        named = {p.path for p in o.props.values()}       # read through `colour` where a value is meant
+        for child in o.children:
+            if child.path in named:
+                continue
+            child = self.deref(child)
             what = "textures are" if child.tag == "texture" else f"a nested <{child.tag}> is"
             self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
                                     "constant)")
