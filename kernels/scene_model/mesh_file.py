@@ -1,5 +1,5 @@
 """Triangle-mesh shapes of a scene file: `kind = "mesh"` with `file = "x.obj" | "x.ply"` (read by
-trimesh) or `generate = NAME` (kernels/scene_model/procedural.py), validated into a `TriangleMesh`
+trimesh; or Mitsuba's "x.serialized", mesh_serialized.py) or `generate = NAME` (kernels/scene_model/procedural.py), validated into a `TriangleMesh`
 (kernels/scene_model/scene.py). See SCENE_FORMAT.md, "Triangle meshes".
 
 Validation is as strict as for every other shape, because a broken mesh silently changes what a study
@@ -18,11 +18,12 @@ import numpy as np
 
 from drtlab.errors import InputError
 from drtlab.fields import MAX_SEED, Table, integer, number, numbers, show, string
+from drtlab.kernels.scene_model.mesh_serialized import SerializedError, has_vertex_normals, read_serialized
 from drtlab.kernels.scene_model.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
 from drtlab.kernels.scene_model.scene import Shape, TriangleMesh
 from drtlab.kernels.scene_model.transforms import apply_transform, mirrors, parse_transform
 
-MESH_FORMATS = (".obj", ".ply")
+MESH_FORMATS = (".obj", ".ply", ".serialized")
 MESH_SOURCE_KEYS = ("file", "generate")
 MESH_KEYS = (MESH_SOURCE_KEYS + ("normals",)
              + tuple(sorted({k for _, params in GENERATORS.values() for k in params})))
@@ -137,7 +138,8 @@ def _transformed(mesh: TriangleMesh, value: Any, field: str) -> TriangleMesh:
 # ---------------------------------------------------------------------------------------------------
 
 def load_mesh_file(value: Any, field: str) -> TriangleMesh:
-    """A .obj or .ply file read by trimesh; its vertex normals only when the file has them."""
+    """A .obj or .ply file read by trimesh (a .serialized one by mesh_serialized.py); its vertex
+    normals only when the file has them."""
     text = string(value, field)
     path = Path(text).expanduser()
     if path.suffix.lower() not in MESH_FORMATS:
@@ -146,6 +148,12 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
         raise InputError(field, f"mesh file '{path}' does not exist")
     if path.suffix.lower() == ".obj":
         _check_obj_indices(path, field)
+    if path.suffix.lower() == ".serialized":
+        try:
+            vertices, faces, normals = read_serialized(path)
+        except (OSError, SerializedError) as exc:
+            raise InputError(field, f"mesh file '{path}' {exc}") from None
+        return TriangleMesh(vertices=vertices, faces=faces, normals=normals, source=str(path))
     import trimesh                                  # only scenes with mesh files pay its import
     try:
         # Not force="mesh": that concatenation drops the normals the file gave.
@@ -297,7 +305,10 @@ def parse_sphere_grid(t: Table, name: str, material: int, velocity: np.ndarray) 
 
 
 def file_has_vertex_normals(path: Path) -> bool:
-    """Whether an .obj has `vn` lines or a .ply declares nx: what decides Mitsuba's smooth normals."""
+    """Whether an .obj has `vn` lines, a .ply declares nx or a .serialized stores normals: what
+    decides Mitsuba's smooth normals."""
+    if path.suffix.lower() == ".serialized":
+        return has_vertex_normals(path)
     with path.open("rb") as f:
         if path.suffix.lower() == ".ply":
             for line in f:

@@ -18,7 +18,7 @@ from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
 from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
 
-SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "disk")
+SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk")
 EMITTERS = ("area", "point", "directional", "constant", "envmap")
 MITSUBA_TO_DRTLAB = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
 ENVMAP_FORMATS = (".exr", ".hdr")
@@ -115,6 +115,8 @@ class ShapeMapping:
             self.r.fail(o.props["face_normals"].path, "true with a file that has vertex normals is not "
                                                       "supported (drtlab shades with the file's normals)")
         self.ignore(o, "flip_tex_coords")
+        if kind == "serialized":
+            self.number(o, "shape_index", 0, lambda n: n == 0, "0 (drtlab reads a file's first mesh)")
         return str(path), not face_normals and not has_normals
 
     def emitter(self, o: Obj) -> None:

@@ -7,6 +7,8 @@ Mitsuba's defaults of what a file leaves out. Pure Python: nothing renders."""
 from __future__ import annotations
 
 import math
+import struct
+import zlib
 
 import numpy as np
 import pytest
@@ -309,3 +311,54 @@ def test_shape_and_emitter_defaults_are_mitsubas(tmp_path):
                                  '<emitter type="point"><point name="position" value="0"/></emitter>'))
     assert (s.shapes[0].center.tolist(), s.shapes[0].radius) == ([0.0] * 3, 1.0)
     assert s.point_lights[0].intensity.tolist() == [1.0] * 3
+
+
+# ---- Mitsuba's .serialized meshes ---------------------------------------------------------------
+
+def serialized_mesh(version: int, vertices, faces, normals=None, double=False, name=b"m") -> bytes:
+    """One mesh as Mitsuba writes it (the format of src/shapes/serialized.cpp), written here
+    independently of the reader."""
+    real = "<f8" if double else "<f4"
+    flags = (0x1 if normals is not None else 0) | (0x2000 if double else 0x1000)
+    body = struct.pack("<I", flags) + (name + b"\0" if version == 4 else b"")
+    body += struct.pack("<QQ", len(vertices), len(faces)) + np.asarray(vertices, real).tobytes()
+    if normals is not None:
+        body += np.asarray(normals, real).tobytes()
+    body += np.asarray(faces, "<u4").tobytes()
+    return struct.pack("<HH", 0x041C, version) + zlib.compress(body)
+
+
+TRI = ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+
+
+@pytest.mark.parametrize("version,double", [(3, False), (4, False), (4, True)])
+def test_serialized_mesh_loads_exactly(tmp_path, version, double):
+    v = [[0.5, 0.25, 0.0], [1.5, 0.25, 0.0], [0.5, 2.0, 0.0], [1.5, 2.0, 1.0]]
+    n = [[0, 0, 1.0]] * 4
+    (tmp_path / "m.serialized").write_bytes(serialized_mesh(version, v, [[0, 1, 2], [1, 3, 2]], n, double))
+    s = load(tmp_path, scene_xml('<shape type="serialized"><string name="filename" value="m.serialized"/></shape>'))
+    mesh = s.shapes[0].mesh
+    assert mesh.vertices.tolist() == v and mesh.faces.tolist() == [[0, 1, 2], [1, 3, 2]]
+    assert mesh.normals.tolist() == n
+
+
+def test_serialized_mesh_without_normals_is_smooth_and_a_later_mesh_is_found(tmp_path):
+    from drtlab.kernels.scene_model.mesh_serialized import read_serialized
+    first = serialized_mesh(4, *TRI)
+    second = serialized_mesh(4, [[0, 0, 0], [2, 0, 0], [0, 2, 0]], [[0, 1, 2]])
+    data = first + second + struct.pack("<QQI", 0, len(first), 2)
+    (tmp_path / "two.serialized").write_bytes(data)
+    assert read_serialized(tmp_path / "two.serialized", 1)[0].max() == 2.0
+    s = load(tmp_path, scene_xml('<shape type="serialized"><string name="filename" value="two.serialized"/></shape>'))
+    assert s.shapes[0].mesh.normals.tolist() == [[0.0, 0.0, 1.0]] * 3       # Mitsuba's smooth normals
+
+
+@pytest.mark.parametrize("data,words", [
+    (b"\x1c\x04\x05\x00" + zlib.compress(b"\0" * 40), "version 5"),
+    (b"PK\x03\x04", "not a Mitsuba .serialized file"),
+    (serialized_mesh(4, *TRI)[:-6], "truncated"),
+])
+def test_bad_serialized_file_is_one_line(tmp_path, data, words):
+    (tmp_path / "bad.serialized").write_bytes(data)
+    msg = refused(tmp_path, scene_xml('<shape type="serialized"><string name="filename" value="bad.serialized"/></shape>'))
+    assert words in msg
