@@ -15,10 +15,11 @@ import numpy as np
 
 from drtlab.kernels.imageio import image_size
 from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
-from drtlab.kernels.scene_model.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
+from drtlab.kernels.scene_model.mitsuba_xml import (Obj, chain_matrix, chain_point, chain_vector, coordinate_up,
+                                                  drtlab_transform)
 from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
 
-SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk")
+SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk", "cylinder")
 EMITTERS = ("area", "point", "directional", "constant", "envmap")
 MITSUBA_TO_DRTLAB = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
 ENVMAP_FORMATS = (".exr", ".hdr")
@@ -85,6 +86,10 @@ class ShapeMapping:
                 # In the z = 0 plane the flip moves no vertex; the mirror reverses the winding.
                 chain = ([FLIP_Z] if flip else []) + list(chain)
                 shape.update(kind="mesh", generate="disk", segments=DISK_SEGMENTS)
+            elif kind == "cylinder":
+                chain = self.cylinder_axis(o) + list(chain)
+                shape.update(kind="mesh", generate="cylinder", segments=DISK_SEGMENTS,
+                             radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
             elif kind == "cube":
                 shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
             elif kind == "sphere":
@@ -98,6 +103,22 @@ class ShapeMapping:
                 shape["transform"] = transform
         self.data["shapes"].append(shape)
         self.done(o)
+
+    def cylinder_axis(self, o: Obj) -> list:
+        """Mitsuba's cylinder from `p0` (0, 0, 0) to `p1` (0, 0, 1): the unit-height tube's z axis
+        turned onto p1 - p0 and moved to p0 (no operation for the defaults)."""
+        p0 = np.array(self.get(o, "p0", ("point",), [0.0, 0.0, 0.0]), dtype=np.float64)
+        p1 = np.array(self.get(o, "p1", ("point",), [0.0, 0.0, 1.0]), dtype=np.float64)
+        d = p1 - p0
+        if not np.any(d):
+            self.r.fail(o.path, "p0 and p1 must differ")
+        if p0.tolist() == [0.0] * 3 and p1.tolist() == [0.0, 0.0, 1.0]:
+            return []
+        axis = d / np.linalg.norm(d)
+        s = np.array(coordinate_up(axis))
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = s, np.cross(axis, s), d, p0
+        return [("matrix", m, m)]
 
     def mesh_file(self, o: Obj, kind: str) -> tuple[str, bool]:
         """(the mesh file, whether drtlab computes Mitsuba's smooth normals for it)."""

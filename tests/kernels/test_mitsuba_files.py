@@ -362,3 +362,32 @@ def test_bad_serialized_file_is_one_line(tmp_path, data, words):
     (tmp_path / "bad.serialized").write_bytes(data)
     msg = refused(tmp_path, scene_xml('<shape type="serialized"><string name="filename" value="bad.serialized"/></shape>'))
     assert words in msg
+
+
+# ---- Mitsuba's cylinder -------------------------------------------------------------------------
+
+def test_cylinder_is_a_tube_of_radial_normals_within_its_area_bound(tmp_path):
+    from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS, cylinder_area_deficit
+    from drtlab.kernels.scene_model.scene_checks import scene_warnings
+    s = load(tmp_path, scene_xml('<shape type="cylinder"><float name="radius" value="0.5"/>'
+                                 '<point name="p0" value="1, 2, 3"/><point name="p1" x="1" y="2" z="5"/></shape>'))
+    m = s.shapes[0].mesh
+    radial = m.vertices[:, :2] - [1.0, 2.0]
+    np.testing.assert_allclose(np.linalg.norm(radial, axis=1), 0.5, rtol=1e-14)
+    assert sorted(set(np.round(m.vertices[:, 2], 12))) == [3.0, 5.0]
+    np.testing.assert_allclose(m.normals[:, :2], radial / 0.5, atol=1e-12)
+    assert np.all(m.normals[:, 2] == 0.0)
+    a, b, c = (m.vertices[m.faces[:, k]] for k in range(3))
+    normals = np.cross(b - a, c - a)
+    outward = np.column_stack([((a + b + c) / 3)[:, :2] - [1.0, 2.0], np.zeros(len(a))])
+    assert np.all(np.einsum("ij,ij->i", normals, outward) > 0)                  # wound outwards
+    area = 0.5 * np.linalg.norm(normals, axis=1).sum()
+    exact = 2 * math.pi * 0.5 * 2.0
+    assert 1 - area / exact == pytest.approx(cylinder_area_deficit(DISK_SEGMENTS), rel=1e-6)
+    assert cylinder_area_deficit(DISK_SEGMENTS) < 2e-6
+    assert any("cylinder" in w and "1.6e-06" in w for w in scene_warnings(s))
+
+
+def test_cylinder_flip_normals_is_refused(tmp_path):
+    assert "not supported on a cylinder" in refused(
+        tmp_path, scene_xml('<shape type="cylinder"><boolean name="flip_normals" value="true"/></shape>'))
