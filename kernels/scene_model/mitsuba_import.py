@@ -24,7 +24,8 @@ from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Reader, Ref, Spect
 # `moment` wraps the integrator whose image it renders (its second moments are extra channels);
 # `ptracer` traces from the lights, an image equal in expectation to `path`'s, which renders it.
 INTEGRATORS, WRAPPERS = ("path", "direct", "ptracer"), ("moment",)
-SENSORS = ("perspective", "thinlens")
+SENSORS = ("perspective", "thinlens", "orthographic")
+NEAR_CLIP = 0.01            # Mitsuba's ProjectiveCamera default
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 
 
@@ -222,8 +223,11 @@ class _Importer(ShapeMapping, MaterialMapping):
         s["spp"] = self.sampler(sampler) if sampler else 4
         cam: dict = {}
         chain = self.get(o, "to_world", ("transform",), [])
-        self.camera_frame(o, chain, cam)
-        cam["fov"] = self.vertical_fov(o, width / height)
+        if kind == "orthographic":
+            self.orthographic_frame(o, chain, width / height, cam)
+        else:
+            self.camera_frame(o, chain, cam)
+            cam["fov"] = self.vertical_fov(o, width / height)
         cam.update(film_filter)
         self.ignore(o, "near_clip", "far_clip", "shutter_open", "shutter_close", "shutter_open_time")
         if kind == "thinlens":
@@ -256,6 +260,26 @@ class _Importer(ShapeMapping, MaterialMapping):
         position = m[:3, 3]
         cam.update(position=position.tolist(), look_at=(position + a[:, 2]).tolist(),
                    up=(a[:, 1] / lengths[1]).tolist())
+
+    def orthographic_frame(self, o: Obj, chain, aspect: float, cam: dict) -> None:
+        """Mitsuba's orthographic sensor: rays along to_world's z from the film, which spans
+        [-1, 1] x [-1 / aspect, 1 / aspect] in camera x, y at z = near_clip (orthographic_projection
+        in include/mitsuba/render/sensor.h), through to_world. drtlab's film has square pixels: the
+        x and y scales must be equal."""
+        m = chain_matrix(chain)
+        a = m[:3, :3]
+        lengths = np.linalg.norm(a, axis=0)
+        unit = a / lengths
+        if (np.linalg.det(a) <= 0 or not np.allclose(unit.T @ unit, np.eye(3), atol=1e-9)
+                or not math.isclose(lengths[0], lengths[1], rel_tol=1e-9)):
+            self.r.fail(o.props["to_world"].path if chain else o.path,
+                        "an orthographic camera's to_world must be a rotation and translation with "
+                        "an equal x and y scale (square pixels): drtlab cannot mirror, shear or "
+                        "stretch the view")
+        near = self.number(o, "near_clip", NEAR_CLIP, lambda x: x > 0, "> 0")
+        position = m[:3, :3] @ [0.0, 0.0, near] + m[:3, 3]
+        cam.update(position=position.tolist(), look_at=(position + unit[:, 2]).tolist(),
+                   up=unit[:, 1].tolist(), ortho_height=float(2.0 * lengths[1] / aspect))
 
     def vertical_fov(self, o: Obj, aspect: float) -> float:
         """parse_fov of src/render/sensor.cpp, turned into drtlab's full vertical fov."""
