@@ -74,3 +74,12 @@ def test_mitsuba_orthographic_stretched_film_is_refused(tmp_path):
         '</transform></sensor><shape type="sphere"/></scene>')
     with pytest.raises(InputError, match="equal x and y scale"):
         load_scene(tmp_path / "o.xml")
+
+
+def test_whitted_and_export_refuse_an_orthographic_camera(tmp_path):
+    from drtlab.kernels.scene_model.mitsuba_export import check_exportable
+    scene = scene_from_dict(strip_scene(4.0, True))
+    with pytest.raises(InputError, match="orthographic camera renders with drt or path"):
+        render(scene, spp=1, integrator="whitted")
+    with pytest.raises(InputError, match="orthographic camera is not exported"):
+        check_exportable(scene)
