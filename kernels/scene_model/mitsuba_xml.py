@@ -1,12 +1,13 @@
 """Reading a Mitsuba 3 XML file: elements, typed properties, `<default>`/`$name`, ids and transforms.
 
-This is the XML layer of the importer (the files, versions, <include> and <path>: mitsuba_files.py) (`mitsuba_import.py` maps what it reads onto a drtlab scene).
+This is the XML layer of the importer (`mitsuba_import.py` maps what it reads onto a drtlab scene;
+files, versions, <include> and <path> as Mitsuba's parser reads them: `mitsuba_files.py`).
 Every element gets a path as the user would point at it (`scene/shape[3](rectangle)/bsdf(diffuse)/
 float[@name=alpha]`), and every problem is one `InputError` whose field is "FILE: PATH". Values are
 parsed as Mitsuba 3's parser does (src/core/parser.cpp): numbers with separators ", ", `<rgb>` of one
-or three values, `<spectrum>` of one value or wavelength:value pairs (`Spectrum`; the importer turns
-it into RGB as Mitsuba's RGB variants do, mitsuba_spectrum.py), transforms whose later operations left-multiply
-the earlier ones. Non-finite numbers are refused (drtlab's scene numbers are finite).
+or three values, `<spectrum>` of one value or wavelength:value pairs (`Spectrum`; the importer
+turns it into RGB as Mitsuba's RGB variants do, mitsuba_spectrum.py), transforms whose later
+operations left-multiply the earlier ones. Non-finite numbers are refused (drtlab's scene numbers are finite).
 """
 from __future__ import annotations
 
