@@ -56,6 +56,9 @@ class _Importer(ShapeMapping, MaterialMapping):
         if p is None:
             return default
         o.used.add(name)
+        if p.tag == "texture" and "texture" not in tags:
+            self.r.fail(p.path, f"a <texture type='{p.value.type}'> is not supported here: drtlab reads "
+                                f"{' or '.join('<' + t + '>' for t in tags)}")
         if p.tag not in tags:
             self.r.fail(p.path, f"must be {' or '.join('<' + t + '>' for t in tags)}, got <{p.tag}>")
         return p.value
