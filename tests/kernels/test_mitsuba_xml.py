@@ -238,7 +238,7 @@ def test_integrators(tmp_path, integrator, want):
     ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Xx"/></bsdf></shape>',
      "string[@name=material]", "'Xx' is not supported (supported: none, Ag, Al,"),
     ('<shape type="sphere"><bsdf type="diffuse"/><bsdf type="diffuse"/></shape>', "bsdf[2](diffuse)", "one bsdf"),
-    ('<shape type="cylinder"/>', "scene/shape[2](cylinder)", "supported: rectangle"),
+    ('<shape type="sdfgrid"/>', "scene/shape[2](sdfgrid)", "supported: rectangle"),
     ('<shape type="sphere"><medium type="homogeneous" name="interior"/></shape>', "medium(homogeneous)", "not supported"),
     ('<shape type="sphere"><boolean name="flip_normals" value="true"/></shape>', "flip_normals", "rectangle or a disk"),
     ('<shape type="sphere"><float name="roughness" value="1"/></shape>', "float[@name=roughness]", "'roughness'"),
