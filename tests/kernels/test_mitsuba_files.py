@@ -301,6 +301,12 @@ def test_integrator_defaults_are_mitsubas(tmp_path):
     ('<bsdf type="plastic"/>', lambda m: (m.ior, m.albedo.tolist()) == (1.49 / 1.000277, [0.5] * 3)),
     ('<bsdf type="roughconductor"/>', lambda m: (m.kind, m.roughness) == ("beckmann", 0.1)),
     ('<bsdf type="conductor"/>', lambda m: m.kind == "mirror"),                           # material none
+    ('<bsdf type="roughdielectric"/>',                                         # beckmann, alpha 0.1, bk7/air
+     lambda m: (m.kind, m.roughness, m.ior, m.albedo.tolist()) == ("beckmann_dielectric", 0.1, 1.5046 / 1.000277,
+                                                                   [1.0] * 3)),
+    ('<bsdf type="roughplastic"/>',                                            # beckmann 0.1, polypropylene
+     lambda m: (m.kind, m.roughness, m.ior, m.albedo.tolist()) == ("beckmann_plastic", 0.1, 1.49 / 1.000277,
+                                                                   [0.5] * 3)),
 ])
 def test_bsdf_defaults_are_mitsubas(tmp_path, bsdf, check):
     assert check(load(tmp_path, scene_xml(f'<shape type="sphere">{bsdf}</shape>')).materials[0])
@@ -308,9 +314,26 @@ def test_bsdf_defaults_are_mitsubas(tmp_path, bsdf, check):
 
 def test_shape_and_emitter_defaults_are_mitsubas(tmp_path):
     s = load(tmp_path, scene_xml('<shape type="sphere"/><emitter type="constant"/>'
-                                 '<emitter type="point"><point name="position" value="0"/></emitter>'))
+                                 '<emitter type="point"><point name="position" value="0"/></emitter>'
+                                 '<emitter type="directional"><vector name="direction" value="0, 0, 1"/></emitter>'
+                                 '<shape type="rectangle"><emitter type="area"/></shape>'
+                                 '<shape type="cylinder"/>'))
     assert (s.shapes[0].center.tolist(), s.shapes[0].radius) == ([0.0] * 3, 1.0)
-    assert s.point_lights[0].intensity.tolist() == [1.0] * 3
+    assert s.point_lights[0].intensity.tolist() == [1.0] * 3           # every emitter's value: 1
+    assert s.directional_lights[0].irradiance.tolist() == [1.0] * 3
+    assert s.materials[s.shapes[1].material].emission.tolist() == [1.0] * 3
+    assert s.environment.kind == "constant" and np.all(s.environment.image == 1.0)
+    # The rectangle is [-1, 1]^2 at z = 0; the cylinder radius 1 from z = 0 to 1.
+    assert s.shapes[1].origin.tolist() == [-1.0, -1.0, 0.0] and s.shapes[1].edge_u.tolist() == [2.0, 0.0, 0.0]
+    m = s.shapes[2].mesh
+    np.testing.assert_allclose(np.linalg.norm(m.vertices[:, :2], axis=1), 1.0, rtol=1e-15)
+    assert (m.vertices[:, 2].min(), m.vertices[:, 2].max()) == (0.0, 1.0)
+
+
+def test_direct_sample_counts_default_to_one(tmp_path):
+    from drtlab.estimators.integrators import INTEGRATORS
+    s = load(tmp_path, scene_xml('<integrator type="direct"><integer name="shading_samples" value="1"/></integrator>'))
+    assert s.integrator == ("direct" if "direct" in INTEGRATORS else "path")
 
 
 # ---- Mitsuba's .serialized meshes ---------------------------------------------------------------
