@@ -132,12 +132,14 @@ def markdown(rows: list[dict], spp: int) -> str:
              f"reference at {spp} spp (channel means within {REL_TOL:.0%} or {Z_TOL:g} standard "
              f"errors; block L1 of {BLOCK}x{BLOCK} blocks at most {L1_RATIO_TOL}x the L1 Mitsuba's own "
              f"{spp}-spp render is predicted to have, from the reference's variance image).", "",
-             "| scene | loaded | agrees | block L1 / Mitsuba's | why not |", "|---|---|---|---|---|"]
+             "| scene | loaded | agrees | block L1 (Mitsuba's predicted) | ratio | why not |",
+             "|---|---|---|---|---|---|"]
     for r in rows:
         if not r["loaded"]:
-            lines.append(f"| {r['scene']} | no | | | {r['refusal'].replace('|', '/')} |")
+            lines.append(f"| {r['scene']} | no | | | | {r['refusal'].replace('|', '/')} |")
         else:
             lines.append(f"| {r['scene']} | yes | {'yes' if r.get('agrees') else 'no'} | "
+                         f"{r.get('block_l1', math.nan):.4f} ({r.get('mitsuba_l1_predicted', math.nan):.4f}) | "
                          f"{r.get('l1_ratio', math.nan):.2f} | {r.get('why_not', '')} |")
     return "\n".join(lines) + "\n"
 
