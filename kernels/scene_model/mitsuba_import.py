@@ -57,8 +57,8 @@ class _Importer(ShapeMapping, MaterialMapping):
             return default
         o.used.add(name)
         if p.tag == "texture" and "texture" not in tags:
-            self.r.fail(p.path, f"a <texture type='{p.value.type}'> is not supported here: drtlab reads "
-                                f"{' or '.join('<' + t + '>' for t in tags)}")
+            self.r.fail(p.path, f"<texture type='{p.value.type}'> is not supported here (drtlab reads "
+                                f"{' or '.join('<' + t + '>' for t in tags)})")
         if p.tag not in tags:
             self.r.fail(p.path, f"must be {' or '.join('<' + t + '>' for t in tags)}, got <{p.tag}>")
         return p.value
@@ -87,9 +87,9 @@ class _Importer(ShapeMapping, MaterialMapping):
 
     def constant_texture(self, t: Obj, emitter: bool, unbounded: bool) -> list[float]:
         if t.tag != "texture" or t.type not in ("srgb", "uniform"):
-            self.r.fail(t.path, f"<{t.tag} type='{t.type}'> is not supported here: drtlab has "
-                                "constant colours only (<rgb>, <spectrum>, <float>, or a texture of "
-                                "type srgb or uniform)")
+            self.r.fail(t.path, f"<{t.tag} type='{t.type}'> is not supported here (drtlab reads "
+                                "constant values: <rgb>, <spectrum>, <float>, srgb or uniform "
+                                "textures)")
         key = "color" if t.type == "srgb" else "value"
         if key not in t.props:
             self.r.fail(t.path, f"a {t.type} texture needs {key}")

@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -39,6 +40,19 @@ BLOCK = 4
 REL_TOL, Z_TOL, L1_RATIO_TOL = 0.01, 3.0, 1.5
 SAMPLER = "independent+importance"
 COMMAND = "make crosscheck-suite"
+DOCS_HEAD = """# Mitsuba 3's test scenes in drtlab
+
+Mitsuba 3's render regression scenes (its `tests/scenes`: `../shared/mitsuba-tests` beside the
+checkout, or `$DRTLAB_MITSUBA_TESTS`), loaded by drtlab, rendered at their own resolution with
+independent samples and compared with Mitsuba's reference images (`refs/NAME_ref_rgb.exr`). Mitsuba
+is not run: the L1 its own render of the same spp would have is predicted from the reference's
+variance image (a lower bound: the reference's own noise is left out). Regenerate this page with
+
+```sh
+{command} SUITE_ARGS='--spp {spp} --docs docs/mitsuba-suite.md'
+```
+
+"""
 
 
 def suite_dir() -> Path:
@@ -125,18 +139,25 @@ def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None) ->
     return row
 
 
+def short(refusal: str) -> str:
+    """A refusal for the table: its element's path and what is wrong, without the file's name and
+    the list of what is supported."""
+    text = re.sub(r"^[^:/]+\.xml: ", "", refusal)
+    return re.sub(r" \((supported|drtlab reads|drtlab has)[^()]*(\([^()]*\)[^()]*)*\)$", "", text)
+
+
 def markdown(rows: list[dict], spp: int) -> str:
     loaded = [r for r in rows if r["loaded"]]
     agree = [r for r in loaded if r.get("agrees")]
-    lines = [f"{len(loaded)} of {len(rows)} scenes load; {len(agree)} of them agree with Mitsuba's "
-             f"reference at {spp} spp (channel means within {REL_TOL:.0%} or {Z_TOL:g} standard "
-             f"errors; block L1 of {BLOCK}x{BLOCK} blocks at most {L1_RATIO_TOL}x the L1 Mitsuba's own "
-             f"{spp}-spp render is predicted to have, from the reference's variance image).", "",
+    lines = [f"{len(loaded)} of {len(rows)} scenes load; {len(agree)} of them agree with Mitsuba's",
+             f"reference at {spp} spp (channel means within {REL_TOL:.0%} or {Z_TOL:g} standard errors;",
+             f"block L1 of {BLOCK}x{BLOCK} blocks at most {L1_RATIO_TOL}x the L1 Mitsuba's own "
+             f"{spp}-spp render", "is predicted to have, from the reference's variance image).", "",
              "| scene | loaded | agrees | block L1 (Mitsuba's predicted) | ratio | why not |",
              "|---|---|---|---|---|---|"]
     for r in rows:
         if not r["loaded"]:
-            lines.append(f"| {r['scene']} | no | | | | {r['refusal'].replace('|', '/')} |")
+            lines.append(f"| {r['scene']} | no | | | | {short(r['refusal']).replace('|', '/')} |")
         else:
             lines.append(f"| {r['scene']} | yes | {'yes' if r.get('agrees') else 'no'} | "
                          f"{r.get('block_l1', math.nan):.4f} ({r.get('mitsuba_l1_predicted', math.nan):.4f}) | "
@@ -174,10 +195,7 @@ def _command(args) -> int:
     atomic_write_text(args.out_dir / "suite.json", json.dumps(rows, indent=1, default=str) + "\n")
     atomic_write_text(args.out_dir / "suite.md", table)
     if args.docs is not None:
-        atomic_write_text(args.docs, "# Mitsuba 3's test scenes in drtlab\n\nMitsuba 3's render "
-                          "regression scenes (its `tests/scenes`), loaded and rendered by drtlab and "
-                          "compared with Mitsuba's reference images. Regenerate with "
-                          f"`{COMMAND} SUITE_ARGS='--docs docs/mitsuba-suite.md'`.\n\n" + table)
+        atomic_write_text(args.docs, DOCS_HEAD.format(command=COMMAND, spp=args.spp) + table)
     print(table)
     return 0 if all(r.get("agrees") for r in rows if r["loaded"]) else 1
 
