@@ -194,7 +194,8 @@ class _Importer(ShapeMapping, MaterialMapping):
             else:       # emitter and BSDF samples combined by MIS: path of depth 2
                 for name, n in counts.items():
                     if n != 1:
-                        self.r.fail(o.props[name].path, f"must be 1 (drtlab takes one sample of each), got {n}")
+                        given = o.props.get(name) or o.props["shading_samples"]
+                        self.r.fail(given.path, f"{name} must be 1 (drtlab takes one sample of each), got {n}")
                 s["max_depth"] = 2
         else:
             depth = self.number(o, "max_depth", -1, lambda n: n == -1 or n >= 1, "-1 or >= 1")

@@ -330,6 +330,15 @@ def test_shape_and_emitter_defaults_are_mitsubas(tmp_path):
     assert (m.vertices[:, 2].min(), m.vertices[:, 2].max()) == (0.0, 1.0)
 
 
+@pytest.mark.parametrize("prop", ["shading_samples", "bsdf_samples"])
+def test_direct_with_more_samples_without_drtlabs_direct_is_one_line(tmp_path, prop):
+    from drtlab.estimators.integrators import INTEGRATORS
+    if "direct" in INTEGRATORS:
+        pytest.skip("drtlab's direct integrator takes the counts")
+    msg = refused(tmp_path, scene_xml(f'<integrator type="direct"><integer name="{prop}" value="2"/></integrator>'))
+    assert f"integer[@name={prop}]" in msg and "must be 1" in msg
+
+
 def test_direct_sample_counts_default_to_one(tmp_path):
     from drtlab.estimators.integrators import INTEGRATORS
     s = load(tmp_path, scene_xml('<integrator type="direct"><integer name="shading_samples" value="1"/></integrator>'))
