@@ -67,3 +67,20 @@ def test_suite_scene(job):
     print(f"{job['name']}: block L1 {row['l1_ratio']:.2f}x Mitsuba's predicted")
     assert row["agrees"], f"{job['name']}: {row['why_not']}"
     assert all(math.isfinite(c["drtlab"]) for c in row["channels"])
+
+
+@pytest.mark.skipif(not HAVE_SUITE, reason=f"Mitsuba 3's test scenes are not at {ROOT} "
+                                           "(set DRTLAB_MITSUBA_TESTS)")
+def test_an_environment_five_percent_too_bright_is_rejected():
+    """The negative control on a real scene: the same render with its environment map 5% too bright
+    (the scene's main light) must fail the rule that the correct one passes (test_suite_scene)."""
+    from drtlab.kernels.imageio import read_linear
+    from drtlab.kernels.render import render_with_stats
+    job = next(j for j in JOBS if j["name"] == "test_roughplastic_linear_path")
+    scene, refusal = suite.load(job)
+    assert refusal is None
+    scene.environment.image = scene.environment.image * 1.05
+    stats = render_with_stats(scene, spp=SPP, sampler=suite.SAMPLER, seed=0, progress=False, variance=True)
+    ref, var = (read_linear(job[k])[0][..., :3].astype(np.float64) for k in ("ref", "var"))
+    verdict = suite.judge(stats.image, stats.variance, SPP, ref, var)
+    assert not verdict["agrees"] and "mean" in verdict["why_not"]
