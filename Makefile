@@ -9,7 +9,7 @@ DRT    := $(VENV)/bin/drtlab
 export WARP_CACHE_PATH ?= $(CURDIR)/.warp-cache
 
 .PHONY: venv test test-full bench experiment-stratified experiment-importance experiment-uniform \
-        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet experiment-lights ground-truth clean bench-compare crosscheck
+        experiment-all experiment-integrands experiment-pointsets experiment-presampled experiment-environment experiment-filters experiment-microfacet experiment-lights ground-truth clean bench-compare crosscheck crosscheck-suite
 
 venv: $(STAMP)
 
@@ -89,3 +89,11 @@ bench-compare: venv
 crosscheck: venv
 	@$(COMPARE_EXTRA)
 	@$(LLVM19) $(PY) -m drtlab.experiments.bench.mitsuba.crosscheck $(CROSSCHECK_ARGS)
+
+# drtlab against Mitsuba 3's own render-test scenes (../shared/mitsuba-tests, or $DRTLAB_MITSUBA_TESTS):
+# which load, and whether each agrees with Mitsuba's reference image -> results/mitsuba-suite/ (JSON,
+# Markdown table). No Mitsuba needed. Skips (exit 0) without the suite. Flags:
+# make crosscheck-suite SUITE_ARGS='--spp 64 --docs docs/mitsuba-suite.md'.
+crosscheck-suite: $(RUNTIME)
+	@$(BYTECODE)
+	$(PY) -m drtlab.experiments.bench.mitsuba.suite $(SUITE_ARGS)

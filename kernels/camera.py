@@ -1,4 +1,5 @@
-"""Primary rays: the camera's thin lens and shutter per kernel variant, and Whitted's sub-pixel grid.
+"""Primary rays: the camera's thin lens and shutter per kernel variant (or an orthographic camera's
+parallel rays, compiled in only for scenes with one), and Whitted's sub-pixel grid.
 
 `make_camera(features, pointset)` returns the Warp function
 sample_ray(sd, seed, pix, idx, spp, px, py) -> CameraRay (pixel, lens and time from the point set;
@@ -36,6 +37,15 @@ def camera_ray_dir(sd: SceneData, px: int, py: int, u: wp.vec2, lens: wp.vec2) -
 
 
 @wp.func
+def film_offset(sd: SceneData, px: int, py: int, u: wp.vec2) -> wp.vec3:
+    """An orthographic film's point of pixel (px, py) at offset u, from the film's centre (its half
+    extents are lengths there)."""
+    sx = (2.0 * (float(px) + u[0]) / float(sd.width) - 1.0) * sd.camera.half_width
+    sy = (1.0 - 2.0 * (float(py) + u[1]) / float(sd.height)) * sd.camera.half_height
+    return sd.camera.right * sx + sd.camera.up * sy
+
+
+@wp.func
 def grid_ray_dir(sd: SceneData, px: int, py: int, sub: int, nx: int, ny: int) -> wp.vec3:
     # Regular sub-pixel grid at stratum centres, lens centre (shutter-open time is the caller's).
     u = wp.vec2((float(sub % nx) + 0.5) / float(nx), (float(sub / nx) + 0.5) / float(ny))
@@ -48,6 +58,7 @@ def make_camera(f: Features, pointset: PointSet, pixel_filter: PixelFilter | Non
     # Filter importance sampling: the pixel dimensions drawn from the filter around the pixel centre.
     FIS = pixel_filter is not None and not f.splat
     filter_sample = pixel_filter.sample if FIS else None
+    ORTHO = f.orthographic
 
     @wp.func
     def sample_ray(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32,
@@ -67,7 +78,12 @@ def make_camera(f: Features, pointset: PointSet, pixel_filter: PixelFilter | Non
             o = o + sd.camera.right * lens[0] + sd.camera.up * lens[1]
         ray = CameraRay()
         ray.o = o
-        ray.d = camera_ray_dir(sd, px, py, u, lens)
+        if wp.static(ORTHO):
+            # Parallel rays along the view axis from the film point (half extents are lengths here).
+            ray.o = o + film_offset(sd, px, py, u)
+            ray.d = sd.camera.forward
+        else:
+            ray.d = camera_ray_dir(sd, px, py, u, lens)
         ray.dt = float(0.0)
         ray.w = w
         if sd.moving == 1:

@@ -5,6 +5,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from drtlab.errors import InputError
 from drtlab.kernels.scene_model.material_kinds import kinds_where
 from drtlab.kernels.scene_model.scene import Scene
 
@@ -119,6 +120,7 @@ class Features:
     filter_stddev: float = 0.0  # the filter's stddev (kernels/filters.get_filter); 0: its default
     filter_clip: bool = False   # the filter truncated to the film (Camera.filter_clip)
     quad_simd: bool = False  # quads by the CPU's vector test (QUAD_SIMD_MAX), else grouped scalar tests
+    orthographic: bool = False  # an orthographic camera (kernels/camera.py; absent: compiled out)
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -166,7 +168,8 @@ class Features:
     def key(self) -> str:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
-                             "sphere_bvh", "environment", "quad_simd") if getattr(self, n)]
+                             "sphere_bvh", "environment", "quad_simd", "orthographic")
+                 if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
                 + ("-clip" if self.filter_clip else "") + ("-splat" if self.splat else "")
@@ -177,6 +180,9 @@ class Features:
 
 def features_of(scene: Scene, integrator: str) -> Features:
     """The features `integrator` needs to render `scene`."""
+    if scene.camera.orthographic and integrator == "whitted":
+        raise InputError("integrator", "whitted traces a pinhole's sub-pixel grid; an orthographic "
+                                       "camera renders with drt or path")
     return Features(
         integrator=integrator,
         lens=scene.camera.has_lens and integrator != "whitted",
@@ -196,6 +202,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         filter=scene.camera.filter,
         filter_stddev=scene.camera.filter_stddev,
         filter_clip=scene.camera.filter_clip,
+        orthographic=scene.camera.orthographic,
     )
 
 

@@ -261,7 +261,8 @@ def _put_camera(sd: SceneData, scene: Scene) -> None:
     c.right = wp.vec3(*_f3(right))
     c.up = wp.vec3(*_f3(up))
     c.forward = wp.vec3(*_f3(fwd))
-    half_h = math.tan(math.radians(cam.vfov_deg) / 2)
+    # An orthographic film's half extents are lengths, a perspective one's tangents (kernels/camera.py).
+    half_h = cam.ortho_height / 2 if cam.orthographic else math.tan(math.radians(cam.vfov_deg) / 2)
     c.half_height = float(half_h)
     c.half_width = float(half_h * scene.width / scene.height)
     for name in CAMERA_SCALARS:

@@ -1,5 +1,5 @@
 """Triangle-mesh shapes of a scene file: `kind = "mesh"` with `file = "x.obj" | "x.ply"` (read by
-trimesh) or `generate = NAME` (kernels/scene_model/procedural.py), validated into a `TriangleMesh`
+trimesh; or Mitsuba's "x.serialized", mesh_serialized.py) or `generate = NAME` (kernels/scene_model/procedural.py), validated into a `TriangleMesh`
 (kernels/scene_model/scene.py). See SCENE_FORMAT.md, "Triangle meshes".
 
 Validation is as strict as for every other shape, because a broken mesh silently changes what a study
@@ -18,13 +18,18 @@ import numpy as np
 
 from drtlab.errors import InputError
 from drtlab.fields import MAX_SEED, Table, integer, number, numbers, show, string
+from drtlab.kernels.scene_model.mesh_serialized import SerializedError, has_vertex_normals, read_serialized
 from drtlab.kernels.scene_model.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
 from drtlab.kernels.scene_model.scene import Shape, TriangleMesh
 from drtlab.kernels.scene_model.transforms import apply_transform, mirrors, parse_transform
 
-MESH_FORMATS = (".obj", ".ply")
+MESH_FORMATS = (".obj", ".ply", ".serialized")
 MESH_SOURCE_KEYS = ("file", "generate")
-MESH_KEYS = MESH_SOURCE_KEYS + tuple(sorted({k for _, params in GENERATORS.values() for k in params}))
+MESH_KEYS = (MESH_SOURCE_KEYS + ("normals",)
+             + tuple(sorted({k for _, params in GENERATORS.values() for k in params})))
+# `normals` of a file mesh: "file" (the file's vertex normals, else flat shading) or "smooth" (the
+# file's, else Mitsuba 3's: each vertex the angle-weighted mean of its faces' normals).
+NORMALS = ("file", "smooth")
 SPHERE_GRID_KEYS = ("count", "center", "size", "radius")
 # wp.Mesh indexes vertices with int32 and its BVH with int32 node ids: far below both limits.
 MAX_TRIANGLES = 1 << 26
@@ -52,16 +57,38 @@ def parse_mesh_shape(t: Table, name: str, material: int, velocity: np.ndarray) -
         mesh = load_mesh_file(t.data["file"], t.field("file"))
     else:
         mesh = _generated(t)
+    normals = string(t.get("normals", "file", ""), t.field("normals"), NORMALS)
+    if t.has("normals") and has[0] != "file":
+        raise InputError(t.field("normals"), "applies to a file mesh only (generated meshes come "
+                                             "with their normals)")
     if t.has("transform"):
         mesh = _transformed(mesh, t.data["transform"], t.field("transform"))
+    if normals == "smooth" and mesh.normals is None:
+        # After the transform, as Mitsuba computes them from the world-space positions.
+        mesh = TriangleMesh(vertices=mesh.vertices, faces=mesh.faces,
+                            normals=smooth_normals(mesh.vertices, mesh.faces), source=mesh.source)
     mesh = checked_mesh(mesh.vertices, mesh.faces, mesh.normals, t.path, mesh.source)
     return Shape(kind="mesh", name=name, material=material, velocity=velocity, mesh=mesh)
+
+
+def smooth_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Mitsuba 3's vertex normals of a mesh without them (Mesh::compute_normals, after Thuermer and
+    Wuethrich 1998): each face's unit normal added to its corners' vertices weighted by the corner's
+    interior angle; trimesh's vertex normals are that weighting."""
+    import trimesh
+    n = np.array(trimesh.Trimesh(vertices=vertices, faces=faces, process=False).vertex_normals,
+                 dtype=np.float64)
+    # A vertex no face uses has none: Mitsuba's stand-in (1, 0, 0); no ray ever reads it.
+    with np.errstate(invalid="ignore"):
+        lone = ~(np.linalg.norm(n, axis=1) > 0.0)
+    n[lone] = [1.0, 0.0, 0.0]
+    return n
 
 
 def _only_keys(t: Table, allowed: tuple, what: str) -> None:
     """Generator parameters other than `allowed` are errors (a `radius` on a file mesh is a typo)."""
     for key in MESH_KEYS:
-        if key not in MESH_SOURCE_KEYS and key not in allowed and t.has(key):
+        if key not in MESH_SOURCE_KEYS + ("normals",) and key not in allowed and t.has(key):
             raise InputError(t.field(key), f"is not a parameter of {what}; allowed: "
                                            f"{', '.join(allowed) or '(none)'}")
 
@@ -111,7 +138,8 @@ def _transformed(mesh: TriangleMesh, value: Any, field: str) -> TriangleMesh:
 # ---------------------------------------------------------------------------------------------------
 
 def load_mesh_file(value: Any, field: str) -> TriangleMesh:
-    """A .obj or .ply file read by trimesh; its vertex normals only when the file has them."""
+    """A .obj or .ply file read by trimesh (a .serialized one by mesh_serialized.py); its vertex
+    normals only when the file has them."""
     text = string(value, field)
     path = Path(text).expanduser()
     if path.suffix.lower() not in MESH_FORMATS:
@@ -120,6 +148,12 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
         raise InputError(field, f"mesh file '{path}' does not exist")
     if path.suffix.lower() == ".obj":
         _check_obj_indices(path, field)
+    if path.suffix.lower() == ".serialized":
+        try:
+            vertices, faces, normals = read_serialized(path)
+        except (OSError, SerializedError) as exc:
+            raise InputError(field, f"mesh file '{path}' {exc}") from None
+        return TriangleMesh(vertices=vertices, faces=faces, normals=normals, source=str(path))
     import trimesh                                  # only scenes with mesh files pay its import
     try:
         # Not force="mesh": that concatenation drops the normals the file gave.
@@ -271,7 +305,10 @@ def parse_sphere_grid(t: Table, name: str, material: int, velocity: np.ndarray) 
 
 
 def file_has_vertex_normals(path: Path) -> bool:
-    """Whether an .obj has `vn` lines or a .ply declares nx: what decides Mitsuba's smooth normals."""
+    """Whether an .obj has `vn` lines, a .ply declares nx or a .serialized stores normals: what
+    decides Mitsuba's smooth normals."""
+    if path.suffix.lower() == ".serialized":
+        return has_vertex_normals(path)
     with path.open("rb") as f:
         if path.suffix.lower() == ".ply":
             for line in f:

@@ -73,6 +73,9 @@ def check_exportable(scene: Scene) -> None:
     if np.any(scene.background != 0.0):
         raise InputError("scene.background", "an unsampled background has no Mitsuba 3 counterpart; "
                                              "use [environment] kind = \"constant\" (Mitsuba's constant emitter)")
+    if scene.camera.orthographic:
+        raise InputError("camera.ortho_height", "an orthographic camera is not exported (the export "
+                                                "writes a perspective sensor)")
     if scene.camera.filter not in ("box", "mitchell", "mitsuba_gaussian"):
         raise InputError("camera.filter", f"'{scene.camera.filter}' is not exported (Mitsuba's filter "
                                           "of that name differs or is missing; exportable: box, mitchell, "

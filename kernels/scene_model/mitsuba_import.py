@@ -13,13 +13,25 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.estimators.integrators import INTEGRATORS as DRTLAB_INTEGRATORS
+
 from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
 from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
 from drtlab.kernels.filters import MITSUBA_GAUSSIAN, MITSUBA_STDDEV, STDDEV_MAX, STDDEV_MIN
-from drtlab.kernels.scene_model.mitsuba_xml import Obj, Reader, Ref, chain_matrix
+from drtlab.kernels.scene_model.mitsuba_spectrum import spectrum_to_rgb
+from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Reader, Ref, Spectrum, chain_matrix
 
-INTEGRATORS, SENSORS = ("path", "direct"), ("perspective", "thinlens")
+# `moment` wraps the integrator whose image it renders (its second moments are extra channels);
+# `ptracer` traces from the lights, an image equal in expectation to `path`'s, which renders it.
+INTEGRATORS, WRAPPERS = ("path", "direct", "ptracer"), ("moment",)
+SENSORS = ("perspective", "thinlens", "orthographic")
+NEAR_CLIP = 0.01            # Mitsuba's ProjectiveCamera default
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
+
+
+def integrator_names() -> tuple[str, ...]:
+    """drtlab's integrators (a `direct` one maps Mitsuba's direct onto itself when present)."""
+    return tuple(DRTLAB_INTEGRATORS)
 
 
 def scene_dict(path: Path) -> tuple[dict, str]:
@@ -34,6 +46,9 @@ class _Importer(ShapeMapping, MaterialMapping):
         self.materials: dict[str, dict] = {}
         self.material_of: dict[tuple, str] = {}
         self.data: dict = {"materials": self.materials, "shapes": []}
+        self.integrated = False
+        self.instances = 0
+        self.notes: list[str] = []      # what the scene's description says drtlab did differently
 
     # ---- property access: each read marks the property used; `done` refuses the rest -------------
     def get(self, o: Obj, name: str, tags: tuple[str, ...], default=None):
@@ -41,6 +56,9 @@ class _Importer(ShapeMapping, MaterialMapping):
         if p is None:
             return default
         o.used.add(name)
+        if p.tag == "texture" and "texture" not in tags:
+            self.r.fail(p.path, f"<texture type='{p.value.type}'> is not supported here (drtlab reads "
+                                f"{' or '.join('<' + t + '>' for t in tags)})")
         if p.tag not in tags:
             self.r.fail(p.path, f"must be {' or '.join('<' + t + '>' for t in tags)}, got <{p.tag}>")
         return p.value
@@ -51,13 +69,33 @@ class _Importer(ShapeMapping, MaterialMapping):
             self.r.fail(o.props[name].path, f"must be {text}, got {v!r}")
         return v
 
-    def colour(self, o: Obj, name: str, default):
+    def colour(self, o: Obj, name: str, default, emitter: bool = False, unbounded: bool = False):
+        """An RGB property as Mitsuba's RGB variants read it: <rgb>, <float>, <spectrum> (as
+        mitsuba_spectrum.py), or a constant texture (`srgb` with a `color`, `uniform` with a
+        `value`) where a plain value is meant; `emitter` for an emitter's radiance, irradiance or
+        intensity."""
         p = o.props.get(name)
-        if p is not None and p.tag in ("texture", "ref"):
+        if p is not None and p.tag == "ref":
+            p = Prop("texture", self.deref(Ref(p.value, p.path)), p.path)
+        if p is not None and p.tag == "texture":
             o.used.add(name)
-            self.r.fail(p.path, "textures are not supported (drtlab has constant colours only)")
+            return self.constant_texture(p.value, emitter, unbounded)
         v = self.get(o, name, ("rgb", "spectrum", "float"), default)
+        if isinstance(v, Spectrum):
+            return spectrum_to_rgb(v.wavelengths, v.values, emitter, unbounded)
         return [float(v)] * 3 if isinstance(v, (int, float)) else list(v)
+
+    def constant_texture(self, t: Obj, emitter: bool, unbounded: bool) -> list[float]:
+        if t.tag != "texture" or t.type not in ("srgb", "uniform"):
+            self.r.fail(t.path, f"<{t.tag} type='{t.type}'> is not supported here (drtlab reads "
+                                "constant values: <rgb>, <spectrum>, <float>, srgb or uniform "
+                                "textures)")
+        key = "color" if t.type == "srgb" else "value"
+        if key not in t.props:
+            self.r.fail(t.path, f"a {t.type} texture needs {key}")
+        rgb = self.colour(t, key, None, emitter, unbounded)
+        self.done(t)
+        return rgb
 
     def string(self, o: Obj, name: str, default, choices=None):
         v = self.get(o, name, ("string",), default)
@@ -93,6 +131,8 @@ class _Importer(ShapeMapping, MaterialMapping):
     # ---- the scene ---------------------------------------------------------------------------------
     def convert(self) -> dict:
         root = self.r.root
+        # A `name` on an object in <scene> (Mitsuba's writer gives every one) is only its label.
+        root.used.update(n for n, p in root.props.items() if p.tag == "ref" or isinstance(p.value, Obj))
         self.done(root)
         sensors = []
         for child in root.children:
@@ -102,8 +142,14 @@ class _Importer(ShapeMapping, MaterialMapping):
                 sensors.append(child)
             elif child.tag == "integrator":
                 self.integrator(child)
+            elif child.tag == "shape" and child.type == "shapegroup":
+                self.shape_group(child)
+            elif child.tag == "shape" and child.type == "instance":
+                self.instance(child)
             elif child.tag == "shape":
                 self.shape(child)
+            elif child.tag == "texture" and child.id is not None:
+                self.constant_texture(child, False, True)     # checked here, read where referred to
             elif child.tag == "emitter":
                 self.emitter(child)
             elif child.tag == "bsdf":
@@ -115,24 +161,42 @@ class _Importer(ShapeMapping, MaterialMapping):
         if len(sensors) != 1:
             self.r.fail(root.path, f"exactly one <sensor> is needed, got {len(sensors)}")
         self.data.setdefault("scene", {}).setdefault("integrator", "path")
-        if "max_depth" not in self.data["scene"]:      # no <integrator>: Mitsuba's default path
+        if not self.integrated:         # no <integrator>: Mitsuba's default path
             self.data["scene"].update(max_depth=-1, russian_roulette=True, rr_depth=5)
         self.sensor(sensors[0])
-        self.data["scene"]["description"] = f"Mitsuba 3 scene {self.r.file}"
+        self.data["scene"]["description"] = "; ".join([f"Mitsuba 3 scene {self.r.file}"] + self.notes)
         return self.data
 
     def integrator(self, o: Obj) -> None:
+        if o.type in WRAPPERS:
+            inner = self.nested(o)
+            if len(inner) != 1 or inner[0].tag != "integrator":
+                self.r.fail(o.path, f"a {o.type} integrator wraps exactly one <integrator>")
+            self.done(o)
+            return self.integrator(inner[0])
         kind = self.kind(o, INTEGRATORS)
         if self.get(o, "hide_emitters", ("boolean",), False):
             self.r.fail(o.props["hide_emitters"].path, "true is not supported (drtlab always shows emitters)")
         s = self.data.setdefault("scene", {})
-        if "max_depth" in s:
+        if self.integrated:
             self.r.fail(o.path, "a second <integrator>")
+        self.integrated = True
         s["integrator"] = "path"
-        if kind == "direct":        # emitter and BSDF samples combined by MIS: path of depth 2
-            for name in ("shading_samples", "emitter_samples", "bsdf_samples"):
-                self.number(o, name, 1, lambda n: n == 1, "1 (drtlab takes one sample of each)")
-            s["max_depth"] = 2
+        if kind == "ptracer":
+            self.notes.append("its ptracer renders with path (the same image in expectation)")
+        if kind == "direct":
+            shading = self.number(o, "shading_samples", 1, lambda n: n == int(n) and n >= 1, "an integer >= 1")
+            counts = {name: int(self.number(o, name, shading, lambda n: n == int(n) and n >= 0,
+                                            "an integer >= 0"))
+                      for name in ("emitter_samples", "bsdf_samples")}
+            if "direct" in integrator_names():
+                s.update(integrator="direct", **counts)
+            else:       # emitter and BSDF samples combined by MIS: path of depth 2
+                for name, n in counts.items():
+                    if n != 1:
+                        given = o.props.get(name) or o.props["shading_samples"]
+                        self.r.fail(given.path, f"{name} must be 1 (drtlab takes one sample of each), got {n}")
+                s["max_depth"] = 2
         else:
             depth = self.number(o, "max_depth", -1, lambda n: n == -1 or n >= 1, "-1 or >= 1")
             rr = self.number(o, "rr_depth", 5, lambda n: n >= 0, ">= 0")
@@ -163,8 +227,11 @@ class _Importer(ShapeMapping, MaterialMapping):
         s["spp"] = self.sampler(sampler) if sampler else 4
         cam: dict = {}
         chain = self.get(o, "to_world", ("transform",), [])
-        self.camera_frame(o, chain, cam)
-        cam["fov"] = self.vertical_fov(o, width / height)
+        if kind == "orthographic":
+            self.orthographic_frame(o, chain, width / height, cam)
+        else:
+            self.camera_frame(o, chain, cam)
+            cam["fov"] = self.vertical_fov(o, width / height)
         cam.update(film_filter)
         self.ignore(o, "near_clip", "far_clip", "shutter_open", "shutter_close", "shutter_open_time")
         if kind == "thinlens":
@@ -197,6 +264,26 @@ class _Importer(ShapeMapping, MaterialMapping):
         position = m[:3, 3]
         cam.update(position=position.tolist(), look_at=(position + a[:, 2]).tolist(),
                    up=(a[:, 1] / lengths[1]).tolist())
+
+    def orthographic_frame(self, o: Obj, chain, aspect: float, cam: dict) -> None:
+        """Mitsuba's orthographic sensor: rays along to_world's z from the film, which spans
+        [-1, 1] x [-1 / aspect, 1 / aspect] in camera x, y at z = near_clip (orthographic_projection
+        in include/mitsuba/render/sensor.h), through to_world. drtlab's film has square pixels: the
+        x and y scales must be equal."""
+        m = chain_matrix(chain)
+        a = m[:3, :3]
+        lengths = np.linalg.norm(a, axis=0)
+        unit = a / lengths
+        if (np.linalg.det(a) <= 0 or not np.allclose(unit.T @ unit, np.eye(3), atol=1e-9)
+                or not math.isclose(lengths[0], lengths[1], rel_tol=1e-9)):
+            self.r.fail(o.props["to_world"].path if chain else o.path,
+                        "an orthographic camera's to_world must be a rotation and translation with "
+                        "an equal x and y scale (square pixels): drtlab cannot mirror, shear or "
+                        "stretch the view")
+        near = self.number(o, "near_clip", NEAR_CLIP, lambda x: x > 0, "> 0")
+        position = m[:3, :3] @ [0.0, 0.0, near] + m[:3, 3]
+        cam.update(position=position.tolist(), look_at=(position + unit[:, 2]).tolist(),
+                   up=unit[:, 1].tolist(), ortho_height=float(2.0 * lengths[1] / aspect))
 
     def vertical_fov(self, o: Obj, aspect: float) -> float:
         """parse_fov of src/render/sensor.cpp, turned into drtlab's full vertical fov."""

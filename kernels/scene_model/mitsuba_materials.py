@@ -18,7 +18,7 @@ class MaterialMapping:
         BSDF's id (or the shape's path)."""
         radiance = None
         if emitter is not None:
-            radiance = self.colour(emitter, "radiance", 1.0)
+            radiance = self.colour(emitter, "radiance", 1.0, emitter=True)
             if not any(x > 0 for x in radiance):
                 # An emitter of nothing is a mistake in drtlab's files too (materials.*.emission).
                 where = emitter.props["radiance"].path if "radiance" in emitter.props else emitter.path
@@ -58,7 +58,11 @@ class MaterialMapping:
                                             f"({', '.join(one_sided)})")
             self.done(o)
             return self.bsdf(nested[0])
-        for child in self.nested(o):
+        named = {p.path for p in o.props.values()}       # read through `colour` where a value is meant
+        for child in o.children:
+            if child.path in named:
+                continue
+            child = self.deref(child)
             what = "textures are" if child.tag == "texture" else f"a nested <{child.tag}> is"
             self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
                                     "constant)")
@@ -123,7 +127,7 @@ class MaterialMapping:
             return [list(v) for v in CONDUCTOR_IOR[material]]
         out = []
         for name, default in (("eta", 0.0), ("k", 1.0)):
-            v = self.colour(o, name, default)
+            v = self.colour(o, name, default, unbounded=True)
             if min(v) < 0:
                 self.r.fail(o.props[name].path, f"must be >= 0 in every channel, got {v}")
             out.append(v)

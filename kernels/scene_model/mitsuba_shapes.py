@@ -11,16 +11,15 @@ direction of Mitsuba's frame to the one of drtlab's frame with the same (u, v).
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from drtlab.kernels.imageio import image_size
 from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
-from drtlab.kernels.scene_model.mitsuba_xml import Obj, chain_matrix, chain_point, chain_vector, drtlab_transform
+from drtlab.kernels.scene_model.mitsuba_xml import (Obj, chain_matrix, chain_point, chain_vector, coordinate_up,
+                                                  drtlab_transform)
 from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
 
-SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "disk")
+SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk", "cylinder")
 EMITTERS = ("area", "point", "directional", "constant", "envmap")
 MITSUBA_TO_DRTLAB = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
 ENVMAP_FORMATS = (".exr", ".hdr")
@@ -29,22 +28,47 @@ FLIP_Z = ("scale", np.diag([1.0, 1.0, -1.0, 1.0]), [1.0, 1.0, -1.0])
 
 
 class ShapeMapping:
-    def shape(self, o: Obj) -> None:
-        kind = self.kind(o, SHAPES)
+    def shape_group(self, o: Obj) -> None:
+        """A `shapegroup` renders nothing itself: its shapes are flattened into each instance."""
+        if o.id is None:
+            self.r.fail(o.path, "a shapegroup needs an id (instances refer to it)")
+        for child in self.nested(o):
+            if child.tag != "shape" or child.type in ("shapegroup", "instance"):
+                self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shapegroup is not "
+                                        "supported (shapes only, as Mitsuba)")
+        self.done(o)
+
+    def instance(self, o: Obj) -> None:
+        """An `instance` of a shapegroup: each of the group's shapes under its own to_world, then the
+        instance's (flattened at load: one drtlab shape per shape and instance)."""
         chain = self.get(o, "to_world", ("transform",), [])
+        groups = self.nested(o)
+        if len(groups) != 1 or groups[0].type != "shapegroup":
+            self.r.fail(o.path, "an instance refers to exactly one shapegroup")
+        self.instances += 1
+        for child in self.nested(groups[0]):
+            self.shape(child, list(chain), f"[instance {self.instances}]")
+        self.done(o)
+
+    def shape(self, o: Obj, outer: list | None = None, label: str = "") -> None:
+        kind = self.kind(o, SHAPES)
+        chain = list(self.get(o, "to_world", ("transform",), [])) + (outer or [])
         flip = self.get(o, "flip_normals", ("boolean",), False)
         bsdf = emitter = None
         for child in self.nested(o):
             if child.tag == "bsdf" and bsdf is None:
                 bsdf = child
             elif child.tag == "emitter" and emitter is None and child.type == "area":
+                if outer is not None:
+                    self.r.fail(child.path, "an emitter in a shapegroup is not supported (Mitsuba "
+                                            "does not instance emitters)")
                 emitter = child
             else:
                 self.r.fail(child.path, f"<{child.tag} type='{child.type}'> in a shape is not "
                                         "supported (one bsdf and one area emitter)")
         shape: dict = {"material": self.material(o, bsdf, emitter)}
         if o.id is not None:
-            shape["name"] = o.id
+            shape["name"] = o.id + label
         if kind == "rectangle":
             # Each corner and edge through the chain (exact for an exporter's chain); a mirroring
             # transform or flip_normals turns the normal: drtlab's is edge_u x edge_v.
@@ -62,46 +86,67 @@ class ShapeMapping:
                 # In the z = 0 plane the flip moves no vertex; the mirror reverses the winding.
                 chain = ([FLIP_Z] if flip else []) + list(chain)
                 shape.update(kind="mesh", generate="disk", segments=DISK_SEGMENTS)
+            elif kind == "cylinder":
+                chain = self.cylinder_axis(o) + list(chain)
+                shape.update(kind="mesh", generate="cylinder", segments=DISK_SEGMENTS,
+                             radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
             elif kind == "cube":
                 shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
             elif kind == "sphere":
                 shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
                              radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
             else:
-                shape.update(kind="mesh", file=self.mesh_file(o, kind))
+                path, smooth = self.mesh_file(o, kind)
+                shape.update(kind="mesh", file=path, **({"normals": "smooth"} if smooth else {}))
             transform = drtlab_transform(chain)
             if transform is not None:
                 shape["transform"] = transform
         self.data["shapes"].append(shape)
         self.done(o)
 
-    def mesh_file(self, o: Obj, kind: str) -> str:
+    def cylinder_axis(self, o: Obj) -> list:
+        """Mitsuba's cylinder from `p0` (0, 0, 0) to `p1` (0, 0, 1): the unit-height tube's z axis
+        turned onto p1 - p0 and moved to p0 (no operation for the defaults)."""
+        p0 = np.array(self.get(o, "p0", ("point",), [0.0, 0.0, 0.0]), dtype=np.float64)
+        p1 = np.array(self.get(o, "p1", ("point",), [0.0, 0.0, 1.0]), dtype=np.float64)
+        d = p1 - p0
+        if not np.any(d):
+            self.r.fail(o.path, "p0 and p1 must differ")
+        if p0.tolist() == [0.0] * 3 and p1.tolist() == [0.0, 0.0, 1.0]:
+            return []
+        axis = d / np.linalg.norm(d)
+        s = np.array(coordinate_up(axis))
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = s, np.cross(axis, s), d, p0
+        return [("matrix", m, m)]
+
+    def mesh_file(self, o: Obj, kind: str) -> tuple[str, bool]:
+        """(the mesh file, whether drtlab computes Mitsuba's smooth normals for it)."""
         name = self.string(o, "filename", None)
         if name is None:
             self.r.fail(o.path, f"{kind} needs a filename")
-        path = Path(name).expanduser()
-        path = path if path.is_absolute() else self.r.folder / path
+        path = self.r.resolve(name)
         if not path.is_file():
             self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
         if path.suffix.lower() != f".{kind}":
             self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
         has_normals = file_has_vertex_normals(path)
         face_normals = self.get(o, "face_normals", ("boolean",), False)
-        if not face_normals and not has_normals:
-            self.r.fail(o.path, "the file has no vertex normals, so Mitsuba would compute smooth ones, "
-                                "which drtlab does not; set face_normals to true (flat shading)")
         if face_normals and has_normals:
             self.r.fail(o.props["face_normals"].path, "true with a file that has vertex normals is not "
                                                       "supported (drtlab shades with the file's normals)")
         self.ignore(o, "flip_tex_coords")
-        return str(path)
+        if kind == "serialized":
+            self.number(o, "shape_index", 0, lambda n: n == 0, "0 (drtlab reads a file's first mesh)")
+        return str(path), not face_normals and not has_normals
 
     def emitter(self, o: Obj) -> None:
         kind = self.kind(o, EMITTERS[1:])
         if kind in ("constant", "envmap") and "environment" in self.data:
             self.r.fail(o.path, "a second environment emitter (constant or envmap)")
         if kind == "constant":
-            self.data["environment"] = {"kind": "constant", "radiance": self.colour(o, "radiance", 1.0)}
+            self.data["environment"] = {"kind": "constant",
+                                        "radiance": self.colour(o, "radiance", 1.0, emitter=True)}
         elif kind == "envmap":
             self.data["environment"] = self.envmap(o)
         else:
@@ -114,7 +159,7 @@ class ShapeMapping:
                 given = (chain_point(chain, [0.0] * 3) if kind == "point"
                          else chain_vector(chain, [0, 0, 1.0])).tolist()
             self.data.setdefault("lights", []).append(
-                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0)})
+                {"kind": kind, key: list(given), value: self.colour(o, value, 1.0, emitter=True)})
         self.done(o)
 
 
@@ -122,8 +167,7 @@ class ShapeMapping:
         name = self.string(o, "filename", None)
         if name is None:
             self.r.fail(o.path, "envmap needs a filename (an .exr or .hdr lat-long image)")
-        path = Path(name).expanduser()
-        path = path if path.is_absolute() else self.r.folder / path
+        path = self.r.resolve(name)
         if path.suffix.lower() not in ENVMAP_FORMATS:
             self.r.fail(o.props["filename"].path, f"must name an .exr or .hdr image, got '{name}'")
         if not path.is_file():

@@ -1,11 +1,13 @@
 """Reading a Mitsuba 3 XML file: elements, typed properties, `<default>`/`$name`, ids and transforms.
 
-This is the XML layer of the importer (`mitsuba_import.py` maps what it reads onto a drtlab scene).
+This is the XML layer of the importer (`mitsuba_import.py` maps what it reads onto a drtlab scene;
+files, versions, <include> and <path> as Mitsuba's parser reads them: `mitsuba_files.py`).
 Every element gets a path as the user would point at it (`scene/shape[3](rectangle)/bsdf(diffuse)/
 float[@name=alpha]`), and every problem is one `InputError` whose field is "FILE: PATH". Values are
 parsed as Mitsuba 3's parser does (src/core/parser.cpp): numbers with separators ", ", `<rgb>` of one
-or three values, `<spectrum>` of one constant value, transforms whose later operations left-multiply
-the earlier ones. Non-finite numbers are refused (drtlab's scene numbers are finite).
+or three values, `<spectrum>` of one value or wavelength:value pairs (`Spectrum`; the importer
+turns it into RGB as Mitsuba's RGB variants do, mitsuba_spectrum.py), transforms whose later
+operations left-multiply the earlier ones. Non-finite numbers are refused (drtlab's scene numbers are finite).
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from drtlab.errors import InputError
+from drtlab.kernels.scene_model.mitsuba_files import UPGRADED_BELOW, parse_version, read_root, upgrade_v1
 
 OBJECT_TAGS = ("scene", "shape", "bsdf", "emitter", "sensor", "film", "rfilter", "sampler",
                "integrator", "texture", "medium", "phase", "volume")
@@ -36,6 +39,13 @@ class Prop:
     tag: str            # float, rgb, transform, ref, or an object tag for a nested object
     value: object       # the parsed value; a nested object's Obj; a ref's id
     path: str
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """A <spectrum>: `values` alone (one number) is uniform; else values at `wavelengths` (nm)."""
+    wavelengths: tuple[float, ...]
+    values: tuple[float, ...]
 
 
 @dataclass
@@ -62,29 +72,42 @@ class Reader:
     def __init__(self, path: Path):
         self.file = path.name
         self.folder = path.parent
-        try:
-            text = path.read_bytes()
-        except OSError as exc:
-            raise InputError("scene", f"cannot read {path}: {exc.strerror or exc}") from None
-        try:
-            root = ET.fromstring(text)
-        except ET.ParseError as exc:
-            raise InputError("scene", f"malformed XML in {path}: {exc}") from None
+        self.folders: list[Path] = []       # <path> folders, the latest first (mitsuba_files.py)
+        root = read_root(path)
         self.params: dict[str, str] = {}
         self.ids: dict[str, Obj] = {}
         if root.tag != "scene":
             self.fail(root.tag, f"the root element must be <scene version=\"3.x\">, got <{root.tag}>")
-        self._substitute(root, "scene")
-        version = root.get("version")
-        if version is None or not re.fullmatch(r"3(\.\d+){0,2}", version.strip()):
-            self.fail("scene", f"version must be 3.x (Mitsuba 3), got {version!r}")
+        self._version(root, "scene", path)
+        self._substitute(root, "scene", path, [path.resolve()])
         self.root = self._object(root, "scene")
+
+    def _version(self, root: ET.Element, path: str, file: Path) -> tuple[int, int, int]:
+        version = parse_version(root.get("version"))
+        if version is None:
+            self.fail(path, f"{file.name}: version must be 0.6 ... 3.x (what Mitsuba 3 reads), got "
+                            f"{root.get('version')!r}")
+        return version
+
+    def resolve(self, name: str) -> Path:
+        """A file a plugin names, looked up as Mitsuba's file resolver does: an absolute path as it
+        is, else in the <path> folders (the latest first), then in the scene file's folder."""
+        p = Path(name).expanduser()
+        if p.is_absolute():
+            return p
+        for folder in self.folders:
+            if (folder / p).exists():
+                return folder / p
+        return self.folder / p
 
     def fail(self, path: str, message: str):
         raise XmlError(f"{self.file}: {path}", message)
 
     # ---- <default> and $name, in document order as Mitsuba substitutes them ----------------------
-    def _substitute(self, node: ET.Element, path: str) -> None:
+    def _substitute(self, node: ET.Element, path: str, file: Path, stack: list[Path],
+                    version=(3, 0, 0)) -> None:
+        """$name substitution, <default>, <path> and <include> in document order, as Mitsuba's
+        parser meets them; a file older than 2.0 upgraded element by element."""
         for key, value in node.attrib.items():
             def sub(match):
                 if match.group(1) not in self.params:
@@ -92,13 +115,63 @@ class Reader:
                                     "(define it with <default name=... value=...>)")
                 return self.params[match.group(1)]
             node.set(key, _PARAM.sub(sub, value).replace("\\$", "$"))
+        if node.tag == "scene" and node.get("version") is not None:
+            version = self._version(node, path, file)
         if node.tag == "default":
             name, value = node.get("name"), node.get("value")
             if not name or value is None:
                 self.fail(path, "<default> needs a non-empty name and a value")
             self.params.setdefault(name, value)
-        for child, child_path in self._children(node, path):
-            self._substitute(child, child_path)
+        if version < UPGRADED_BELOW and node.tag in OBJECT_TAGS:
+            upgrade_v1(node, PROPERTY_TAGS)
+        for child, child_path in list(self._children(node, path)):
+            if child.tag == "include":
+                self._substitute(child, child_path, file, stack, version)
+                inserted = self._include(child, child_path, file, stack)
+                at = list(node).index(child)
+                node.remove(child)
+                for j, element in enumerate(inserted):
+                    node.insert(at + j, element)
+                continue
+            if child.tag == "path":
+                self._substitute(child, child_path, file, stack, version)
+                self._path(child, child_path, file, node.tag == "scene")
+                continue
+            self._substitute(child, child_path, file, stack, version)
+
+    def _include(self, node: ET.Element, path: str, file: Path, stack: list[Path]) -> list[ET.Element]:
+        self._attributes(node, path, {"filename", "name"})
+        name = node.get("filename")
+        if not name:
+            self.fail(path, "<include> needs a filename")
+        target = Path(name).expanduser()
+        if not target.is_absolute():
+            near = file.parent / target
+            target = near if near.exists() else self.resolve(name)
+        if not target.is_file():
+            self.fail(path, f"included file '{name}' does not exist (looked in {file.parent})")
+        if target.resolve() in stack:
+            chain = " -> ".join(p.name for p in stack + [target.resolve()])
+            self.fail(path, f"<include> cycle: {chain}")
+        root = read_root(target)
+        inner = f"{path}[{target.name}]"
+        version = self._version(root, inner, target)
+        self._substitute(root, inner, target, stack + [target.resolve()], version)
+        return list(root) if root.tag == "scene" else [root]
+
+    def _path(self, node: ET.Element, path: str, file: Path, at_root: bool) -> None:
+        self._attributes(node, path, {"value"})
+        if not at_root:
+            self.fail(path, "<path> can only be a child of <scene>")
+        folder = Path(node.get("value") or "").expanduser()
+        if not node.get("value"):
+            self.fail(path, "<path> needs a value (a folder)")
+        if not folder.is_absolute():
+            folder = file.parent / folder
+        if not folder.is_dir():
+            self.fail(path, f"<path>: folder '{node.get('value')}' does not exist (relative to "
+                            f"{file.parent})")
+        self.folders.insert(0, folder)
 
     @staticmethod
     def _children(node: ET.Element, path: str):
@@ -127,7 +200,7 @@ class Reader:
                 self.fail(path, f"duplicate id '{obj.id}'")
             self.ids[obj.id] = obj
         for child, child_path in self._children(node, path):
-            if child.tag == "default":
+            if child.tag in ("default", "path"):
                 continue
             if child.tag in OBJECT_TAGS:
                 nested = self._object(child, child_path)
@@ -187,12 +260,27 @@ class Reader:
             return text.strip().lower() == "true"
         if tag == "string":
             return text
+        if tag == "spectrum":
+            return self._spectrum(text, path)
         values = [self.number(t, path) for t in _SEPARATORS.split(text.strip()) if t]
-        if tag == "spectrum" and len(values) != 1:
-            self.fail(path, "only a constant <spectrum> (one value) is supported: drtlab renders RGB")
         if len(values) not in (1, 3):
             self.fail(path, f"<rgb> takes one or three values, got {len(values)}")
         return values * 3 if len(values) == 1 else values
+
+    def _spectrum(self, text: str, path: str) -> Spectrum:
+        """A <spectrum>'s value as Mitsuba's Properties::Spectrum parses it: one number (uniform) or
+        wavelength:value pairs, at least two, wavelengths increasing."""
+        tokens = [t for t in _SEPARATORS.split(text.strip()) if t]
+        if len(tokens) == 1 and ":" not in tokens[0]:
+            return Spectrum((), (self.number(tokens[0], path),))
+        pairs = [t.split(":") for t in tokens]
+        if any(len(p) != 2 for p in pairs):
+            self.fail(path, f"a <spectrum> is one number or wavelength:value pairs, got {text!r}")
+        wavelengths = [self.number(w, path) for w, _ in pairs]
+        if len(pairs) < 2 or any(b <= a for a, b in zip(wavelengths, wavelengths[1:])):
+            self.fail(path, "wavelength:value pairs need at least two wavelengths, increasing, "
+                            f"got {text!r}")
+        return Spectrum(tuple(wavelengths), tuple(self.number(v, path) for _, v in pairs))
 
     def number(self, text: str, path: str) -> float:
         try:

@@ -1,6 +1,7 @@
 """Procedural shape sources, so that scenes with many primitives need no download: triangle meshes
 made by `generate = NAME` in a mesh shape (GENERATORS), and the `sphere_grid` shape (many spheres).
-`disk` is Mitsuba 3's disk (kernels/scene_model/mitsuba_shapes.py) as a triangle fan.
+`disk` is Mitsuba 3's disk (kernels/scene_model/mitsuba_shapes.py) as a triangle fan, `cylinder` its
+open cylinder as a tube of quads with radial vertex normals.
 
 Each generator is a pure function of its parameters (the seed included) returning world-space
 (vertices, faces, normals): faces wound so that (b - a) x (c - a) points out of the displaced sphere
@@ -89,6 +90,27 @@ def disk(radius: float, segments: int):
     return vertices, faces, None
 
 
+def cylinder(radius: float, segments: int):
+    """Mitsuba 3's cylinder: the open tube of `radius` about the z axis from z = 0 to z = 1, facing
+    outwards, as `segments` quads (2 triangles each) between two rings of a regular polygon inscribed
+    in the circle, with the circle's radial normals at the vertices (smooth shading)."""
+    n = int(segments)
+    a = np.arange(n) * (2.0 * np.pi / n)
+    radial = np.column_stack([np.cos(a), np.sin(a), np.zeros_like(a)])
+    vertices = np.vstack([radial * radius, radial * radius + [0.0, 0.0, 1.0]])
+    i = np.arange(n)
+    j = (i + 1) % n
+    # (ring0_j - ring0_i) x (ring1_j - ring0_i) points away from the axis.
+    faces = np.concatenate([np.column_stack([i, j, j + n]), np.column_stack([i, j + n, i + n])])
+    return vertices, faces, np.vstack([radial, radial])
+
+
+def cylinder_area_deficit(segments: int) -> float:
+    """1 - (the tessellated tube's area) / (the cylinder's): the inscribed polygon's perimeter
+    against the circle's, 1 - N sin(pi / N) / pi, about (pi / N)^2 / 6."""
+    return disk_area_deficit(2 * segments)
+
+
 def disk_area_deficit(segments: int) -> float:
     """1 - (the fan's area) / (the circle's): 1 - N sin(2 pi / N) / (2 pi), about (2 pi / N)^2 / 6."""
     x = 2.0 * np.pi / segments
@@ -106,6 +128,8 @@ GENERATORS = {
         "resolution": (32, ("count", 1, MAX_RESOLUTION)), "height": (1.0, "nonneg"),
         "seed": (0, "seed")}),
     "disk": (disk, {
+        "radius": (1.0, "positive"), "segments": (DISK_SEGMENTS, ("count", 3, MAX_SEGMENTS))}),
+    "cylinder": (cylinder, {
         "radius": (1.0, "positive"), "segments": (DISK_SEGMENTS, ("count", 3, MAX_SEGMENTS))}),
 }
 

@@ -29,6 +29,8 @@ class Camera:
     filter: str = "box"                 # pixel reconstruction filter, a name in kernels/filters.py
     filter_stddev: float = 0.0          # its stddev (filters.STDDEV_FILTERS); 0: the filter's default
     filter_clip: bool = False           # the filter truncated to the film (no samples beyond its edge)
+    ortho_height: float = 0.0           # > 0: an orthographic camera, rays along the view axis from a
+                                        # film this high (world units) at position; 0: perspective
 
     def __post_init__(self):
         if not self.focus_distance > 0.0:
@@ -37,6 +39,10 @@ class Camera:
     @property
     def has_lens(self) -> bool:
         return self.aperture_radius > 0.0
+
+    @property
+    def orthographic(self) -> bool:
+        return self.ortho_height > 0.0
 
 
 @dataclass

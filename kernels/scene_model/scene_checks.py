@@ -42,16 +42,21 @@ def emitters_facing_nothing(scene: Scene) -> list[str]:
 
 
 def tessellated_disks(scene: Scene) -> list[str]:
-    """A line for the first disk (`generate = "disk"`, Mitsuba's disk): a triangle fan, whose area
-    and outline are the circle's only to a bound."""
-    from drtlab.kernels.scene_model.procedural import disk_area_deficit
-    disks = [s for s in scene.shapes if s.kind == "mesh" and s.mesh.source.startswith("disk(")]
-    if not disks:
-        return []
-    n = len(disks[0].mesh.faces)
-    more = f" (and {len(disks) - 1} more disks)" if len(disks) > 1 else ""
-    return [f"disk '{disks[0].name}'{more} is tessellated into {n} triangles: its area is the "
-            f"circle's to {disk_area_deficit(n):.1e} (relative, smaller)"]
+    """A line for the first disk (`generate = "disk"`, Mitsuba's disk) and the first cylinder: a
+    triangle fan or tube, whose area and outline are the circle's only to a bound."""
+    from drtlab.kernels.scene_model.procedural import cylinder_area_deficit, disk_area_deficit
+    lines = []
+    for kind, segments_of, deficit in (("disk", len, disk_area_deficit),
+                                       ("cylinder", lambda f: len(f) // 2, cylinder_area_deficit)):
+        found = [s for s in scene.shapes if s.kind == "mesh" and s.mesh.source.startswith(f"{kind}(")]
+        if not found:
+            continue
+        n = segments_of(found[0].mesh.faces)
+        more = f" (and {len(found) - 1} more {kind}s)" if len(found) > 1 else ""
+        lines.append(f"{kind} '{found[0].name}'{more} is tessellated into {len(found[0].mesh.faces)} "
+                     f"triangles: its area is the {'circle' if kind == 'disk' else 'cylinder'}'s to "
+                     f"{deficit(n):.1e} (relative, smaller)")
+    return lines
 
 
 def scene_warnings(scene: Scene) -> list[str]:

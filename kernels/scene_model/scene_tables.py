@@ -29,7 +29,8 @@ TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environme
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
               "rr_depth", "background")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
-               "focal_length", "image_distance", "shutter", "filter", "filter_stddev", "filter_clip")
+               "focal_length", "image_distance", "shutter", "filter", "filter_stddev", "filter_clip",
+               "ortho_height")
 # What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/scene_model/mesh_file.py).
 SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
 SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
@@ -154,9 +155,17 @@ def _parse_camera(value: Any) -> Camera:
         stddev = number(stddev, t.field("filter_stddev"), f"in [{STDDEV_MIN}, {STDDEV_MAX}] pixels",
                         lambda x: STDDEV_MIN <= x <= STDDEV_MAX)
     clip = boolean(t.get("filter_clip", False, ""), t.field("filter_clip"))
+    ortho = 0.0
+    if t.has("ortho_height"):
+        ortho = number(t.data["ortho_height"], t.field("ortho_height"), "> 0 (the film's height in world "
+                       "units, orthographic)", lambda x: x > 0.0)
+        if aperture > 0.0:
+            raise InputError(t.field("ortho_height"), "an orthographic camera has no lens: drop "
+                                                      "aperture_radius / f_number")
     return Camera(position=position, look_at=look_at, up=up, vfov_deg=fov, aperture_radius=aperture,
                   focus_distance=focus, shutter=shutter, filter=pixel_filter,
-                  filter_stddev=float(stddev or 0.0), filter_clip=clip and pixel_filter != BOX)
+                  filter_stddev=float(stddev or 0.0), filter_clip=clip and pixel_filter != BOX,
+                  ortho_height=float(ortho))
 
 
 def _parallel(a: np.ndarray, b: np.ndarray) -> bool:

@@ -1,0 +1,210 @@
+"""`make crosscheck-suite`: Mitsuba 3's own render-test scenes against Mitsuba's reference images.
+
+The suite (`../shared/mitsuba-tests` beside the checkout, or $DRTLAB_MITSUBA_TESTS, or --suite-dir)
+holds Mitsuba 3's regression scenes `tests/scenes/*/NAME_INTEGRATOR.xml` and, per scene, Mitsuba's
+reference `refs/NAME_ref_rgb.exr` with its per-pixel variance of one sample `refs/NAME_ref_rgb_var.exr`
+(what Mitsuba's `moment` integrator records). Every scene drtlab loads is rendered at its own
+resolution (independent samples, as its sampler) and judged by two rules:
+
+- channel means: each within 1% of the reference's, or within 3 standard errors (the render's own,
+  from its per-pixel sample variance): a correct render fails a channel's 3-sigma test with
+  probability 0.27%, so 3 channels of the 6 scenes that load today fail one with at most 4.9%
+  (Bonferroni), less with the 1% allowance; the seed is fixed, so a run repeats exactly;
+- block L1: the mean absolute difference of the 4 x 4-pixel block means, over the reference's mean,
+  at most 1.5 times the L1 Mitsuba's own render of the same spp has against the reference. Mitsuba
+  is not run here: that L1 is predicted from the reference's variance image (each block mean of an
+  spp-sample render is Gaussian with variance sum(var) / (16^2 spp), its expected |error| that sd
+  times sqrt(2 / pi)); the reference's own noise is left out, so the prediction is a lower bound.
+
+A scene drtlab does not load is listed with the one-line refusal, not judged. Writes
+results/mitsuba-suite/suite.json and suite.md (the table, also printed); --docs PATH writes the table
+as a documentation page. Exit 0 when every loaded scene agrees, 1 otherwise.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from drtlab.cli_args import Help, Parser, int_flag, run_main
+from drtlab.errors import InputError
+from drtlab.experiments.bench.mitsuba.crosscheck_stats import block_means
+from drtlab.experiments.files import atomic_write_text
+from drtlab.experiments.paths import results_root
+
+REPO = Path(__file__).resolve().parents[3]
+BLOCK = 4
+REL_TOL, Z_TOL, L1_RATIO_TOL = 0.01, 3.0, 1.5
+SAMPLER = "independent+importance"
+COMMAND = "make crosscheck-suite"
+DOCS_HEAD = """# Mitsuba 3's test scenes in drtlab
+
+Mitsuba 3's render regression scenes (its `tests/scenes`: `../shared/mitsuba-tests` beside the
+checkout, or `$DRTLAB_MITSUBA_TESTS`), loaded by drtlab, rendered at their own resolution with
+independent samples and compared with Mitsuba's reference images (`refs/NAME_ref_rgb.exr`). Mitsuba
+is not run: the L1 its own render of the same spp would have is predicted from the reference's
+variance image (a lower bound: the reference's own noise is left out). Regenerate this page with
+
+```sh
+{command} SUITE_ARGS='--spp {spp} --docs docs/mitsuba-suite.md'
+```
+
+"""
+
+
+def suite_dir() -> Path:
+    """Where the suite lies: $DRTLAB_MITSUBA_TESTS, else ../shared/mitsuba-tests beside the checkout."""
+    env = os.environ.get("DRTLAB_MITSUBA_TESTS")
+    return Path(env) if env else REPO.parent / "shared" / "mitsuba-tests"
+
+
+def scenes(root: Path) -> list[dict]:
+    """Every scene of the suite, by name: its file and its reference and variance images."""
+    out = []
+    for xml in sorted((root / "tests" / "scenes").glob("*/*.xml")):
+        stem = xml.stem.rsplit("_", 1)[0]
+        refs = xml.parent / "refs"
+        out.append({"name": xml.stem, "file": xml, "ref": refs / f"{stem}_ref_rgb.exr",
+                    "var": refs / f"{stem}_ref_rgb_var.exr"})
+    return out
+
+
+def load(job: dict):
+    """(the drtlab Scene, None) or (None, the one-line refusal)."""
+    from drtlab.kernels.scene_model.scene_file import load_scene
+    try:
+        return load_scene(job["file"]), None
+    except InputError as exc:
+        return None, str(exc).split(": ", 1)[-1] if str(exc).startswith(str(job["file"])) else str(exc)
+
+
+def predicted_l1(var: np.ndarray, spp: int, mean: float, block: int = BLOCK) -> float:
+    """The block L1 (over `mean`) an spp-sample render with per-sample variance `var` has against
+    the expectation: sqrt(2 / pi) times each block mean's standard deviation, averaged."""
+    # A block of n pixels: its mean's variance is (sum of var) / (n^2 spp) = mean(var) / (n spp).
+    sd = np.sqrt(np.maximum(block_means(var, block), 0.0) / (_block_counts(var.shape, block) * spp))
+    return float(np.mean(sd) * math.sqrt(2.0 / math.pi) / mean)
+
+
+def _block_counts(shape, block: int) -> np.ndarray:
+    h, w = shape[:2]
+    rows = np.diff(np.append(np.arange(0, h, block), h))
+    cols = np.diff(np.append(np.arange(0, w, block), w))
+    return np.outer(rows, cols)[..., None].astype(np.float64)
+
+
+def judge(image: np.ndarray, variance: np.ndarray, spp: int, ref: np.ndarray, ref_var: np.ndarray) -> dict:
+    """The two rules on one render (its per-pixel sample variance beside it) against the reference."""
+    npix = image.shape[0] * image.shape[1]
+    channels = []
+    for c in range(3):
+        d, m = float(image[..., c].mean()), float(ref[..., c].mean())
+        se = math.sqrt(float(variance[..., c].sum()) / spp) / npix
+        rel = abs(d - m) / abs(m) if m else (0.0 if d == m else math.inf)
+        channels.append({"channel": "RGB"[c], "drtlab": d, "reference": m, "se": se,
+                         "relative_difference": rel, "ok": bool(rel <= REL_TOL or abs(d - m) <= Z_TOL * se)})
+    mean = float(ref.mean())
+    l1 = float(np.mean(np.abs(block_means(image, BLOCK) - block_means(ref, BLOCK)))) / mean
+    expected = predicted_l1(ref_var, spp, mean)
+    ratio = l1 / expected if expected > 0 else (1.0 if l1 == 0 else math.inf)
+    ok_l1 = bool(ratio <= L1_RATIO_TOL)
+    why = [f"{c['channel']} mean {c['relative_difference']:.2%} off" for c in channels if not c["ok"]]
+    if not ok_l1:
+        why.append(f"block L1 {ratio:.2f}x Mitsuba's")
+    return {"channels": channels, "block_l1": l1, "mitsuba_l1_predicted": expected, "l1_ratio": ratio,
+            "agrees": all(c["ok"] for c in channels) and ok_l1, "why_not": "; ".join(why)}
+
+
+def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None) -> dict:
+    """One scene: loaded or refused; rendered at its own resolution and judged when loaded."""
+    from drtlab.kernels.imageio import read_linear
+    from drtlab.kernels.render import render_with_stats
+    scene, refusal = load(job)
+    row = {"scene": job["name"], "loaded": scene is not None, "refusal": refusal}
+    if scene is None:
+        return row
+    ref = read_linear(job["ref"])[0][..., :3].astype(np.float64)
+    var = read_linear(job["var"])[0][..., :3].astype(np.float64)
+    stats = render_with_stats(scene, spp=spp, sampler=SAMPLER, seed=seed, threads=threads,
+                              progress=False, variance=True)
+    if stats.image.shape != ref.shape:
+        row.update(agrees=False, why_not=f"image {stats.image.shape[:2]} against the reference's "
+                                          f"{ref.shape[:2]}")
+        return row
+    row.update(judge(stats.image, stats.variance, spp, ref, var), spp=spp,
+               resolution=[stats.width, stats.height], render_seconds=round(stats.render_seconds, 2))
+    return row
+
+
+def short(refusal: str) -> str:
+    """A refusal for the table: its element's path and what is wrong, without the file's name and
+    the list of what is supported."""
+    text = re.sub(r"^[^:/]+\.xml: ", "", refusal)
+    return re.sub(r" \((supported|drtlab reads|drtlab has)[^()]*(\([^()]*\)[^()]*)*\)$", "", text)
+
+
+def markdown(rows: list[dict], spp: int) -> str:
+    loaded = [r for r in rows if r["loaded"]]
+    agree = [r for r in loaded if r.get("agrees")]
+    lines = [f"{len(loaded)} of {len(rows)} scenes load; {len(agree)} of them agree with Mitsuba's",
+             f"reference at {spp} spp (channel means within {REL_TOL:.0%} or {Z_TOL:g} standard errors;",
+             f"block L1 of {BLOCK}x{BLOCK} blocks at most {L1_RATIO_TOL}x the L1 Mitsuba's own "
+             f"{spp}-spp render", "is predicted to have, from the reference's variance image).", "",
+             "| scene | loaded | agrees | block L1 (Mitsuba's predicted) | ratio | why not |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        if not r["loaded"]:
+            lines.append(f"| {r['scene']} | no | | | | {short(r['refusal']).replace('|', '/')} |")
+        else:
+            lines.append(f"| {r['scene']} | yes | {'yes' if r.get('agrees') else 'no'} | "
+                         f"{r.get('block_l1', math.nan):.4f} ({r.get('mitsuba_l1_predicted', math.nan):.4f}) | "
+                         f"{r.get('l1_ratio', math.nan):.2f} | {r.get('why_not', '')} |")
+    return "\n".join(lines) + "\n"
+
+
+def build_parser() -> Parser:
+    p = Parser(prog="python -m drtlab.experiments.bench.mitsuba.suite", formatter_class=Help,
+               description="Mitsuba 3's render-test scenes: which drtlab loads, and whether each "
+                           "agrees with Mitsuba's reference image.")
+    p.add_argument("--spp", type=int_flag(1, 1 << 20), default=256, help="samples per pixel of each render")
+    p.add_argument("--suite-dir", type=Path, default=None, help="the suite's folder (default: "
+                   "$DRTLAB_MITSUBA_TESTS or ../shared/mitsuba-tests beside the checkout)")
+    p.add_argument("--only", action="append", default=None, metavar="NAME", help="this scene only (repeatable)")
+    p.add_argument("--docs", type=Path, default=None, help="also write the table as this Markdown page")
+    p.add_argument("--out-dir", type=Path, default=results_root() / "mitsuba-suite", help="folder written")
+    p.set_defaults(func=_command)
+    return p
+
+
+def _command(args) -> int:
+    root = args.suite_dir or suite_dir()
+    if not (root / "tests" / "scenes").is_dir():
+        print(f"crosscheck-suite: no Mitsuba test suite at {root}; skipped", file=sys.stderr)
+        return 0
+    jobs = [j for j in scenes(root) if not args.only or j["name"] in args.only]
+    rows = []
+    for job in jobs:
+        rows.append(run_scene(job, args.spp))
+        print(f"crosscheck-suite: {job['name']}: " + ("refused" if not rows[-1]["loaded"] else
+              "agrees" if rows[-1]["agrees"] else f"differs ({rows[-1]['why_not']})"), file=sys.stderr)
+    table = markdown(rows, args.spp)
+    args.out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(args.out_dir / "suite.json", json.dumps(rows, indent=1, default=str) + "\n")
+    atomic_write_text(args.out_dir / "suite.md", table)
+    if args.docs is not None:
+        atomic_write_text(args.docs, DOCS_HEAD.format(command=COMMAND, spp=args.spp) + table)
+    print(table)
+    return 0 if all(r.get("agrees") for r in rows if r["loaded"]) else 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_main(build_parser, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
