@@ -181,7 +181,11 @@ def cmd_render(args) -> int:
     out = Path(args.out) if args.out else _default_out(scene, args)
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
-    fields.writable_location(out, "--out")
+    from drtlab.render_result import stderr_path
+    # Every file the render writes, checked before it starts: a sibling that is a folder or a name
+    # too long would otherwise fail after the work, with some files written.
+    fields.output_files([out, out.with_suffix(".png"), *([stderr_path(out)] if args.variance else [])],
+                        "--out")
     if args.variance and (args.integrator or scene.integrator) == "whitted":
         raise InputError("--variance", "the whitted integrator is deterministic (a fixed sub-pixel grid, "
                                        "no random samples): it has no standard error; use drt or path")

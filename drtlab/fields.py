@@ -222,6 +222,7 @@ def writable_location(path, field: str, folder: bool = False):
     import tempfile
     from pathlib import Path
     target = Path(path).expanduser()
+    name_lengths(target, field)
     if folder and target.exists() and not target.is_dir():
         raise InputError(field, f"{target} exists and is not a folder")
     if not folder and target.is_dir():
@@ -252,3 +253,43 @@ def writable_location(path, field: str, folder: bool = False):
             except OSError:
                 pass
     return target
+
+
+def output_files(paths, field: str) -> list:
+    """Check, before any long work, every file a command will write (an image and the files beside
+    it): none is a folder or another non-file thing, each name fits the file system, and each folder
+    takes new files (`writable_location`). A command that checks all of them first never stops
+    halfway through its writes, with some files written and its work lost. Returns them as Paths."""
+    from pathlib import Path
+    out = []
+    for path in paths:
+        path = Path(path).expanduser()
+        name_lengths(path, field)
+        if path.is_dir():
+            raise InputError(field, f"{path} is a folder, and this command writes a file of that name; "
+                                    "choose another output name or move the folder")
+        if path.exists() and not path.is_file():
+            raise InputError(field, f"{path} exists and is not a regular file (a device, FIFO or "
+                                    "socket); choose another output name")
+        writable_location(path, field)
+        out.append(path)
+    return out
+
+
+def name_lengths(path, field: str) -> None:
+    """Each name along `path` fits its file system (a longer one fails every call on it, `exists`
+    included): an InputError naming `field` otherwise."""
+    import os
+    from pathlib import Path
+    path = Path(path)
+    base, limit = Path(path.anchor or "."), 255
+    for part in Path(path).parts[1 if path.anchor else 0:]:
+        try:
+            limit = os.pathconf(base, "PC_NAME_MAX") if base.is_dir() else limit
+        except (OSError, ValueError):
+            pass
+        size = len(os.fsencode(part))
+        if size > limit:
+            raise InputError(field, f"the name {show(part)} is {size} bytes long; this file system "
+                                    f"takes names of at most {limit} bytes")
+        base = base / part
