@@ -73,9 +73,11 @@ def _overrides(pairs: list[str] | None) -> dict:
         if not sep or not key.strip():
             raise InputError("--set", f"must look like key=value (e.g. camera.fov=30), got {pair!r}")
         try:
-            value = tomllib.loads(f"v = {text}")["v"]
+            value = fields.check_nesting(tomllib.loads(f"v = {text}")["v"], "--set")
         except tomllib.TOMLDecodeError:
             value = text
+        except RecursionError:
+            raise fields.too_deep("--set") from None
         out[key.strip()] = value
     return out
 

@@ -293,3 +293,62 @@ def name_lengths(path, field: str) -> None:
             raise InputError(field, f"the name {show(part)} is {size} bytes long; this file system "
                                     f"takes names of at most {limit} bytes")
         base = base / part
+
+
+# Levels of arrays and tables a value may nest: far past any scene's or study's, and well within
+# the recursion Python's parsers, copies and messages need (3000 levels raised RecursionError).
+MAX_NESTING = 64
+
+
+def too_deep(field: str) -> InputError:
+    return InputError(field, f"arrays, tables or elements nested more than {MAX_NESTING} levels deep; "
+                             "no value of drtlab's nests that far")
+
+
+def check_nesting(value: Any, field: str) -> Any:
+    """`value` (a parsed TOML table, a dict from the API) nests at most MAX_NESTING levels; walked
+    without recursion, so any depth gets the one-line error."""
+    stack = [(value, 0)]
+    while stack:
+        v, depth = stack.pop()
+        if depth > MAX_NESTING:
+            raise too_deep(field)
+        if isinstance(v, dict):
+            stack.extend((x, depth + 1) for x in v.values())
+        elif isinstance(v, (list, tuple)):
+            stack.extend((x, depth + 1) for x in v)
+    return value
+
+
+def file_kind(path) -> str | None:
+    """What `path` is when it is no regular file: 'a folder', 'a FIFO (named pipe)', 'a device',
+    'a socket'; None for a regular file or nothing at all."""
+    import os
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISCHR, "a device"), (stat.S_ISBLK, "a device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return what
+    return None
+
+
+def existing_file(path, field: str, what: str):
+    """`path` as a Path to an existing regular file, or one InputError saying what it is instead:
+    empty, missing, a folder, a FIFO (reading one would wait for a writer for ever), a device.
+    `what` names the file wanted ('an image file', 'a mesh file (.obj or .ply)')."""
+    from pathlib import Path
+    if not isinstance(path, (str, Path)) or not str(path).strip():
+        raise InputError(field, f"must be a path to {what}, got {show(path)}")
+    p = Path(path).expanduser()
+    name_lengths(p, field)
+    kind = file_kind(p)
+    if kind is not None:
+        raise InputError(field, f"'{path}' is {kind}, not {what}")
+    if not p.is_file():
+        raise InputError(field, f"'{path}' does not exist (wanted {what})")
+    return p

@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from drtlab.errors import InputError
+from drtlab.fields import file_kind
 
 ENTRY_POINT_GROUP = "drtlab.plugins"
 NAME = re.compile(r"^[a-z][a-z0-9_-]{0,39}$")
@@ -247,8 +248,14 @@ def _import(spec: str, base: Path | None, field: str) -> tuple[str, str | None, 
         if not path.is_absolute() and base is not None:
             path = base / path
         path = path.resolve()
+        kind = file_kind(path)
+        if kind is not None:
+            raise InputError(field, f"{spec!r} is {kind}, not a plugin file (.py)")
         if not path.is_file():
             raise InputError(field, f"no plugin file {spec!r}" + (f" (looked in {base})" if base else ""))
+        if path.suffix != ".py":
+            raise InputError(field, f"{spec!r} is not a Python file: a plugin is a .py file or an "
+                                    "importable module name")
         data = path.read_bytes()
         module = f"drtlab_plugin_{re.sub(r'[^0-9a-zA-Z_]', '_', path.stem)}_{_sha(data)[:12]}"
 
@@ -261,8 +268,15 @@ def _import(spec: str, base: Path | None, field: str) -> tuple[str, str | None, 
         return module, str(path), data, run
     if not re.match(r"^[A-Za-z_][\w.]*$", spec):
         raise InputError(field, f"a plugin is a .py file or an importable module name, got {spec!r}")
-    found = importlib.util.find_spec(spec.split(".")[0]) and importlib.util.find_spec(spec)
+    try:
+        found = importlib.util.find_spec(spec.split(".")[0]) and importlib.util.find_spec(spec)
+    except (ImportError, ValueError):       # `os.x`: a submodule of a module that is no package
+        found = None
     if found is None:
+        kind = file_kind(spec) or ("a file but not a Python file (.py)" if Path(spec).is_file() else None)
+        if kind is not None:
+            raise InputError(field, f"{spec!r} is {kind}: a plugin is a .py file or an importable "
+                                    "module name")
         raise InputError(field, f"no plugin module {spec!r} (not installed, and not a .py path)")
     path = found.origin if found.origin and Path(found.origin).is_file() else None
     data = Path(path).read_bytes() if path else spec.encode()

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab import fields
 from drtlab.errors import InputError
 
 
@@ -23,9 +24,7 @@ def read_image(path, field_name: str) -> tuple[np.ndarray, dict]:
 
 def _read_stored(path, field_name: str) -> tuple[np.ndarray, dict, str]:
     from drtlab.kernels.imageio import read_linear
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(field_name, f"image file '{path}' does not exist")
+    p = fields.existing_file(path, field_name, "an image file")
     try:
         return read_linear(p)
     except OSError as exc:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from drtlab.errors import InputError
+from drtlab.fields import MAX_NESTING, too_deep
 
 OBJECT_TAGS = ("scene", "shape", "bsdf", "emitter", "sensor", "film", "rfilter", "sampler",
                "integrator", "texture", "medium", "phase", "volume")
@@ -56,6 +57,17 @@ class Obj:
     used: set[str] = field(default_factory=set)
 
 
+def _check_depth(root: ET.Element) -> None:
+    """The reader walks elements recursively: a file nested past MAX_NESTING is one line instead
+    (5000 levels raised RecursionError)."""
+    stack = [(root, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_NESTING:
+            raise too_deep("scene")
+        stack.extend((child, depth + 1) for child in node)
+
+
 class Reader:
     """The parsed file: `root` (the <scene>), objects by id, and the file name for messages."""
 
@@ -70,6 +82,7 @@ class Reader:
             root = ET.fromstring(text)
         except ET.ParseError as exc:
             raise InputError("scene", f"malformed XML in {path}: {exc}") from None
+        _check_depth(root)
         self.params: dict[str, str] = {}
         self.ids: dict[str, Obj] = {}
         if root.tag != "scene":

@@ -30,6 +30,16 @@ def out_dir(tmp_path):
     return d
 
 
+def _bad(argv, field, out_dir, capsys) -> str:
+    """`run_bad`'s checks (one line naming `field`, exit 2, nothing written); the line."""
+    rc = main(argv)
+    captured = capsys.readouterr()
+    assert rc == 2 and captured.out == "", captured
+    assert_one_line_error(captured.err, field)
+    assert list(out_dir.iterdir()) == []
+    return captured.err
+
+
 def _entries(folder) -> list[str]:
     return sorted(p.name for p in folder.iterdir())
 
@@ -86,3 +96,115 @@ def test_export_checks_every_mesh_file_before_writing(tmp_path, out_dir, capsys)
     (out_dir / "x-mesh3.ply").rmdir()
     assert main(["export", str(scene), str(out_dir / "x.xml")]) == 0
     assert _entries(out_dir) == ["x-mesh2.ply", "x-mesh3.ply", "x.xml"]
+
+
+# ---------------------------------------------------------------------------------------------------
+# Deep nesting: RecursionError in the TOML parser, the XML reader, the messages
+# ---------------------------------------------------------------------------------------------------
+
+def _nested(depth: int) -> str:
+    return "[" * depth + "1" + "]" * depth
+
+
+@pytest.mark.parametrize("depth", [100, 3000])
+def test_a_deeply_nested_set_value_is_one_line(depth, good, out_dir, capsys):
+    run_bad(["render", str(good), "--set", f"camera.fov={_nested(depth)}", "--out",
+             str(out_dir / "x.exr")], "--set", out_dir, capsys)
+
+
+@pytest.mark.parametrize("depth", [100, 3000])
+def test_a_deeply_nested_scene_file_is_one_line(depth, tmp_path, out_dir, capsys):
+    scene = tmp_path / "deep.toml"
+    scene.write_text(GOOD_SCENE.replace("radius = 0.5", f"radius = {_nested(depth)}"))
+    run_bad(["render", str(scene), "--out", str(out_dir / "x.exr")], "scene", out_dir, capsys)
+
+
+def test_a_deeply_nested_xml_scene_is_one_line(tmp_path, out_dir, capsys):
+    scene = tmp_path / "deep.xml"
+    scene.write_text('<scene version="3.0.0">' + "<a>" * 5000 + "</a>" * 5000 + "</scene>")
+    run_bad(["render", str(scene), "--out", str(out_dir / "x.exr")], "scene", out_dir, capsys)
+
+
+def test_a_deeply_nested_experiment_file_is_one_line(tmp_path, out_dir, capsys):
+    exp = tmp_path / "deep.toml"
+    exp.write_text(f'[experiment]\ndescription = "d"\nx = {_nested(3000)}\n')
+    run_bad(["experiment", str(exp), "--out", str(out_dir / "e")], "deep.toml", out_dir, capsys)
+
+
+def test_nesting_within_the_limit_reaches_the_field_check(good, out_dir, capsys):
+    # The control: a list nested a few levels is still judged by the field it is given to.
+    run_bad(["render", str(good), "--set", f"camera.fov={_nested(3)}", "--out",
+             str(out_dir / "x.exr")], "camera.fov", out_dir, capsys)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Existing things called missing; files of the wrong kind
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.fixture
+def things(tmp_path):
+    """A folder, a FIFO and a text file, each under a name that suits every use."""
+    d = tmp_path / "things"
+    d.mkdir()
+    for name in ("folder", "folder.obj", "folder.exr", "folder.py", "folder.toml"):
+        (d / name).mkdir()
+    for name in ("fifo", "fifo.obj", "fifo.exr", "fifo.toml"):
+        os.mkfifo(d / name)
+    (d / "notes.txt").write_text("hello\n")
+    return d
+
+
+@pytest.mark.parametrize("argv,field,words", [
+    (["render", "/dev/null"], "scene", "is a device"),
+    (["render", "{d}/folder"], "scene", "is a folder"),
+    (["render", "{d}/fifo.toml"], "scene", "is a FIFO"),
+    (["render", ""], "scene", "got ''"),
+    (["info", "{d}/folder"], "FILE", "is a folder"),
+    (["info", "{d}/fifo"], "FILE", "is a FIFO"),
+    (["info", "/dev/null"], "FILE", "is a device"),
+    (["info", ""], "FILE", "got ''"),
+    (["compare", "{d}/fifo.exr", "{d}/folder.exr"], "A", "is a FIFO"),
+    (["render", "GOOD", "--set", 'shapes[0]={kind="mesh",material="grey",file="{d}/folder.obj"}'],
+     "shapes[0].file", "is a folder"),
+    (["render", "GOOD", "--set", 'shapes[0]={kind="mesh",material="grey",file="{d}/fifo.obj"}'],
+     "shapes[0].file", "is a FIFO"),
+    (["render", "GOOD", "--set", 'environment={kind="image",file="{d}/folder.exr"}'],
+     "environment.file", "is a folder"),
+    # A FIFO as an environment map waited for a writer for ever.
+    (["render", "GOOD", "--set", 'environment={kind="image",file="{d}/fifo.exr"}'],
+     "environment.file", "is a FIFO"),
+    (["scenes", "--plugin", "{d}/folder.py"], "--plugin", "is a folder"),
+    (["scenes", "--plugin", "{d}/notes.txt"], "--plugin", "not a Python file"),
+    (["scenes", "--plugin", "os.nothing"], "--plugin", "no plugin module"),
+])
+def test_a_thing_that_is_no_file_of_its_kind_says_what_it_is(argv, field, words, things, good,
+                                                              out_dir, capsys):
+    argv = [a.replace("{d}", str(things)).replace("GOOD", str(good)) for a in argv]
+    err = _bad([*argv, *(["--out", str(out_dir / "x.exr")] if argv[0] == "render" else [])], field,
+               out_dir, capsys)
+    assert words in err and "does not exist" not in err
+
+
+@pytest.mark.parametrize("content,words", [
+    (b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\x90\xff\xfe f 1 2 3\n", "not UTF-8"),
+])
+def test_a_binary_obj_is_named_as_such(content, words, tmp_path, good, out_dir, capsys):
+    mesh = tmp_path / "garbage.obj"
+    mesh.write_bytes(content)
+    err = _bad(["render", str(good), "--set", f'shapes[0]={{kind="mesh",material="grey",file="{mesh}"}}',
+                "--out", str(out_dir / "x.exr")], "shapes[0].file", out_dir, capsys)
+    assert words in err
+
+
+PLY_HEAD = (b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+            b"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n")
+
+
+@pytest.mark.parametrize("content", [PLY_HEAD + b"0 0 0\n1 0", PLY_HEAD.replace(b"property float y\n", b"")
+                                     + b"0\n1\n2\n3 0 1 2\n"])
+def test_a_truncated_or_corrupt_ply_says_so(content, tmp_path, good, out_dir, capsys):
+    mesh = tmp_path / "broken.ply"
+    mesh.write_bytes(content)
+    err = _bad(["render", str(good), "--set", f'shapes[0]={{kind="mesh",material="grey",file="{mesh}"}}',
+                "--out", str(out_dir / "x.exr")], "shapes[0].file", out_dir, capsys)
+    assert "not a readable PLY file, truncated or corrupt" in err
