@@ -7,6 +7,7 @@ allowed and what was given.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -218,9 +219,11 @@ def writable_location(path, field: str, folder: bool = False):
     """Check, before any long work, that `path` (a file, or a folder with `folder`) can be written:
     its first existing ancestor is a folder in which files can be created. Folders made to probe are
     removed again, so a rejected path leaves nothing behind. Returns `path` as a Path."""
-    import os
     import tempfile
     from pathlib import Path
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(field, f"must be a {'folder' if folder else 'file'} path (a str or "
+                                f"os.PathLike), got {show(path)}")
     target = Path(path).expanduser()
     name_lengths(target, field)
     if folder and target.exists() and not target.is_dir():
@@ -279,7 +282,6 @@ def output_files(paths, field: str) -> list:
 def name_lengths(path, field: str) -> None:
     """Each name along `path` fits its file system (a longer one fails every call on it, `exists`
     included): an InputError naming `field` otherwise."""
-    import os
     from pathlib import Path
     path = Path(path)
     base, limit = Path(path.anchor or "."), 255
@@ -323,7 +325,6 @@ def check_nesting(value: Any, field: str) -> Any:
 def file_kind(path) -> str | None:
     """What `path` is when it is no regular file: 'a folder', 'a FIFO (named pipe)', 'a device',
     'a socket'; None for a regular file or nothing at all."""
-    import os
     import stat
     try:
         mode = os.stat(path).st_mode

@@ -63,14 +63,20 @@ def _shown(v) -> str:
 
 
 def _path_argument(path, suffix: str | None = None) -> Path:
-    """`path` as a Path, or an InputError naming `path` (not a path, or not ending in `suffix`)."""
+    """`path` as a Path, or an InputError naming `path` (not a path, or not ending in `suffix`; an
+    output's name too long or a folder)."""
     from drtlab.errors import InputError
+    from drtlab.fields import name_lengths
     if not isinstance(path, (str, os.PathLike)) or not str(path):
         raise InputError("path", f"must be a file path (a non-empty str or os.PathLike), got "
                                  f"{_shown(path)}")
     path = Path(path)
-    if suffix is not None and path.suffix.lower() != suffix:
-        raise InputError("path", f"must be a file name ending in {suffix}, got {str(path)!r}")
+    if suffix is not None:
+        if path.suffix.lower() != suffix:
+            raise InputError("path", f"must be a file name ending in {suffix}, got {str(path)!r}")
+        name_lengths(path, "path")
+        if path.is_dir():
+            raise InputError("path", f"{str(path)!r} is a folder; give a file name")
     return path
 
 
@@ -125,8 +131,10 @@ def write_png(path, image: np.ndarray, metadata: dict | None = None) -> None:
 
 
 def read_exr(path) -> tuple[np.ndarray, dict]:
-    """(pixels as float32 (H, W, C), drtlab metadata) of an image written by write_exr."""
-    pixels, meta, _ = _read(path)
+    """(pixels as float32 (H, W, C), drtlab metadata) of an image written by write_exr; a path that
+    is no file (missing, a folder, a FIFO) is an InputError naming `path`."""
+    from drtlab.fields import existing_file
+    pixels, meta, _ = _read(existing_file(_path_argument(path), "path", "an image file (EXR)"))
     return pixels, meta
 
 
