@@ -399,7 +399,7 @@ def run() -> None:
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
-        except (OSError, ValueError):     # a closed pipe: run_main has already pointed stdout away
+        except (OSError, ValueError, AttributeError):   # a closed pipe: run_main has pointed it away
             pass
     os._exit(code)
 

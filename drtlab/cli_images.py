@@ -20,7 +20,7 @@ def cmd_compare(args) -> int:
     and with --per-pixel-z the z-scores (a pair's image and reference standard errors)."""
     from drtlab.experiments.tools import images as tools
     reference = args.ref or args.b
-    images = {path: tools.read_image(path, field)[0]
+    images = {path: tools.rgb(tools.read_image(path, field)[0], path, field)
               for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
     se = {}                                     # path -> (standard error, values behind it)
     if args.per_pixel_z:
@@ -31,6 +31,7 @@ def cmd_compare(args) -> int:
                              "ground truth's mean.exr)")
         def read_se(se_file, of, field):
             pixels, meta = tools.read_image(se_file, field)
+            pixels = tools.rgb(pixels, se_file, field)
             want = images[of].shape[:2]
             if pixels.shape[:2] != want:
                 raise InputError(field, f"the standard error {se_file} is {pixels.shape[1]}x{pixels.shape[0]} "
@@ -51,6 +52,9 @@ def cmd_compare(args) -> int:
                                  "--variance (only a deterministic whitted image needs none)")
     out_dir = fields.writable_location(args.out_dir, "--out-dir", folder=True)
     pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
+    stems = [out_dir / f"{Path(path).stem}-vs-{Path(ref_path).stem}" for path, ref_path in pairs]
+    fields.output_files([p for stem in stems for p in tools.error_image_paths(stem, args.per_pixel_z)],
+                        "--out-dir")
     results = []
     for path, ref_path in pairs:
         se_img, n_img = se.get(path, (None, None))
@@ -61,8 +65,7 @@ def cmd_compare(args) -> int:
         results.append(result)
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for (path, ref_path), result in zip(pairs, results):
-        stem = out_dir / f"{Path(path).stem}-vs-{Path(ref_path).stem}"
+    for (path, ref_path), result, stem in zip(pairs, results, stems):
         written += tools.write_error_images(images[path], images[ref_path], stem,
                                             z=None if result.z is None else result.z.image)
     print("wrote " + ", ".join(str(p) for p in written))

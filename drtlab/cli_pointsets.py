@@ -82,7 +82,7 @@ def cmd_check(args) -> int:
     from drtlab.estimators.registry import POINTSETS
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
-        fields.writable_location(args.out, "--out")
+        fields.output_files([args.out], "--out")
     if args.name in POINTSETS:
         from drtlab.experiments.checks.pointset import check
         card = check(args.name, seed=args.seed, level=args.level, pixels=args.pixels)
@@ -95,6 +95,7 @@ def cmd_check(args) -> int:
     print("\n".join(card.text()))
     if args.out is not None:
         from drtlab.experiments.files import atomic_write_json
+        args.out.parent.mkdir(parents=True, exist_ok=True)      # checked writable before the work
         atomic_write_json(args.out, card.to_json())
         print(f"wrote {args.out}")
     return 0 if card.passed else 1

@@ -16,6 +16,18 @@ from drtlab import fields
 from drtlab.errors import InputError
 
 
+def rgb(pixels: np.ndarray, path, field_name: str) -> np.ndarray:
+    """An image's pixels as RGB for `compare`: 3 channels as they are (a 4th, alpha, and more
+    dropped), one grey channel as R = G = B; 2 channels (grey and alpha? red and green?) refused."""
+    channels = pixels.shape[2]
+    if channels == 1:
+        return np.repeat(pixels, 3, axis=2)
+    if channels == 2:
+        raise InputError(field_name, f"{path} has 2 channels: compare reads RGB images (3 channels; "
+                                     f"a 4th, alpha, is left out) or grey ones (1 channel, as R = G = B)")
+    return pixels[..., :3]
+
+
 def read_image(path, field_name: str) -> tuple[np.ndarray, dict]:
     """(H, W, C) linear float32 pixels (8-bit sRGB files decoded) and drtlab metadata; a missing or
     unreadable file is an InputError."""
@@ -187,6 +199,12 @@ def compare_images(a: np.ndarray, b: np.ndarray, *, names=("A", "B"), se_a=None,
                       mae=m["mae"], ciede2000=m["ciede2000"], mean_error=m["mean_error"], z=z)
 
 
+def error_image_paths(out_stem: Path, z: bool) -> list[Path]:
+    """The files `write_error_images` writes for `out_stem` (with z-scores or without)."""
+    suffixes = (".diff.exr", ".error.png", ".z.exr") if z else (".diff.exr", ".error.png")
+    return [Path(f"{out_stem}{suffix}") for suffix in suffixes]
+
+
 def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
                        z: np.ndarray | None = None) -> list[Path]:
     """`STEM.diff.exr` (signed A - B, linear) and `STEM.error.png` (false-colour |A - B| luminance,
@@ -196,7 +214,7 @@ def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
     from drtlab.experiments.plotting import pyplot
     plt = pyplot()
     diff = np.asarray(a, dtype=np.float64)[..., :3] - np.asarray(b, dtype=np.float64)[..., :3]
-    exr, png = Path(f"{out_stem}.diff.exr"), Path(f"{out_stem}.error.png")
+    exr, png, *z_path = error_image_paths(out_stem, z is not None)
     write_exr(exr, diff, {"what": "signed difference A - B"})
     err = np.abs(luminance(diff))
     h, w = err.shape
@@ -210,7 +228,6 @@ def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
     plt.close(fig)
     if z is None:
         return [exr, png]
-    z_path = Path(f"{out_stem}.z.exr")
-    write_exr(z_path, z, {"what": "per-pixel z = (A - B) / sqrt(se_A^2 + se_B^2), NaN without a "
-                                  "standard error"})
-    return [exr, png, z_path]
+    write_exr(z_path[0], z, {"what": "per-pixel z = (A - B) / sqrt(se_A^2 + se_B^2), NaN without a "
+                                     "standard error"})
+    return [exr, png, *z_path]

@@ -3,6 +3,7 @@ now is one `drtlab: FIELD: ...` line, exit code 2, nothing left on disk; and a r
 done is never lost to the writing of its files. Each test failed before its fix."""
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 
@@ -208,3 +209,120 @@ def test_a_truncated_or_corrupt_ply_says_so(content, tmp_path, good, out_dir, ca
     err = _bad(["render", str(good), "--set", f'shapes[0]={{kind="mesh",material="grey",file="{mesh}"}}',
                 "--out", str(out_dir / "x.exr")], "shapes[0].file", out_dir, capsys)
     assert "not a readable PLY file, truncated or corrupt" in err
+
+
+# ---------------------------------------------------------------------------------------------------
+# compare: images of 1 and 2 channels, output names
+# ---------------------------------------------------------------------------------------------------
+
+@pytest.fixture
+def images(tmp_path):
+    from drtlab.kernels.imageio import write_exr
+    d = tmp_path / "images"
+    d.mkdir()
+    for name, channels in (("rgb", 3), ("two", 2), ("two2", 2), ("grey", 1)):
+        write_exr(d / f"{name}.exr", np.full((12, 16, channels), 0.5))
+    return d
+
+
+@pytest.mark.parametrize("a,b,field", [("two", "two2", "A"), ("rgb", "two", "B"), ("two", "rgb", "A")])
+def test_compare_of_a_two_channel_image_says_how_many_channels(a, b, field, images, out_dir, capsys):
+    err = _bad(["compare", str(images / f"{a}.exr"), str(images / f"{b}.exr"), "--out-dir",
+                str(out_dir)], field, out_dir, capsys)
+    assert "2 channels" in err and "resolution" not in err
+
+
+def test_compare_reads_a_grey_image_as_r_g_b(images, out_dir, capsys):
+    assert main(["compare", str(images / "grey.exr"), str(images / "rgb.exr"), "--out-dir",
+                 str(out_dir)]) == 0
+    assert "RMSE 0," in capsys.readouterr().out
+    assert _entries(out_dir) == ["grey-vs-rgb.diff.exr", "grey-vs-rgb.error.png"]
+
+
+def test_compare_checks_its_output_names_before_the_work(images, out_dir, capsys):
+    (out_dir / "rgb-vs-grey.error.png").mkdir()
+    _bad(["compare", str(images / "rgb.exr"), str(images / "grey.exr"), "--out-dir", str(out_dir)],
+         "--out-dir", out_dir / "rgb-vs-grey.error.png", capsys)
+    assert _entries(out_dir) == ["rgb-vs-grey.error.png"]
+
+
+# ---------------------------------------------------------------------------------------------------
+# check --out into a folder that does not exist yet
+# ---------------------------------------------------------------------------------------------------
+
+def test_check_writes_its_card_into_a_new_folder(tmp_path, monkeypatch, capsys):
+    from drtlab.experiments.checks import light_selection
+    from drtlab.experiments.checks.scorecard import Line, Scorecard
+    # The scorecard itself is not the point (it takes 30 s): the write after it is, which raised
+    # FileNotFoundError once the whole card was done.
+    card = Scorecard("uniform", 0.01, 0, [Line("pmf sums to 1", True, "1")])
+    monkeypatch.setattr(light_selection, "check", lambda name, seed, level: card)
+    out = tmp_path / "new" / "deeper" / "card.txt"
+    assert main(["check", "uniform", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["name"] == "uniform"
+    assert _entries(out.parent) == ["card.txt"]
+
+
+def test_check_refuses_a_folder_as_its_card_before_the_work(tmp_path, monkeypatch, out_dir, capsys):
+    from drtlab.experiments.checks import light_selection
+    monkeypatch.setattr(light_selection, "check", lambda *a, **k: pytest.fail("the check ran"))
+    (out_dir / "card.json").mkdir()
+    _bad(["check", "uniform", "--out", str(out_dir / "card.json")], "--out", out_dir / "card.json",
+         capsys)
+
+
+# ---------------------------------------------------------------------------------------------------
+# The process's surroundings: Warp's cache folder, closed or full standard streams
+# ---------------------------------------------------------------------------------------------------
+
+def _program(argv, redirect: str, tmp_path, env=None) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of the drtlab program under a shell redirection of its streams."""
+    import shlex
+    report = tmp_path / "rc.txt"
+    out, err = tmp_path / "stdout.txt", tmp_path / "stderr.txt"
+    line = " ".join(shlex.quote(a) for a in [str(DRTLAB), *argv])
+    script = f"{{ {line} {redirect}; echo $? > {shlex.quote(str(report))}; }} > {out} 2> {err}"
+    subprocess.run(["bash", "-c", script], timeout=300, env=env or os.environ.copy(), check=True)
+    return int(report.read_text()), out.read_text(), err.read_text()
+
+
+@pytest.mark.parametrize("cache", ["a-file", "a-file/below", "/proc/no-such-folder"])
+def test_an_unusable_warp_cache_is_one_line(cache, good, tmp_path, out_dir):
+    (tmp_path / "a-file").write_text("not a folder")
+    path = cache if cache.startswith("/") else str(tmp_path / cache)
+    env = dict(os.environ, WARP_CACHE_PATH=path)
+    rc, out, err = _program(["render", str(good), "--out", str(out_dir / "x.exr")], "", tmp_path, env)
+    assert rc == 2 and out == ""
+    assert_one_line_error(err, "WARP_CACHE_PATH")
+    assert list(out_dir.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv", [["scenes"], ["render", "GOOD", "--out", "OUT/x.exr"], ["--version"]])
+def test_a_closed_stdout_is_refused_before_the_work(argv, good, tmp_path, out_dir):
+    argv = [a.replace("GOOD", str(good)).replace("OUT", str(out_dir)) for a in argv]
+    rc, out, err = _program(argv, ">&-", tmp_path)
+    assert rc == 2
+    assert_one_line_error(err, "stdout")
+    assert list(out_dir.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv", [["scenes"], ["info", "IMAGE"], ["render", "GOOD", "--out", "OUT/x.exr"]])
+def test_a_full_stdout_is_one_line_and_keeps_the_work(argv, good, images, tmp_path, out_dir):
+    argv = [a.replace("GOOD", str(good)).replace("OUT", str(out_dir))
+            .replace("IMAGE", str(images / "rgb.exr")) for a in argv]
+    rc, out, err = _program(argv, "> /dev/full", tmp_path)
+    assert rc == 2
+    assert_one_line_error(err, "stdout")
+    assert "No space left" in err
+    if argv[0] == "render":
+        assert _entries(out_dir) == ["x.exr", "x.png"]
+
+
+@pytest.mark.parametrize("redirect", ["2>&-", "2> /dev/full"])
+def test_a_broken_stderr_keeps_errors_off_stdout_and_the_exit_code(redirect, tmp_path, good, out_dir):
+    rc, out, err = _program(["render", "no-such-scene", "--out", str(out_dir / "x.exr")], redirect,
+                            tmp_path)
+    assert (rc, out) == (2, "")
+    # The control: a good render under the same stderr writes its files and says so on stdout.
+    rc, out, err = _program(["render", str(good), "--out", str(out_dir / "x.exr")], redirect, tmp_path)
+    assert rc == 0 and out.startswith("wrote ") and _entries(out_dir) == ["x.exr", "x.png"]
