@@ -30,7 +30,10 @@ def show(v: Any) -> str:
     elif isinstance(v, dict):
         text = "a table"
     else:
-        text = repr(v)
+        try:
+            text = repr(v)
+        except RecursionError:          # a list nested thousands deep
+            text = f"a {type(v).__name__} nested too deep to show"
     return text if len(text) <= 80 else text[:77] + "..."
 
 

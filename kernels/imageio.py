@@ -83,7 +83,11 @@ def _path_argument(path, suffix: str | None = None) -> Path:
 def _image_argument(image) -> np.ndarray:
     """`image` as an (H, W, C) array of real numbers with H, W, C >= 1, or an InputError naming it."""
     from drtlab.errors import InputError
-    a = None if image is None else np.asarray(image)
+    try:
+        a = None if image is None else np.asarray(image)
+    except (ValueError, TypeError) as exc:          # ragged, or nested past numpy's 64 dimensions
+        raise InputError("image", f"must be an (H, W, C) array of real numbers, got a "
+                                  f"{type(image).__name__} numpy cannot read as one ({exc})") from None
     if a is None or a.ndim != 3 or min(a.shape) < 1 or a.dtype.kind not in "biuf":
         what = ("None" if a is None else f"an array of shape {a.shape} and dtype {a.dtype}")
         raise InputError("image", f"must be an (H, W, C) array of real numbers with H, W, C >= 1 "

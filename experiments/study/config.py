@@ -366,7 +366,7 @@ def load_experiment(name_or_path: str | Path | dict, profile: str = DEFAULT_PROF
     the TOML file, which is then called `name`); raises InputError and writes nothing."""
     if not isinstance(profile, str) or not profile:
         raise InputError("profile", f"must be a profile name, got {profile!r}")
-    if not isinstance(name_or_path, (str, Path, dict)) or not str(name_or_path):
+    if not isinstance(name_or_path, (str, Path, dict)) or name_or_path in ("", Path()):
         raise InputError("experiment", f"must be a built-in experiment name, a .toml path or a dict "
                                        f"shaped like an experiment file, got {fields.show(name_or_path)}")
     sources: dict = {}

@@ -326,3 +326,23 @@ def test_a_broken_stderr_keeps_errors_off_stdout_and_the_exit_code(redirect, tmp
     # The control: a good render under the same stderr writes its files and says so on stdout.
     rc, out, err = _program(["render", str(good), "--out", str(out_dir / "x.exr")], redirect, tmp_path)
     assert rc == 0 and out.startswith("wrote ") and _entries(out_dir) == ["x.exr", "x.png"]
+
+
+MITSUBA_HEAD = ('<scene version="3.0.0"><sensor type="perspective"><film type="hdrfilm">'
+                '<integer name="width" value="8"/><integer name="height" value="6"/></film></sensor>')
+
+
+@pytest.mark.parametrize("element,thing,words", [
+    ('<shape type="ply"><string name="filename" value="{f}"/></shape>', "folder.ply", "is a folder"),
+    ('<shape type="ply"><string name="filename" value="{f}"/></shape>', "fifo.ply", "is a FIFO"),
+    ('<emitter type="envmap"><string name="filename" value="{f}"/></emitter>', "folder.exr", "is a folder"),
+    ('<emitter type="envmap"><string name="filename" value="{f}"/></emitter>', "fifo.exr", "is a FIFO"),
+])
+def test_a_mitsuba_file_reference_that_is_no_file_says_what_it_is(element, thing, words, things,
+                                                                   tmp_path, out_dir, capsys):
+    if not (things / thing).exists():
+        (things / thing).mkdir() if thing.startswith("folder") else os.mkfifo(things / thing)
+    scene = things / "scene.xml"
+    scene.write_text(MITSUBA_HEAD + element.format(f=thing) + "</scene>")
+    err = _bad(["render", str(scene), "--out", str(out_dir / "x.exr")], "scene.xml", out_dir, capsys)
+    assert words in err and "does not exist" not in err

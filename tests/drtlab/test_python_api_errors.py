@@ -90,3 +90,35 @@ def test_a_failed_write_leaves_no_temporary_file(tmp_path, monkeypatch):
     with pytest.raises(OSError):
         drtlab.write_exr(tmp_path / "a.exr", IMAGE)
     assert list(tmp_path.iterdir()) == []
+
+
+def _deep_list(depth: int) -> list:
+    out = inner = []
+    for _ in range(depth):
+        inner.append([])
+        inner = inner[0]
+    return out
+
+
+def _deep_dict(depth: int) -> dict:
+    out = inner = {}
+    for _ in range(depth):
+        inner["a"] = {}
+        inner = inner["a"]
+    return out
+
+
+@pytest.mark.parametrize("call,argument", [
+    (lambda: drtlab.load_scene(_deep_dict(3000)), "scene"),
+    (lambda: drtlab.load_experiment(_deep_dict(3000)), "experiment"),
+    (lambda: drtlab.load_scene("cornell-box", {"camera.fov": _deep_dict(3000)}), "overrides"),
+    (lambda: drtlab.points("sobol", 4, 2, seed=_deep_list(3000)), "seed"),
+    (lambda: drtlab.write_exr("a.exr", _deep_list(3000)), "image"),
+    (lambda: drtlab.write_exr("a.exr", [[1.0, 2.0], [3.0]]), "image"),
+])
+def test_a_deeply_nested_or_ragged_argument_is_an_input_error(call, argument, here):
+    # RecursionError (in a copy, or in the repr of the message) or numpy's ValueError before.
+    with pytest.raises(InputError) as e:
+        call()
+    assert e.value.field == argument, e.value
+    assert list(here.iterdir()) == []
