@@ -122,3 +122,26 @@ def test_a_deeply_nested_or_ragged_argument_is_an_input_error(call, argument, he
         call()
     assert e.value.field == argument, e.value
     assert list(here.iterdir()) == []
+
+
+def test_a_point_table_that_is_a_folder_or_fifo_says_so(here):
+    (here / "folder.npy").mkdir()
+    os.mkfifo(here / "fifo.npy")
+    for name, words in (("folder.npy", "is a folder"), ("fifo.npy", "is a FIFO")):
+        with pytest.raises(InputError, match=words) as e:
+            drtlab.pointset_from_table("tabled", name)
+        assert e.value.field == "points"
+
+
+def test_a_render_result_checks_both_its_files_before_writing(here):
+    result = drtlab.render("cornell-box", spp=2, res=[8, 6], stats=True, variance=True)
+    with pytest.raises(InputError) as e:
+        result.write_exr(42)
+    assert e.value.field == "path"
+    (here / "x.stderr.exr").mkdir()
+    with pytest.raises(InputError, match="is a folder") as e:
+        result.write_exr("x.exr")
+    assert e.value.field == "path"
+    assert [p.name for p in here.iterdir()] == ["x.stderr.exr"]   # no x.exr without its stderr
+    (here / "x.stderr.exr").rmdir()
+    assert [p.name for p in result.write_exr("x.exr")] == ["x.exr", "x.stderr.exr"]
