@@ -84,11 +84,10 @@ def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
     if (p / "summary.json").is_file():
         raise InputError("experiment", f"'{name_or_path}' is a finished study's results folder, not an "
                          f"experiment file: drtlab.open_results({str(name_or_path)!r}) reads it")
-    if p.is_dir():
-        raise InputError("experiment", f"'{name_or_path}' is a folder, not an experiment file (.toml)")
-    if p.exists():
-        raise InputError("experiment", f"'{name_or_path}' is not a regular file (a FIFO, device or "
-                                       "socket); give an experiment file (.toml)")
+    for c in candidates or [p]:
+        kind = fields.file_kind(c)
+        if kind is not None:
+            raise InputError("experiment", f"'{name_or_path}' is {kind}, not an experiment file (.toml)")
     raise InputError("experiment", f"no experiment file '{name_or_path}'; built-in experiments: "
                      f"{', '.join(builtin_experiments())}, or a path to a .toml file")
 
@@ -336,15 +335,14 @@ def _parse_data(data: dict, path: Path, profile: str, stack: tuple, sources: dic
     for k, inc in enumerate(includes):
         try:
             ipath = resolve_path(inc, path.parent)
-        except InputError:
-            raise InputError(f"experiment.include[{k}]", f"no experiment file '{inc}'; built-in: "
-                             f"{', '.join(builtin_experiments())}") from None
+        except InputError as e:
+            raise InputError(f"experiment.include[{k}]", e.message) from None
         if ipath.resolve() in stack:
             raise InputError(f"experiment.include[{k}]", f"'{inc}' includes itself (cycle)")
         try:
             _, sub = _parse_file(ipath, profile, stack + (ipath.resolve(),), sources, profiles_seen)
         except InputError as e:
-            if e.field.startswith(f"{ipath.name}:"):
+            if e.field == ipath.name or e.field.startswith(f"{ipath.name}:"):
                 raise
             raise InputError(f"{ipath.name}:{e.field}", e.message) from None
         studies.extend(sub)

@@ -346,3 +346,27 @@ def test_a_mitsuba_file_reference_that_is_no_file_says_what_it_is(element, thing
     scene.write_text(MITSUBA_HEAD + element.format(f=thing) + "</scene>")
     err = _bad(["render", str(scene), "--out", str(out_dir / "x.exr")], "scene.xml", out_dir, capsys)
     assert words in err and "does not exist" not in err
+
+
+@pytest.mark.parametrize("thing,words", [("folder", "is a folder"), ("fifo", "is a FIFO"),
+                                         ("fifo.toml", "is a FIFO"), ("/dev/null", "is a device")])
+@pytest.mark.parametrize("how", ["argument", "include"])
+def test_an_experiment_file_that_is_no_file_says_what_it_is(thing, words, how, things, tmp_path,
+                                                            out_dir, capsys):
+    path = thing if thing.startswith("/") else str(things / thing)
+    if how == "include":
+        exp = tmp_path / "outer.toml"
+        exp.write_text(f'[experiment]\ndescription = "d"\ninclude = ["{path}"]\n')
+        field, path = "experiment.include[0]", str(exp)
+    else:
+        field = "experiment"
+    err = _bad(["experiment", path, "--out", str(out_dir / "e")], field, out_dir, capsys)
+    assert words in err and "no experiment file" not in err
+
+
+def test_a_binary_included_experiment_is_named_once(tmp_path, out_dir, capsys):
+    (tmp_path / "binary.toml").write_bytes(b"\xba\xff\x00 not text")
+    exp = tmp_path / "outer.toml"
+    exp.write_text('[experiment]\ndescription = "d"\ninclude = ["binary.toml"]\n')
+    err = _bad(["experiment", str(exp), "--out", str(out_dir / "e")], "binary.toml", out_dir, capsys)
+    assert "binary.toml:binary.toml" not in err and "UTF-8" in err
