@@ -47,6 +47,7 @@ def cmd_pointset(args) -> int:
     A.check_request(args.name, args.n, args.realisations, args.seed)
     out = args.out if args.out is not None else A.default_out_dir(args.name, args.n, args.dims)
     fields.writable_location(out, "--out", folder=True)
+    fields.output_files([out / name for name in A.FILES], "--out")     # none of them a folder
     result = A.analyse(args.name, args.n, args.dims, args.realisations, args.seed)
     A.write_analysis(result, out, argv=sys.argv)
     s = result.summary

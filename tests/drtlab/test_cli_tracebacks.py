@@ -370,3 +370,17 @@ def test_a_binary_included_experiment_is_named_once(tmp_path, out_dir, capsys):
     exp.write_text('[experiment]\ndescription = "d"\ninclude = ["binary.toml"]\n')
     err = _bad(["experiment", str(exp), "--out", str(out_dir / "e")], "binary.toml", out_dir, capsys)
     assert "binary.toml:binary.toml" not in err and "UTF-8" in err
+
+
+@pytest.mark.parametrize("argv,name", [
+    (["pointset", "sobol", "--n", "64"], "scatter.png"),
+    (["pointset", "sobol", "--n", "64"], "manifest.json"),
+    (["lobe", "diffuse"], "lobe.json"),
+    (["sources", "GOOD", "--spp", "8"], "sources.png"),
+])
+def test_a_folder_output_whose_file_is_a_folder_is_one_line_before_the_work(argv, name, good,
+                                                                             out_dir, capsys):
+    (out_dir / name).mkdir()
+    argv = [str(good) if a == "GOOD" else a for a in argv]
+    _bad([*argv, "--out", str(out_dir)], "--out", out_dir / name, capsys)
+    assert _entries(out_dir) == [name]
