@@ -171,6 +171,21 @@ def _note(lines: list[str]) -> None:
         tqdm.write(f"drtlab: note: {line}", file=sys.stderr)
 
 
+def _rescue(result, out: Path, exc: OSError):
+    """A write that failed after the render (its names were checked before it: a full disk, a
+    folder gone) does not lose the work: the image goes to a fresh folder under the system's
+    temporary folder, and the one line says where."""
+    import tempfile
+    reason = exc.strerror or str(exc)
+    try:
+        rescued = result.write_exr(Path(tempfile.mkdtemp(prefix="drtlab-rescue-")) / out.name)
+    except OSError:
+        raise InputError("--out", f"cannot write {out}: {reason}; nor a copy in the temporary "
+                                  "folder: the render is lost") from None
+    raise InputError("--out", f"cannot write {out}: {reason}; the render is kept in "
+                              f"{', '.join(str(p) for p in rescued)}") from None
+
+
 def cmd_render(args) -> int:
     from drtlab.kernels.imageio import write_png
     from drtlab.kernels import render as R
@@ -205,9 +220,12 @@ def cmd_render(args) -> int:
     else:
         stats = R.render_with_stats(scene, spp=args.spp, watch=_time_watch(scene, args), **common)
     result = result_of(scene, stats, time.perf_counter() - t0, seconds_budget=args.seconds)
-    exr, *stderr = result.write_exr(out)
-    png = out.with_suffix(".png")
-    write_png(png, result.image, result.metadata)
+    try:
+        exr, *stderr = result.write_exr(out)
+        png = out.with_suffix(".png")
+        write_png(png, result.image, result.metadata)
+    except OSError as exc:
+        _rescue(result, out, exc)
     files = [str(p) for p in (exr, png, *stderr)]
     meta = result.metadata
     estimator = (meta["integrator"] if meta["sampler"] == "none"

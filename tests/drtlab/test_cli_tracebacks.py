@@ -384,3 +384,24 @@ def test_a_folder_output_whose_file_is_a_folder_is_one_line_before_the_work(argv
     argv = [str(good) if a == "GOOD" else a for a in argv]
     _bad([*argv, "--out", str(out_dir)], "--out", out_dir / name, capsys)
     assert _entries(out_dir) == [name]
+
+
+def test_a_write_that_fails_after_the_render_keeps_the_image(good, out_dir, tmp_path, monkeypatch,
+                                                             capsys):
+    import errno
+    import tempfile
+
+    from drtlab.kernels import imageio
+    from drtlab.kernels.imageio import read_exr
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(imageio, "write_png", full)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    rc = main(["render", str(good), "--spp", "4", "--out", str(out_dir / "x.exr")])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert_one_line_error(err, "--out")
+    assert "No space left" in err and "the render is kept in" in err
+    rescued = err.split("the render is kept in ")[1].strip()
+    assert read_exr(rescued)[1]["spp"] == 4 and rescued.startswith(str(tmp_path))
