@@ -33,7 +33,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from drtlab.errors import InputError
-from drtlab.fields import file_kind
+from drtlab.fields import file_kind, name_lengths
 
 ENTRY_POINT_GROUP = "drtlab.plugins"
 NAME = re.compile(r"^[a-z][a-z0-9_-]{0,39}$")
@@ -242,6 +242,7 @@ def register_strategy(strategy):
 
 def _import(spec: str, base: Path | None, field: str) -> tuple[str, str | None, bytes, callable]:
     """(module name, path, source bytes, importer) of a plugin given as a path or a module name."""
+    name_lengths(Path(spec).expanduser(), field)        # a longer name fails every look-up
     looks_like_path = spec.endswith(".py") or "/" in spec or "\\" in spec
     if looks_like_path:
         path = Path(spec).expanduser()

@@ -69,6 +69,7 @@ def builtin_experiments() -> list[str]:
 
 def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
     p = Path(name_or_path)
+    fields.name_lengths(p, "experiment")
     candidates = []
     if p.suffix == ".toml" or p.exists():
         if base is not None and not p.is_absolute():

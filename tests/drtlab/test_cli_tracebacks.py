@@ -405,3 +405,17 @@ def test_a_write_that_fails_after_the_render_keeps_the_image(good, out_dir, tmp_
     assert "No space left" in err and "the render is kept in" in err
     rescued = err.split("the render is kept in ")[1].strip()
     assert read_exr(rescued)[1]["spp"] == 4 and rescued.startswith(str(tmp_path))
+
+
+@pytest.mark.parametrize("argv,field", [
+    (["scenes", "--plugin", "LONG.py"], "--plugin"),
+    (["scenes", "--plugin", "LONG"], "--plugin"),
+    (["experiment", "LONG.toml"], "experiment"),
+    (["experiment", "LONG"], "experiment"),
+    (["render", "LONG.toml"], "scene"),
+    (["info", "LONG.exr"], "FILE"),
+])
+def test_an_input_name_too_long_is_one_line(argv, field, out_dir, capsys, monkeypatch):
+    monkeypatch.chdir(out_dir)
+    argv = [a.replace("LONG", "l" * 260) for a in argv]
+    _bad(argv, field, out_dir, capsys)
