@@ -419,3 +419,19 @@ def test_an_input_name_too_long_is_one_line(argv, field, out_dir, capsys, monkey
     monkeypatch.chdir(out_dir)
     argv = [a.replace("LONG", "l" * 260) for a in argv]
     _bad(argv, field, out_dir, capsys)
+
+
+@pytest.mark.parametrize("command", ["render", "check"])
+def test_an_output_that_is_a_fifo_is_refused_not_replaced(command, good, out_dir, monkeypatch, capsys):
+    # It was renamed over: `check --out /dev/null` run as root replaced the device with a file.
+    from drtlab.experiments.checks import light_selection
+    monkeypatch.setattr(light_selection, "check", lambda *a, **k: pytest.fail("the check ran"))
+    fifo = out_dir / "out.exr"
+    os.mkfifo(fifo)
+    argv = ["render", str(good)] if command == "render" else ["check", "uniform"]
+    rc = main([*argv, "--out", str(fifo)])
+    captured = capsys.readouterr()
+    assert rc == 2 and captured.out == ""
+    assert_one_line_error(captured.err, "--out")
+    assert "not a regular file" in captured.err
+    assert _entries(out_dir) == ["out.exr"] and not fifo.is_file()
