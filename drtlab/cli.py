@@ -164,6 +164,21 @@ def _refuse_what_whitted_ignores(scene, args) -> None:
                                        f"grid, no random samples): {what}; use drt or path")
 
 
+def _rescue(result, out: Path, exc: OSError):
+    """A write that failed after the render (its names were checked before it: a full disk, a
+    folder gone) does not lose the work: the image goes to a fresh folder under the system's
+    temporary folder, and the one line says where."""
+    import tempfile
+    reason = exc.strerror or str(exc)
+    try:
+        rescued = result.write_exr(Path(tempfile.mkdtemp(prefix="drtlab-rescue-")) / out.name)
+    except OSError:
+        raise InputError("--out", f"cannot write {out}: {reason}; nor a copy in the temporary "
+                                  "folder: the render is lost") from None
+    raise InputError("--out", f"cannot write {out}: {reason}; the render is kept in "
+                              f"{', '.join(str(p) for p in rescued)}") from None
+
+
 def cmd_render(args) -> int:
     from drtlab.kernels.imageio import nonfinite_note, write_png
     from drtlab.kernels import render as R
@@ -178,6 +193,11 @@ def cmd_render(args) -> int:
     if out.suffix.lower() != ".exr":
         raise InputError("--out", f"must be a path ending in .exr, got {str(out)!r}")
     out = fields.writable_location(out, "--out")          # ~ expanded: where the check looked
+    from drtlab.render_result import stderr_path
+    # Every file the render writes, checked before it starts: a sibling that is a folder or a name
+    # too long would otherwise fail after the work, with some files written.
+    fields.output_files([out, out.with_suffix(".png"), *([stderr_path(out)] if args.variance else [])],
+                        "--out")
     if args.res is not None:
         width, height = fields.resolution(args.res, "--res", aspect=scene.height / scene.width)
         check_image_size(width, height, moments=args.variance, field="--res")
@@ -192,9 +212,12 @@ def cmd_render(args) -> int:
     else:
         stats = R.render_with_stats(scene, spp=args.spp, watch=_time_watch(scene, args), **common)
     result = result_of(scene, stats, time.perf_counter() - t0, seconds_budget=args.seconds)
-    exr, *stderr = result.write_exr(out)
-    png = out.with_suffix(".png")
-    write_png(png, result.image, result.metadata)
+    try:
+        exr, *stderr = result.write_exr(out)
+        png = out.with_suffix(".png")
+        write_png(png, result.image, result.metadata)
+    except OSError as exc:
+        _rescue(result, out, exc)
     files = [str(p) for p in (exr, png, *stderr)]
     meta = result.metadata
     estimator = (meta["integrator"] if meta["sampler"] == "none"
@@ -404,7 +427,7 @@ def run() -> None:
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.flush()
-        except (OSError, ValueError):     # a closed pipe: run_main has already pointed stdout away
+        except (OSError, ValueError, AttributeError):   # a closed pipe: run_main has pointed it away
             pass
     os._exit(code)
 

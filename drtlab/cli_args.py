@@ -111,12 +111,105 @@ def _silence_stdout() -> None:
         pass
 
 
+class OutputError(OSError):
+    """stdout cannot take the command's output (a full disk: `> /dev/full`)."""
+
+
+class _Forgiving:
+    """The process's stderr, dropping what it cannot write (`2> /dev/full`): a warning or a progress
+    line never stops the work it is about, and a bad-input line that cannot be shown still ends in
+    exit 2."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except (OSError, ValueError):
+            return len(text)
+
+    def flush(self):
+        try:
+            self._stream.flush()
+        except (OSError, ValueError):
+            pass
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+class _Output(_Forgiving):
+    """The process's stdout, whose write errors other than a closed pipe are an OutputError."""
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputError(exc.errno, exc.strerror) from None
+
+    def flush(self):
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise OutputError(exc.errno, exc.strerror) from None
+
+
+def _guard_streams():
+    """Make the standard streams safe to use; returns (whether stdout was closed, a function that
+    puts sys.stdout and sys.stderr back). A closed fd 1 or 2 (`>&-`, `2>&-`) is opened on /dev/null
+    first: else the next file the command opens (a scene, an image) would take its number, and a
+    print could land in it. A closed stderr then swallows its lines (its bad-input line included:
+    they went to stdout, with exit 1); the process's own streams get the wrappers above (a test's
+    captured streams are left alone)."""
+    import os
+    saved = sys.stdout, sys.stderr
+    closed = []
+    for fd in (1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            if devnull != fd:
+                os.dup2(devnull, fd)
+                os.close(devnull)
+            closed.append(fd)
+    if sys.stderr is None:
+        sys.stderr = open(os.devnull, "w")
+    if sys.stdout is None:
+        sys.stdout = open(os.devnull, "w")
+    if sys.stderr is sys.__stderr__:
+        sys.stderr = _Forgiving(sys.stderr)
+    if sys.stdout is not None and sys.stdout is sys.__stdout__:
+        sys.stdout = _Output(sys.stdout)
+
+    def restore():
+        sys.stdout, sys.stderr = saved
+    return 1 in closed or saved[0] is None, restore
+
+
 def run_main(build_parser, argv: list[str] | None = None, prepare=None) -> int:
     """Parse and run a command; bad input is one stderr line and exit 2, Ctrl-C exit 130, a closed
-    output pipe exit 141 without a word. `prepare(argv)` runs first, under the same rules (the
-    `drtlab` program loads its plugins there)."""
+    output pipe exit 141 without a word; a closed stdout is refused before the work, and a full one
+    is one line, exit 2. `prepare(argv)` runs first, under the same rules (the `drtlab` program
+    loads its plugins there)."""
+    stdout_closed, restore = _guard_streams()
+    try:
+        return _run_main(build_parser, argv, prepare, stdout_closed)
+    finally:
+        restore()
+
+
+def _run_main(build_parser, argv, prepare, stdout_closed: bool) -> int:
     try:
         try:
+            if stdout_closed:
+                raise InputError("stdout", "is closed (>&-): drtlab prints what it did there; send it "
+                                           "to /dev/null (> /dev/null) to discard it")
             if prepare is not None:
                 prepare(sys.argv[1:] if argv is None else list(argv))
             args = build_parser().parse_args(argv)
@@ -127,6 +220,10 @@ def run_main(build_parser, argv: list[str] | None = None, prepare=None) -> int:
     except BrokenPipeError:
         _silence_stdout()
         return EXIT_BROKEN_PIPE
+    except OutputError as e:
+        _silence_stdout()
+        print(f"drtlab: stdout: cannot write the output: {e.strerror}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except InputError as e:
         print(f"drtlab: {e.field}: {e.message}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -163,8 +260,10 @@ def parse_overrides(pairs: list[str] | None) -> dict:
         if not sep or not key.strip():
             raise InputError("--set", f"must look like key=value (e.g. camera.fov=30), got {pair!r}")
         try:
-            value = tomllib.loads(f"v = {text}")["v"]
+            value = fields.check_nesting(tomllib.loads(f"v = {text}")["v"], "--set")
         except tomllib.TOMLDecodeError:
             value = text
+        except RecursionError:
+            raise fields.too_deep("--set") from None
         out[key.strip()] = value
     return out

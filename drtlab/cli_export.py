@@ -23,7 +23,7 @@ def cmd_export(args) -> int:
     scene = load_scene(args.scene, overrides)
     check_exportable(scene)
     out.parent.mkdir(parents=True, exist_ok=True)
-    written = export_mitsuba(scene, out, scene_data(args.scene, overrides))
+    written = export_mitsuba(scene, out, scene_data(args.scene, overrides), field="OUT")
     print(f"wrote {', '.join(str(p) for p in written)}")
     return 0
 

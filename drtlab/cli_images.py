@@ -27,7 +27,7 @@ def cmd_compare(args) -> int:
                                      "error): add --per-pixel-z or drop --stderr")
     pairs = [(args.a, reference)] + ([(args.b, reference)] if args.ref else [])
     stems = tools.pair_stems(pairs, ("A", "B"))        # distinct output names, checked first
-    images = {path: tools.read_image(path, field)[0]
+    images = {path: tools.rgb(tools.read_image(path, field)[0], path, field)
               for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")) if path}
     for path, field in ((args.a, "A"), (args.b, "B"), (args.ref, "--ref")):
         bad = nonfinite_note(images[path]) if path else None
@@ -43,6 +43,7 @@ def cmd_compare(args) -> int:
                              "ground truth's mean.exr)")
         def read_se(se_file, of, field):
             pixels, meta = tools.read_image(se_file, field)
+            pixels = tools.rgb(pixels, se_file, field)
             want = images[of].shape[:2]
             if pixels.shape[:2] != want:
                 raise InputError(field, f"the standard error {se_file} is {pixels.shape[1]}x{pixels.shape[0]} "
@@ -68,6 +69,8 @@ def cmd_compare(args) -> int:
     from drtlab.experiments.paths import results_root
     out_dir = args.out_dir if args.out_dir is not None else results_root() / "compare"
     out_dir = fields.writable_location(out_dir, "--out-dir", folder=True)
+    fields.output_files([p for stem in stems
+                         for p in tools.error_image_paths(out_dir / stem, args.per_pixel_z)], "--out-dir")
     results = []
     for path, ref_path in pairs:
         se_img, n_img = se.get(path, (None, None))

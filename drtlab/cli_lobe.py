@@ -35,6 +35,7 @@ def cmd_lobe(args) -> int:
                                                                   args.ior, args.strategy,
                                                                   args.roughness)
     out = fields.writable_location(out, "--out", folder=True)
+    fields.output_files([out / name for name in L.FILES], "--out")     # none of them a folder
     result = L.analyse(args.kind, exponent=args.exponent, ior=args.ior, albedo=args.albedo,
                        incident=args.incident, strategy=args.strategy, samples=args.samples,
                        seed=args.seed, roughness=args.roughness)

@@ -55,6 +55,7 @@ def cmd_pointset(args) -> int:
     A.check_request(args.name, args.n, args.realisations, args.seed)
     out = args.out if args.out is not None else A.default_out_dir(args.name, args.n, args.dims)
     out = fields.writable_location(out, "--out", folder=True)
+    fields.output_files([out / name for name in A.FILES], "--out")     # none of them a folder
     result = A.analyse(args.name, args.n, args.dims, args.realisations, args.seed)
     A.write_analysis(result, out, argv=sys.argv)
     s = result.summary
@@ -93,6 +94,7 @@ def cmd_check(args) -> int:
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     if args.out is not None:
         args.out = fields.writable_location(args.out, "--out")
+        fields.output_files([args.out], "--out")
     if "pixels" in given_flags(args) and args.name not in POINTSETS:
         raise InputError("--pixels", f"sizes a point set's battery; {args.name} is not a point set "
                                      "and its card has no battery: drop --pixels")
@@ -111,6 +113,7 @@ def cmd_check(args) -> int:
     print("\n".join(card.text()))
     if args.out is not None:
         from drtlab.experiments.files import atomic_write_json
+        args.out.parent.mkdir(parents=True, exist_ok=True)      # checked writable before the work
         atomic_write_json(args.out, card.to_json())
         print(f"wrote {args.out}")
     return 0 if card.passed else 1

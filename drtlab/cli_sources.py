@@ -37,6 +37,7 @@ def cmd_sources(args) -> int:
         check_image_size(width, height, field="--res")
     out = args.out if args.out is not None else results_root() / "sources" / output_stem(scene, args.scene)
     out = fields.writable_location(out, "--out", folder=True)
+    fields.output_files([out / name for name in report.FILES], "--out")    # none of them a folder
     _check_cost(scene, args)
     s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,
                          integrator=args.integrator, seed=args.seed, threads=args.threads,

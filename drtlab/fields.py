@@ -7,6 +7,7 @@ allowed and what was given.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -29,7 +30,10 @@ def show(v: Any) -> str:
     elif isinstance(v, dict):
         text = "a table"
     else:
-        text = repr(v)
+        try:
+            text = repr(v)
+        except RecursionError:          # a list nested thousands deep
+            text = f"a {type(v).__name__} nested too deep to show"
     return text if len(text) <= 80 else text[:77] + "..."
 
 
@@ -242,12 +246,15 @@ def writable_location(path, field: str, folder: bool = False):
     """Check, before any long work, that `path` (a file, or a folder with `folder`) can be written:
     its first existing ancestor is a folder in which files can be created. Folders made to probe are
     removed again, so a rejected path leaves nothing behind. Returns `path` as a Path."""
-    import os
     import tempfile
     from pathlib import Path
+    if not isinstance(path, (str, os.PathLike)):
+        raise InputError(field, f"must be a {'folder' if folder else 'file'} path (a str or "
+                                f"os.PathLike), got {show(path)}")
     if isinstance(path, str):
         path_text(path, field)
     target = Path(path).expanduser()
+    name_lengths(target, field)
     if folder and target.exists() and not target.is_dir():
         raise InputError(field, f"{target} exists and is not a folder")
     if not folder and target.is_dir():
@@ -278,3 +285,100 @@ def writable_location(path, field: str, folder: bool = False):
             except OSError:
                 pass
     return target
+
+
+def output_files(paths, field: str) -> list:
+    """Check, before any long work, every file a command will write (an image and the files beside
+    it): none is a folder or another non-file thing, each name fits the file system, and each folder
+    takes new files (`writable_location`). A command that checks all of them first never stops
+    halfway through its writes, with some files written and its work lost. Returns them as Paths."""
+    from pathlib import Path
+    out = []
+    for path in paths:
+        path = Path(path).expanduser()
+        name_lengths(path, field)
+        if path.is_dir():
+            raise InputError(field, f"{path} is a folder, and this command writes a file of that name; "
+                                    "choose another output name or move the folder")
+        if path.exists() and not path.is_file():
+            raise InputError(field, f"{path} exists and is not a regular file (a device, FIFO or "
+                                    "socket); choose another output name")
+        writable_location(path, field)
+        out.append(path)
+    return out
+
+
+def name_lengths(path, field: str) -> None:
+    """Each name along `path` fits its file system (a longer one fails every call on it, `exists`
+    included): an InputError naming `field` otherwise."""
+    from pathlib import Path
+    path = Path(path)
+    base, limit = Path(path.anchor or "."), 255
+    for part in Path(path).parts[1 if path.anchor else 0:]:
+        try:
+            limit = os.pathconf(base, "PC_NAME_MAX") if base.is_dir() else limit
+        except (OSError, ValueError):
+            pass
+        size = len(os.fsencode(part))
+        if size > limit:
+            raise InputError(field, f"the name {show(part)} is {size} bytes long; this file system "
+                                    f"takes names of at most {limit} bytes")
+        base = base / part
+
+
+# Levels of arrays and tables a value may nest: far past any scene's or study's, and well within
+# the recursion Python's parsers, copies and messages need (3000 levels raised RecursionError).
+MAX_NESTING = 64
+
+
+def too_deep(field: str) -> InputError:
+    return InputError(field, f"arrays, tables or elements nested more than {MAX_NESTING} levels deep; "
+                             "no value of drtlab's nests that far")
+
+
+def check_nesting(value: Any, field: str) -> Any:
+    """`value` (a parsed TOML table, a dict from the API) nests at most MAX_NESTING levels; walked
+    without recursion, so any depth gets the one-line error."""
+    stack = [(value, 0)]
+    while stack:
+        v, depth = stack.pop()
+        if depth > MAX_NESTING:
+            raise too_deep(field)
+        if isinstance(v, dict):
+            stack.extend((x, depth + 1) for x in v.values())
+        elif isinstance(v, (list, tuple)):
+            stack.extend((x, depth + 1) for x in v)
+    return value
+
+
+def file_kind(path) -> str | None:
+    """What `path` is when it is no regular file: 'a folder', 'a FIFO (named pipe)', 'a device',
+    'a socket'; None for a regular file or nothing at all."""
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISCHR, "a device"), (stat.S_ISBLK, "a device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return what
+    return None
+
+
+def existing_file(path, field: str, what: str):
+    """`path` as a Path to an existing regular file, or one InputError saying what it is instead:
+    empty, missing, a folder, a FIFO (reading one would wait for a writer for ever), a device.
+    `what` names the file wanted ('an image file', 'a mesh file (.obj or .ply)')."""
+    from pathlib import Path
+    if not isinstance(path, (str, Path)) or not str(path).strip():
+        raise InputError(field, f"must be a path to {what}, got {show(path)}")
+    p = Path(path).expanduser()
+    name_lengths(p, field)
+    kind = file_kind(p)
+    if kind is not None:
+        raise InputError(field, f"'{path}' is {kind}, not {what}")
+    if not p.is_file():
+        raise InputError(field, f"'{path}' does not exist (wanted {what})")
+    return p

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.errors import InputError
 from drtlab.estimators.defaults import DEFAULT_SAMPLER
 
 NO_SAMPLER = "none"
@@ -47,8 +48,17 @@ class RenderResult:
     def write_exr(self, path) -> list[Path]:
         """The image as a float32 EXR with `metadata`, and beside it PATH.stderr.exr when there is
         a standard error; returns the paths written."""
+        import os
+
+        from drtlab.fields import output_files
         from drtlab.kernels.imageio import write_exr
+        if not isinstance(path, (str, os.PathLike)) or not str(path):
+            raise InputError("path", f"must be a file path ending in .exr, got {path!r}")
         path = Path(path)
+        if path.suffix.lower() != ".exr":
+            raise InputError("path", f"must be a file path ending in .exr, got {str(path)!r}")
+        # Both names checked before either is written: no image without its standard error.
+        output_files([path, *([stderr_path(path)] if self.stderr is not None else [])], "path")
         write_exr(path, self.image, self.metadata)
         written = [path]
         if self.stderr is not None:
@@ -77,7 +87,6 @@ def render_result(scene, spp=None, sampler: str = DEFAULT_SAMPLER, integrator=No
     `drtlab.render` with the same arguments (`kernels.render.render`'s, in its order). With
     `seconds` instead of `spp`: as many whole passes as fit in that time
     (`kernels.render.render_for_seconds`); `spp` and the metadata say how many."""
-    from drtlab.errors import InputError
     from drtlab.kernels import render as R
     t0 = time.perf_counter()
     scene = _scene(scene, overrides)

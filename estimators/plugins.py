@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from drtlab.errors import InputError
+from drtlab.fields import file_kind, name_lengths
 
 ENTRY_POINT_GROUP = "drtlab.plugins"
 NAME = re.compile(r"^[a-z][a-z0-9_-]{0,39}$")
@@ -244,14 +245,21 @@ def register_strategy(strategy):
 
 def _import(spec: str, base: Path | None, field: str) -> tuple[str, str | None, bytes, callable]:
     """(module name, path, source bytes, importer) of a plugin given as a path or a module name."""
+    name_lengths(Path(spec).expanduser(), field)        # a longer name fails every look-up
     looks_like_path = spec.endswith(".py") or "/" in spec or "\\" in spec
     if looks_like_path:
         path = Path(spec).expanduser()
         if not path.is_absolute() and base is not None:
             path = base / path
         path = path.resolve()
+        kind = file_kind(path)
+        if kind is not None:
+            raise InputError(field, f"{spec!r} is {kind}, not a plugin file (.py)")
         if not path.is_file():
             raise InputError(field, f"no plugin file {spec!r}" + (f" (looked in {base})" if base else ""))
+        if path.suffix != ".py":
+            raise InputError(field, f"{spec!r} is not a Python file: a plugin is a .py file or an "
+                                    "importable module name")
         data = path.read_bytes()
         module = f"drtlab_plugin_{re.sub(r'[^0-9a-zA-Z_]', '_', path.stem)}_{_sha(data)[:12]}"
 
@@ -264,8 +272,15 @@ def _import(spec: str, base: Path | None, field: str) -> tuple[str, str | None, 
         return module, str(path), data, run
     if not re.match(r"^[A-Za-z_][\w.]*$", spec):
         raise InputError(field, f"a plugin is a .py file or an importable module name, got {spec!r}")
-    found = importlib.util.find_spec(spec.split(".")[0]) and importlib.util.find_spec(spec)
+    try:
+        found = importlib.util.find_spec(spec.split(".")[0]) and importlib.util.find_spec(spec)
+    except (ImportError, ValueError):       # `os.x`: a submodule of a module that is no package
+        found = None
     if found is None:
+        kind = file_kind(spec) or ("a file but not a Python file (.py)" if Path(spec).is_file() else None)
+        if kind is not None:
+            raise InputError(field, f"{spec!r} is {kind}: a plugin is a .py file or an importable "
+                                    "module name")
         raise InputError(field, f"no plugin module {spec!r} (not installed, and not a .py path)")
     path = found.origin if found.origin and Path(found.origin).is_file() else None
     data = Path(path).read_bytes() if path else spec.encode()

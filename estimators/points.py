@@ -56,7 +56,7 @@ def _kernel(name: str, ps=None):
 def _uint32(value, field: str) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or \
             not 0 <= int(value) <= fields.MAX_SEED:
-        raise InputError(field, f"must be an integer in [0, 2^32 - 1], got {value!r}")
+        raise InputError(field, f"must be an integer in [0, 2^32 - 1], got {fields.show(value)}")
     return int(value)
 
 

@@ -14,37 +14,117 @@ def to_srgb8(image: np.ndarray) -> np.ndarray:
     return np.clip(np.round(to_srgb(image) * 255.0), 0, 255).astype(np.uint8)
 
 
+# An EXR int attribute is 32 bits: an integer outside them (a seed up to 2^32 - 1, any Python int)
+# is stored as its decimal text under this prefix instead, and read back as the int.
+INT_TEXT = "drtlab-int:"
+INT32 = (-2**31, 2**31 - 1)
+
+
+def _attributes(metadata) -> list[tuple[str, object]]:
+    """(attribute name, value) of each metadata entry, as OpenImageIO stores it losslessly."""
+    from drtlab.errors import InputError
+    if metadata is None:
+        return []
+    if not isinstance(metadata, dict) or not all(isinstance(k, str) and k for k in metadata):
+        raise InputError("metadata", f"must be a dict of names (non-empty strings) to numbers or "
+                                     f"strings, got {_shown(metadata)}")
+    out = []
+    for key, value in metadata.items():
+        if isinstance(value, (bool, np.bool_)):
+            out.append((f"drtlab:{key}", str(bool(value)).lower()))
+        elif isinstance(value, (int, np.integer)):
+            value = int(value)
+            out.append((f"drtlab:{key}", value) if INT32[0] <= value <= INT32[1]
+                       else (f"{INT_TEXT}{key}", str(value)))
+        elif isinstance(value, (float, np.floating)):
+            out.append((f"drtlab:{key}", float(value)))
+        else:
+            out.append((f"drtlab:{key}", str(value)))
+    return out
+
+
+def _metadata(spec) -> dict:
+    """The drtlab metadata of an image's attributes (`_attributes` read back)."""
+    meta = {}
+    for a in spec.extra_attribs:
+        if a.name.startswith("drtlab:"):
+            meta[a.name[len("drtlab:"):]] = a.value
+        elif a.name.startswith(INT_TEXT):
+            try:
+                meta[a.name[len(INT_TEXT):]] = int(a.value)
+            except (TypeError, ValueError):
+                meta[a.name[len(INT_TEXT):]] = a.value
+    return meta
+
+
+def _shown(v) -> str:
+    text = repr(v)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _path_argument(path, suffix: str | None = None) -> Path:
+    """`path` as a Path, or an InputError naming `path` (not a path, or not ending in `suffix`; an
+    output's name too long or a folder)."""
+    from drtlab.errors import InputError
+    from drtlab.fields import name_lengths
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise InputError("path", f"must be a file path (a non-empty str or os.PathLike), got "
+                                 f"{_shown(path)}")
+    path = Path(path)
+    if suffix is not None:
+        if path.suffix.lower() != suffix:
+            raise InputError("path", f"must be a file name ending in {suffix}, got {str(path)!r}")
+        name_lengths(path, "path")
+        if path.is_dir():
+            raise InputError("path", f"{str(path)!r} is a folder; give a file name")
+    return path
+
+
+def _image_argument(image) -> np.ndarray:
+    """`image` as an (H, W, C) array of real numbers with H, W, C >= 1, or an InputError naming it."""
+    from drtlab.errors import InputError
+    try:
+        a = None if image is None else np.asarray(image)
+    except (ValueError, TypeError) as exc:          # ragged, or nested past numpy's 64 dimensions
+        raise InputError("image", f"must be an (H, W, C) array of real numbers, got a "
+                                  f"{type(image).__name__} numpy cannot read as one ({exc})") from None
+    if a is None or a.ndim != 3 or min(a.shape) < 1 or a.dtype.kind not in "biuf":
+        what = ("None" if a is None else f"an array of shape {a.shape} and dtype {a.dtype}")
+        raise InputError("image", f"must be an (H, W, C) array of real numbers with H, W, C >= 1 "
+                                  f"(a single-channel image as (H, W, 1)), got {what}")
+    return a
+
+
 def _write(path: Path, pixels: np.ndarray, fmt, metadata: dict | None) -> None:
     import OpenImageIO as oiio
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # Write beside the target and rename, so a crash never leaves a half-written image.
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp{path.suffix}")
+    attributes = _attributes(metadata)
     h, w, c = pixels.shape
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # Write beside the target and rename, so a crash never leaves a half-written image; the name is
+    # bounded, so a target name near the file system's limit still has one.
+    tmp = path.with_name(f".{path.stem[:64]}.{os.getpid()}.tmp{path.suffix}")
     spec = oiio.ImageSpec(w, h, c, fmt)
-    for key, value in (metadata or {}).items():
-        if isinstance(value, bool):
-            value = str(value).lower()
-        if isinstance(value, (int, np.integer)):
-            spec.attribute(f"drtlab:{key}", int(value))
-        elif isinstance(value, (float, np.floating)):
-            spec.attribute(f"drtlab:{key}", float(value))
-        else:
-            spec.attribute(f"drtlab:{key}", str(value))
-    out = oiio.ImageOutput.create(str(tmp))
-    if out is None or not out.open(str(tmp), spec):
-        raise OSError(f"cannot write {path}: {oiio.geterror()}")
-    ok = out.write_image(pixels)
-    out.close()
-    if not ok:
+    for name, value in attributes:
+        spec.attribute(name, value)
+    try:
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None or not out.open(str(tmp), spec):
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        ok = out.write_image(pixels)
+        out.close()
+        if not ok:
+            raise OSError(f"cannot write {path}: {oiio.geterror()}")
+        os.replace(tmp, path)
+    finally:
         tmp.unlink(missing_ok=True)
-        raise OSError(f"cannot write {path}: {oiio.geterror()}")
-    os.replace(tmp, path)
 
 
 def write_exr(path, image: np.ndarray, metadata: dict | None = None) -> None:
+    """A float32 EXR; a bad argument is an InputError naming it, before anything is written."""
     import OpenImageIO as oiio
-    _write(Path(path), float32_pixels(image), oiio.FLOAT, metadata)
+    path = _path_argument(path, ".exr")
+    _write(path, float32_pixels(_image_argument(image)), oiio.FLOAT, metadata)
 
 
 def float32_pixels(image, field: str = "image") -> np.ndarray:
@@ -78,12 +158,15 @@ def nonfinite_note(image) -> str | None:
 
 def write_png(path, image: np.ndarray, metadata: dict | None = None) -> None:
     import OpenImageIO as oiio
-    _write(Path(path), np.ascontiguousarray(to_srgb8(image)), oiio.UINT8, metadata)
+    path = _path_argument(path, ".png")
+    _write(path, np.ascontiguousarray(to_srgb8(_image_argument(image))), oiio.UINT8, metadata)
 
 
 def read_exr(path) -> tuple[np.ndarray, dict]:
-    """(pixels as float32 (H, W, C), drtlab metadata) of an image written by write_exr."""
-    pixels, meta, _ = _read(path)
+    """(pixels as float32 (H, W, C), drtlab metadata) of an image written by write_exr; a path that
+    is no file (missing, a folder, a FIFO) is an InputError naming `path`."""
+    from drtlab.fields import existing_file
+    pixels, meta, _ = _read(existing_file(_path_argument(path), "path", "an image file (EXR)"))
     return pixels, meta
 
 
@@ -104,6 +187,7 @@ def read_linear(path) -> tuple[np.ndarray, dict, str]:
 
 def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
     import OpenImageIO as oiio
+    path = _path_argument(path)
     inp = oiio.ImageInput.open(str(path))
     if inp is None:
         raise OSError(f"cannot read {path}: {oiio.geterror()}")
@@ -112,8 +196,7 @@ def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
     # A truncated file opens (its header is whole) and reads as nothing: OpenImageIO returns None or
     # a 0-d array and sets its error instead of raising.
     error = inp.geterror() if hasattr(inp, "geterror") else oiio.geterror()
-    meta = {a.name[len("drtlab:"):]: a.value for a in spec.extra_attribs
-            if a.name.startswith("drtlab:")}
+    meta = _metadata(spec)
     stored = (str(spec.format), str(spec.getattribute("oiio:ColorSpace") or ""))
     inp.close()
     pixels = None if pixels is None else np.asarray(pixels)

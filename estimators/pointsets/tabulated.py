@@ -36,6 +36,7 @@ import numpy as np
 import warp as wp
 
 from drtlab.errors import InputError
+from drtlab.fields import file_kind
 
 RANDOMIZATIONS = ("owen", "xor", "shift", "none")
 MAX_VALUES = 1 << 16            # table entries compiled into a kernel (compile time grows with it)
@@ -52,6 +53,9 @@ def read_table(source, n: int | None = None, field: str = "points") -> np.ndarra
         table = source.random(n) if hasattr(source, "random") else source.gen_samples(n)
     elif isinstance(source, (str, Path)):
         path = Path(source)
+        if file_kind(path) is not None:         # a FIFO would wait for a writer for ever
+            raise InputError(field, f"{str(path)!r} is {file_kind(path)}, not a table of points: a "
+                                    f".npy array or a UTK text file ({', '.join(_UTK_SUFFIXES)})")
         if not path.is_file():
             raise InputError(field, f"no file {str(path)!r}; expected a .npy array or a UTK text "
                                     f"file ({', '.join(_UTK_SUFFIXES)})")

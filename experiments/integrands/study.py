@@ -121,9 +121,11 @@ def load_study(profile: str = DEFAULT_PROFILE, path: Path = STUDY_FILE) -> Study
     from drtlab.estimators.registry import DIRECTION_ONLY_POINTSETS, POINTSETS
     text = Path(path).read_text()
     try:
-        data = tomllib.loads(text)
+        data = fields.check_nesting(tomllib.loads(text), Path(path).name)
     except tomllib.TOMLDecodeError as e:
         raise InputError(Path(path).name, f"not valid TOML: {e}") from None
+    except RecursionError:
+        raise fields.too_deep(Path(path).name) from None
     fields.check_keys(data, ["study", "profile", "expected"], "", "the study file")
     st = fields.Table(data.get("study"), "study", "the study's settings")
     st.check_keys(["description", "seed", "pointsets", "integrands"])

@@ -69,6 +69,7 @@ def builtin_experiments() -> list[str]:
 
 def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
     p = Path(name_or_path)
+    fields.name_lengths(p, "experiment")
     candidates = []
     if p.suffix == ".toml" or p.exists():
         if base is not None and not p.is_absolute():
@@ -84,6 +85,10 @@ def resolve_path(name_or_path: str, base: Path | None = None) -> Path:
     if (p / "summary.json").is_file():
         raise InputError("experiment", f"'{name_or_path}' is a finished study's results folder, not an "
                          f"experiment file: drtlab.open_results({str(name_or_path)!r}) reads it")
+    for c in candidates or [p]:
+        kind = fields.file_kind(c)
+        if kind is not None:
+            raise InputError("experiment", f"'{name_or_path}' is {kind}, not an experiment file (.toml)")
     raise InputError("experiment", f"no experiment file '{name_or_path}'; built-in experiments: "
                      f"{', '.join(builtin_experiments())}, or a path to a .toml file")
 
@@ -275,12 +280,20 @@ def _plugins(specs, path: Path, sources: dict) -> None:
 
 def _parse_file(path: Path, profile: str, stack: tuple, sources: dict,
                 profiles_seen: set) -> tuple[str, list[Study]]:
-    text = path.read_text()
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(path.name, f"not valid TOML: not UTF-8 text ({exc.reason} at byte "
+                                    f"{exc.start})") from None
+    except OSError as exc:
+        raise InputError(path.name, f"cannot read {path}: {exc.strerror or exc}") from None
     sources[str(path)] = short_hash(text, 16)
     try:
-        data = tomllib.loads(text)
+        data = fields.check_nesting(tomllib.loads(text), path.name)
     except tomllib.TOMLDecodeError as e:
         raise InputError(path.name, f"not valid TOML: {e}") from None
+    except RecursionError:
+        raise fields.too_deep(path.name) from None
     return _parse_data(data, path, profile, stack, sources, profiles_seen)
 
 
@@ -323,15 +336,14 @@ def _parse_data(data: dict, path: Path, profile: str, stack: tuple, sources: dic
     for k, inc in enumerate(includes):
         try:
             ipath = resolve_path(inc, path.parent)
-        except InputError:
-            raise InputError(f"experiment.include[{k}]", f"no experiment file '{inc}'; built-in: "
-                             f"{', '.join(builtin_experiments())}") from None
+        except InputError as e:
+            raise InputError(f"experiment.include[{k}]", e.message) from None
         if ipath.resolve() in stack:
             raise InputError(f"experiment.include[{k}]", f"'{inc}' includes itself (cycle)")
         try:
             _, sub = _parse_file(ipath, profile, stack + (ipath.resolve(),), sources, profiles_seen)
         except InputError as e:
-            if e.field.startswith(f"{ipath.name}:"):
+            if e.field == ipath.name or e.field.startswith(f"{ipath.name}:"):
                 raise
             raise InputError(f"{ipath.name}:{e.field}", e.message) from None
         studies.extend(sub)
@@ -353,9 +365,13 @@ def load_experiment(name_or_path: str | Path | dict, profile: str = DEFAULT_PROF
     the TOML file, which is then called `name`); raises InputError and writes nothing."""
     if not isinstance(profile, str) or not profile:
         raise InputError("profile", f"must be a profile name, got {profile!r}")
+    if not isinstance(name_or_path, (str, Path, dict)) or name_or_path in ("", Path()):
+        raise InputError("experiment", f"must be a built-in experiment name, a .toml path or a dict "
+                                       f"shaped like an experiment file, got {fields.show(name_or_path)}")
     sources: dict = {}
     profiles_seen: set = set()
     if isinstance(name_or_path, dict):
+        fields.check_nesting(name_or_path, "experiment")
         if not isinstance(name, str) or not name or any(not (c.isalnum() or c in "-_.") for c in name):
             raise InputError("name", f"an experiment's name holds letters, digits and - _ . only "
                                      f"(it names the results folder), got {name!r}")

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -108,6 +109,9 @@ def open_results(path) -> ExperimentResult:
     the ExperimentResult its run returned: the summary rebuilt from summary.json, runs.parquet read
     when asked for, the run counts and wall time from manifest.json where there is one. Renders
     and analyses nothing; raises InputError naming `path` when it is no readable results folder."""
+    if not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise InputError("path", f"must be a results folder `drtlab experiment` wrote (a str or "
+                                 f"os.PathLike, e.g. 'results/stratified'), got {path!r}")
     folder = Path(path)
     if folder.name == "summary.json" and folder.is_file():
         folder = folder.parent

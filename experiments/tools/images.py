@@ -12,7 +12,20 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab import fields
 from drtlab.errors import InputError
+
+
+def rgb(pixels: np.ndarray, path, field_name: str) -> np.ndarray:
+    """An image's pixels as RGB for `compare`: 3 channels as they are (a 4th, alpha, and more
+    dropped), one grey channel as R = G = B; 2 channels (grey and alpha? red and green?) refused."""
+    channels = pixels.shape[2]
+    if channels == 1:
+        return np.repeat(pixels, 3, axis=2)
+    if channels == 2:
+        raise InputError(field_name, f"{path} has 2 channels: compare reads RGB images (3 channels; "
+                                     f"a 4th, alpha, is left out) or grey ones (1 channel, as R = G = B)")
+    return pixels[..., :3]
 
 
 def read_image(path, field_name: str) -> tuple[np.ndarray, dict]:
@@ -23,9 +36,7 @@ def read_image(path, field_name: str) -> tuple[np.ndarray, dict]:
 
 def _read_stored(path, field_name: str) -> tuple[np.ndarray, dict, str]:
     from drtlab.kernels.imageio import read_linear
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(field_name, f"image file '{path}' does not exist")
+    p = fields.existing_file(path, field_name, "an image file")
     try:
         return read_linear(p)
     except OSError as exc:
@@ -214,6 +225,12 @@ def pair_stems(pairs: list[tuple[str, str]], fields: tuple[str, ...]) -> list[st
     raise AssertionError("distinct paths have distinct tails")
 
 
+def error_image_paths(out_stem: Path, z: bool) -> list[Path]:
+    """The files `write_error_images` writes for `out_stem` (with z-scores or without)."""
+    suffixes = (".diff.exr", ".error.png", ".z.exr") if z else (".diff.exr", ".error.png")
+    return [Path(f"{out_stem}{suffix}") for suffix in suffixes]
+
+
 def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
                        z: np.ndarray | None = None) -> list[Path]:
     """`STEM.diff.exr` (signed A - B, linear) and `STEM.error.png` (false-colour |A - B| luminance,
@@ -223,7 +240,7 @@ def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
     from drtlab.experiments.plotting import pyplot
     plt = pyplot()
     diff = np.asarray(a, dtype=np.float64)[..., :3] - np.asarray(b, dtype=np.float64)[..., :3]
-    exr, png = Path(f"{out_stem}.diff.exr"), Path(f"{out_stem}.error.png")
+    exr, png, *z_path = error_image_paths(out_stem, z is not None)
     write_exr(exr, diff, {"what": "signed difference A - B"})
     err = np.abs(luminance(diff))
     h, w = err.shape
@@ -237,7 +254,6 @@ def write_error_images(a: np.ndarray, b: np.ndarray, out_stem: Path,
     plt.close(fig)
     if z is None:
         return [exr, png]
-    z_path = Path(f"{out_stem}.z.exr")
-    write_exr(z_path, z, {"what": "per-pixel z = (A - B) / sqrt(se_A^2 + se_B^2), NaN without a "
-                                  "standard error"})
-    return [exr, png, z_path]
+    write_exr(z_path[0], z, {"what": "per-pixel z = (A - B) / sqrt(se_A^2 + se_B^2), NaN without a "
+                                     "standard error"})
+    return [exr, png, *z_path]

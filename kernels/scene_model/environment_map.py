@@ -34,8 +34,8 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import (REQUIRED, SCENE_LIMIT, Table, scene_numbers as numbers, scene_number as number, show,
-                           string)
+from drtlab.fields import (REQUIRED, SCENE_LIMIT, Table, existing_file, scene_numbers as numbers,
+                           scene_number as number, show, string)
 
 KINDS = ("constant", "two_level", "gradient", "image")
 PROCEDURAL_KEYS = ("resolution", "sun_direction", "sun_radiance")
@@ -232,6 +232,7 @@ def _resolution(t: Table) -> tuple[int, int]:
 def _read_image(t: Table) -> tuple[np.ndarray, str]:
     path = string(t.get("file", REQUIRED, "a path to a lat-long EXR/HDR image"), t.field("file"))
     from drtlab.kernels.imageio import channel_names, read_linear
+    existing_file(path, t.field("file"), "an image file (EXR, HDR or any format OpenImageIO reads)")
     try:
         pixels, _, _ = read_linear(Path(path).expanduser())
     except OSError as exc:

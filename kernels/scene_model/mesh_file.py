@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import MAX_SEED, Table, integer, number, numbers, show, string
+from drtlab.fields import MAX_SEED, Table, existing_file, integer, number, numbers, show, string
 from drtlab.kernels.scene_model.mesh_serialized import SerializedError, has_vertex_normals, read_serialized
 from drtlab.kernels.scene_model.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
 from drtlab.kernels.scene_model.scene import Shape, TriangleMesh
@@ -144,8 +144,7 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
     path = Path(text).expanduser()
     if path.suffix.lower() not in MESH_FORMATS:
         raise InputError(field, f"must name a {' or '.join(MESH_FORMATS)} file, got {show(text)}")
-    if not path.is_file():
-        raise InputError(field, f"mesh file '{path}' does not exist")
+    existing_file(path, field, f"a mesh file ({' or '.join(MESH_FORMATS)})")
     if path.suffix.lower() == ".obj":
         _check_obj_indices(path, field)
     if path.suffix.lower() == ".serialized":
@@ -160,8 +159,10 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
         loaded = trimesh.load(str(path), process=False)
         parts = list(loaded.dump()) if isinstance(loaded, trimesh.Scene) else [loaded]
     except Exception as exc:                        # trimesh raises many kinds; each means unreadable
-        reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        raise InputError(field, f"cannot read mesh file '{path}': {reason}") from None
+        reason = (str(exc).strip().splitlines() or [""])[0]
+        raise InputError(field, f"cannot read mesh file '{path}': not a readable "
+                                f"{path.suffix[1:].upper()} file, truncated or corrupt "
+                                f"({type(exc).__name__}{': ' + reason if reason else ''})") from None
     parts = [m for m in parts if isinstance(m, trimesh.Trimesh) and len(m.faces)]
     if not parts:
         raise InputError(field, f"mesh file '{path}' has no triangles")
@@ -176,7 +177,7 @@ def _check_obj_indices(path: Path, field: str) -> None:
     counts = {"v": 0, "vt": 0, "vn": 0}
     faces = []                                      # (line number, face number, tokens)
     try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
+        with open(path, encoding="utf-8") as fh:
             for number, line in enumerate(fh, 1):
                 word, _, rest = line.partition("#")[0].strip().partition(" ")
                 if word in counts:
@@ -185,6 +186,9 @@ def _check_obj_indices(path: Path, field: str) -> None:
                     faces.append((number, len(faces) + 1, rest.split(), dict(counts)))
     except OSError as exc:
         raise InputError(field, f"cannot read mesh file '{path}': {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(field, f"mesh file '{path}' is not an OBJ file: an OBJ file is text, and its "
+                                f"byte {exc.start} is not UTF-8 (a binary file?)") from None
     kinds = (("v", "vertex", "vertices"), ("vt", "texture coordinate", "texture coordinates"),
              ("vn", "normal", "normals"))
     for number, face, tokens, defined in faces:

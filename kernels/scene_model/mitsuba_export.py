@@ -22,6 +22,7 @@ import numpy as np
 import dataclasses
 
 from drtlab.errors import InputError
+from drtlab.fields import output_files
 from drtlab.kernels.scene_model.scene import Camera, Scene
 
 # drtlab's kinds that are Mitsuba's roughconductor (material "none"), by its `distribution`.
@@ -125,11 +126,12 @@ def _check_fields(scene: Scene) -> None:
                                                 f"{', '.join(SCENE_FIELDS)}); leave it at its default")
 
 
-def export_mitsuba(scene: Scene, out: Path, data: dict | None = None) -> list[Path]:
+def export_mitsuba(scene: Scene, out: Path, data: dict | None = None, field: str = "out") -> list[Path]:
     """Write `scene` as Mitsuba 3 XML at `out` (and its meshes beside it); the files written.
     `data`, the scene's table (scene_file.scene_data), gives directional lights as written: the
     loader's normalisation of a unit vector can move its last bit. Everything is written to
-    temporary names first and renamed at the end: nothing half-written."""
+    temporary names first and renamed at the end: nothing half-written. Every file's name is checked
+    first (`field` names `out` in the error): a mesh file whose name is a folder writes nothing."""
     check_exportable(scene)
     meshes: list[tuple[Path, object]] = []
     root = ET.Element("scene", version="3.0.0")
@@ -163,11 +165,17 @@ def export_mitsuba(scene: Scene, out: Path, data: dict | None = None) -> list[Pa
     ET.indent(root)
     files = [(out, ET.tostring(root, encoding="unicode") + "\n")]
     files += [(p, _ply_bytes(mesh)) for p, mesh in meshes]
-    for path, content in files:
-        tmp = path.with_name(f".{path.name}.tmp")
-        (tmp.write_text if isinstance(content, str) else tmp.write_bytes)(content)
-    for path, _ in files:
-        os.replace(path.with_name(f".{path.name}.tmp"), path)
+    output_files([p for p, _ in files], field)
+    temps = [path.with_name(f".{path.stem[:64]}.{i}.{os.getpid()}.tmp")
+             for i, (path, _) in enumerate(files)]
+    try:
+        for (path, content), tmp in zip(files, temps):
+            (tmp.write_text if isinstance(content, str) else tmp.write_bytes)(content)
+        for (path, _), tmp in zip(files, temps):
+            os.replace(tmp, path)
+    finally:
+        for tmp in temps:
+            tmp.unlink(missing_ok=True)
     return [p for p, _ in files]
 
 

@@ -17,6 +17,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from drtlab.errors import InputError
+from drtlab.fields import MAX_NESTING, too_deep
 
 VERSION = re.compile(r"\s*(\d+)(?:\.(\d+))?(?:\.(\d+))?\s*")
 OLDEST, NEWEST_MAJOR = (0, 6, 0), 3
@@ -32,9 +33,22 @@ def read_root(path: Path) -> ET.Element:
     except OSError as exc:
         raise InputError("scene", f"cannot read {path}: {exc.strerror or exc}") from None
     try:
-        return ET.fromstring(text)
+        root = ET.fromstring(text)
     except ET.ParseError as exc:
         raise InputError("scene", f"malformed XML in {path}: {exc}") from None
+    check_depth(root)
+    return root
+
+
+def check_depth(root: ET.Element) -> None:
+    """The reader walks elements recursively: a file nested past MAX_NESTING is one line instead
+    (5000 levels raised RecursionError)."""
+    stack = [(root, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_NESTING:
+            raise too_deep("scene")
+        stack.extend((child, depth + 1) for child in node)
 
 
 def parse_version(text: str | None) -> tuple[int, int, int] | None:

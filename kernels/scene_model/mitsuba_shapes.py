@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from drtlab.fields import file_kind
 from drtlab.kernels.imageio import image_size
 from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
 from drtlab.kernels.scene_model.mitsuba_xml import (Obj, chain_matrix, chain_point, chain_vector, coordinate_up,
@@ -127,7 +128,9 @@ class ShapeMapping:
             self.r.fail(o.path, f"{kind} needs a filename")
         path = self.r.resolve(name)
         if not path.is_file():
-            self.r.fail(o.props["filename"].path, f"mesh file '{name}' does not exist")
+            what = file_kind(path)
+            self.r.fail(o.props["filename"].path, f"'{name}' is {what}, not a mesh file" if what
+                        else f"mesh file '{name}' does not exist")
         if path.suffix.lower() != f".{kind}":
             self.r.fail(o.props["filename"].path, f"a {kind} shape needs a .{kind} file, got '{name}'")
         has_normals = file_has_vertex_normals(path)
@@ -171,7 +174,9 @@ class ShapeMapping:
         if path.suffix.lower() not in ENVMAP_FORMATS:
             self.r.fail(o.props["filename"].path, f"must name an .exr or .hdr image, got '{name}'")
         if not path.is_file():
-            self.r.fail(o.props["filename"].path, f"image file '{name}' does not exist")
+            what = file_kind(path)
+            self.r.fail(o.props["filename"].path, f"'{name}' is {what}, not an image file" if what
+                        else f"image file '{name}' does not exist")
         size = image_size(path)
         if size is not None and (size[0] < 2 or size[1] < 3):
             self.r.fail(o.props["filename"].path, f"'{name}' has {size[0]} x {size[1]} texels; at "

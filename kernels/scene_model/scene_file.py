@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from drtlab.errors import InputError
-from drtlab.fields import REQUIRED, show
+from drtlab.fields import REQUIRED, check_nesting, file_kind, name_lengths, show, too_deep
 from drtlab.kernels.scene_model.scene import Scene
 from drtlab.kernels.scene_model.scene_tables import TOP_LEVEL_KEYS, build_scene, parse_settings
 
@@ -101,7 +101,7 @@ def scene_from_dict(d: dict, name: str = "inline", overrides: dict | None = None
     if not isinstance(d, dict):
         raise InputError("scene", f"a scene must be a table of tables ({', '.join(TOP_LEVEL_KEYS)}), "
                                   f"got {show(d)}")
-    data = copy.deepcopy(d)
+    data = copy.deepcopy(check_nesting(d, "scene"))
     _apply_overrides(data, overrides or {})
     scene = build_scene(data, name=name, source="<dict>", text="")
     # The canonical JSON of the (valid) dict stands in for the TOML text, so content_hash() still
@@ -118,11 +118,16 @@ def _resolve(name_or_path: str | Path) -> tuple[Path, str, str]:
     """(path, scene name, source): a built-in name wins over a same-named file in the cwd."""
     if isinstance(name_or_path, str) and name_or_path in builtin_names():
         return BUILTIN_DIR / f"{name_or_path}.toml", name_or_path, name_or_path
+    if not str(name_or_path).strip():
+        raise InputError("scene", f"must be a built-in scene name or a path to a .toml or .xml scene "
+                                  f"file, got {show(str(name_or_path))}")
     path = Path(name_or_path).expanduser()
+    name_lengths(path, "scene")
     if path.is_file():
         return path, path.stem, str(path)
-    if path.is_dir():
-        raise InputError("scene", f"'{name_or_path}' is a folder, not a scene file")
+    kind = file_kind(path)
+    if kind is not None:
+        raise InputError("scene", f"'{name_or_path}' is {kind}, not a scene file (.toml or .xml)")
     if isinstance(name_or_path, Path) or "/" in str(name_or_path) or path.suffix in (".toml", ".xml"):
         raise InputError("scene", f"scene file '{name_or_path}' does not exist")
     raise InputError("scene", f"unknown scene '{name_or_path}'; built-ins: "
@@ -153,9 +158,11 @@ def _read_text(path: Path) -> str:
 
 def _parse_toml(text: str, path: Path) -> dict:
     try:
-        return tomllib.loads(text)
+        return check_nesting(tomllib.loads(text), "scene")
     except tomllib.TOMLDecodeError as exc:
         raise InputError("scene", f"malformed TOML in {path}: {exc}") from None
+    except RecursionError:
+        raise too_deep("scene") from None
 
 
 def _anchor_mesh_files(data: dict, folder: Path) -> None:
@@ -208,6 +215,7 @@ def _split_key(key: str) -> list[str | int]:
 def _apply_overrides(data: dict, overrides: dict) -> None:
     if not isinstance(overrides, dict):
         raise InputError("overrides", f"must be a dict of dotted keys to values, got {show(overrides)}")
+    check_nesting(overrides, "overrides")
     for key, value in overrides.items():
         if not isinstance(key, str) or not key:
             raise InputError("overrides", f"keys must be non-empty dotted strings, got {show(key)}")
