@@ -53,3 +53,9 @@ INTEGRATORS = {i.name: i for i in (
     _built_in("path", "Kajiya 1986 path tracing with next-event estimation, unbiased", False, EFFECTS),
 )}
 BUILT_IN_INTEGRATORS = tuple(INTEGRATORS)
+
+
+def integrator_fingerprint(name: str | None) -> str:
+    """A plugin integrator's fingerprint ("" for a built-in, an unknown name or None)."""
+    entry = INTEGRATORS.get(name) if name else None
+    return entry.fingerprint if entry is not None else ""

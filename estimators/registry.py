@@ -10,7 +10,7 @@ from collections.abc import MutableMapping
 from dataclasses import dataclass
 
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY  # noqa: F401 (re-exported)
-from drtlab.estimators.integrators import INTEGRATORS, Integrator
+from drtlab.estimators.integrators import BUILT_IN_INTEGRATORS, INTEGRATORS, Integrator  # noqa: F401
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
 

@@ -11,7 +11,8 @@ camera sample. docs/plugins.md states each function's contract; in short:
                pdf_bsdf(mat, ns, wo, wi); sample_bsdf(mat, ns, wo, u_lobe, u) -> Scatter;
                is_delta(kind) -> bool; kind(sd, m) -> int; emitted(sd, h, wo)
     lights     pick_light(sd, x, u); light_pick_pmf(sd, x, li); sample_light(sd, li, x, u, bounce, dt)
-               -> LightSample; light_pdf(sd, li, x, y, ny, prim, bounce, dt); next_event(sd, beta,
+               -> LightSample; light_pdf(sd, li, x, y, ny, prim, bounce, dt);
+               light_visible(sd, h, li, ls, dt) -> 1/0; next_event(sd, beta,
                mat, h, wo, u_light, u_point, bounce, dt); hit_weight(sd, h, prev_delta, prev_pdf,
                prev_p, prev_bounce, dt); direct_delta_lights(sd, mat, p, n, ns, wo, dt)
     environment  escape(sd, d, prev_delta, prev_pdf, prev_n) -> what a ray leaving the scene brings
@@ -91,6 +92,7 @@ class EstimatorApi(NamedTuple):
     light_pdf: wp.Function
     next_event: wp.Function
     hit_weight: wp.Function
+    light_visible: wp.Function
     direct_delta_lights: wp.Function
     # The environment (or the background)
     escape: wp.Function
@@ -216,6 +218,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         pick_light=lights.pick_light, light_pick_pmf=lights.light_pick_pmf,
         sample_light=lights.sample_light, light_pdf=lights.light_pdf,
         next_event=lighting.next_event, hit_weight=lighting.hit_weight,
+        light_visible=lighting.light_visible,
         direct_delta_lights=lighting.direct_delta_lights,
         escape=escape, env_radiance=env_radiance, oriented=oriented,
         camera_ray=camera_ray,
