@@ -10,6 +10,10 @@
              path continues through both its lobes. Unbiased for that estimand.
     path     Kajiya 1986 path tracing with next-event estimation: unbiased for the full rendering
              equation (up to max_depth, Mitsuba 3's convention), optional Russian roulette.
+    direct   Mitsuba 3's `direct`: the emitters the camera sees and the direct light at its hit, by
+             MIS of `emitter_samples` light samples and `bsdf_samples` BSDF samples ([scene] keys).
+             Unbiased for that estimand (path tracing's with max_depth = 2, the background and the
+             environment seen through BSDF samples).
 
 Each is one module of kernels/integrators/ (`module`); a plugin's (drtlab.register_integrator) carries
 its `make(api)` and DIMENSIONS instead, and the fingerprint of its source. `handles` names the light
@@ -51,6 +55,9 @@ INTEGRATORS = {i.name: i for i in (
               ("direct", "specular", "glossy", "transmission", "environment", "point_lights", "lens",
                "motion", "meshes")),
     _built_in("path", "Kajiya 1986 path tracing with next-event estimation, unbiased", False, EFFECTS),
+    _built_in("direct", "Mitsuba 3's direct illumination: emitter_samples light and bsdf_samples BSDF "
+              "samples at the first hit, MIS", False,
+              ("direct", "specular", "glossy", "point_lights", "lens", "motion", "meshes")),
 )}
 BUILT_IN_INTEGRATORS = tuple(INTEGRATORS)
 

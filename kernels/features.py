@@ -115,6 +115,8 @@ class Features:
     filter_stddev: float = 0.0  # the filter's stddev (kernels/filters.get_filter); 0: its default
     filter_clip: bool = False   # the filter truncated to the film (Camera.filter_clip)
     quad_simd: bool = False  # quads by the CPU's vector test (QUAD_SIMD_MAX), else grouped scalar tests
+    emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
+    bsdf_samples: int = 1
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -168,6 +170,8 @@ class Features:
                 + ("-clip" if self.filter_clip else "") + ("-splat" if self.splat else "")
                 if self.filter != "box" else "")
         key += "+moments" if self.moments else ""
+        if self.integrator == "direct":
+            key += f"+e{self.emitter_samples}b{self.bsdf_samples}"
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
 
 
@@ -192,6 +196,9 @@ def features_of(scene: Scene, integrator: str) -> Features:
         filter=scene.camera.filter,
         filter_stddev=scene.camera.filter_stddev,
         filter_clip=scene.camera.filter_clip,
+        # Other integrators ignore them: the defaults, so that their variants stay one each.
+        emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
+        bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,
     )
 
 
