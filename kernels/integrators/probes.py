@@ -6,8 +6,8 @@ unchanged (no wrapper, no cost). So every integrator, built-in or a plugin, gets
 and probes, and none of them names one in its body.
 
 Negative controls (features.FAULTS; the statistical tests must reject them):
-    DROP_COSINE     sample_bsdf's weight of a non-delta scatter divided by |cos| at the vertex
-                    (kernels/direct.py drops it from the light samples' f|cos|)
+    DROP_COSINE     sample_bsdf's weight of a non-delta scatter and eval_bsdf's f|cos| divided by
+                    |cos| at the vertex (kernels/direct.py's next_event drops it from its own)
     PDF_HIGH_10PCT  sample_bsdf's weight of a non-delta scatter divided by 1.1 (its pdf claimed 10% high)
     RR_NO_REWEIGHT  roulette kills as before but returns the survivor's throughput unweighted
 Probes (features.REPEATS): the wrapped function does its work a second time on perturbed inputs and
@@ -35,6 +35,8 @@ def with_probes(api, f: Features):
     if DROP_COSINE in faults or PDF_HIGH_10PCT in faults or REPEAT_SAMPLE_BSDF in faults:
         changes["sample_bsdf"] = _sample_bsdf(api.sample_bsdf, DROP_COSINE in faults,
                                               PDF_HIGH_10PCT in faults, REPEAT_SAMPLE_BSDF in faults)
+    if DROP_COSINE in faults:
+        changes["eval_bsdf"] = _eval_without_cosine(api.eval_bsdf)
     if RR_NO_REWEIGHT in faults:
         changes["roulette"] = _roulette_no_reweight()
     if REPEAT_INTERSECT in faults:
@@ -61,6 +63,13 @@ def _sample_bsdf(sample_bsdf, drop_cosine: bool, pdf_high: bool, twice: bool):
                 s.weight = s.weight / 1.1
         return s
     return sample
+
+
+def _eval_without_cosine(eval_bsdf):
+    @wp.func
+    def eval_(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+        return eval_bsdf(mat, n, wo, wi) / wp.abs(wp.dot(n, wi))
+    return eval_
 
 
 def _roulette_no_reweight():
