@@ -281,7 +281,7 @@ def _add_render(sub) -> None:
                    help=f"preset (uniform, stratified, importance), POINTS+STRATEGY, or POINTS alone "
                         f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them")
     r.add_argument("--integrator", default=None,
-                   help="whitted, drt or path (default: the scene's)")
+                   help="whitted, drt, path, direct or a plugin's (default: the scene's)")
     r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, help="root seed")
     r.add_argument("--res", type=resolution_flag, default=None,
                    help="N (width N, height from the scene's aspect) or WxH (default: the scene's)")

@@ -169,3 +169,10 @@ def test_the_example_integrators_agree_with_path_and_broken_splitting_does_not(t
     split = drtlab.render_batch(SCENE, seeds=SEEDS, spp=SPP, res=RES, integrator="splitting")
     plain = drtlab.render_batch(SCENE, seeds=SEEDS, spp=SPP, res=RES, integrator="path")
     assert split.var(axis=0).mean() < plain.var(axis=0).mean()
+
+
+def test_the_study_lists_its_integrator_plugins(clean_registry):
+    from drtlab.experiments.study.config import load_experiment
+    exp = load_experiment(str(PLUGIN_EXAMPLES / "integrators.toml"), check_scenes=False)
+    assert [s.integrator for s in exp.studies] == ["path", "splitting", "one-sample-mis"]
+    assert {s.samplers for s in exp.studies} == {exp.studies[0].samplers}   # the same samplers each
