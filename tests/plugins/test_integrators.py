@@ -91,6 +91,19 @@ def test_a_light_selection_that_does_not_compile_is_refused_when_registered(tmp_
     assert "nearest" not in LIGHT_SELECTIONS
 
 
+def test_a_lobe_sampler_that_does_not_compile_is_refused_when_registered(tmp_path, clean_registry):
+    src = (PLUGIN_EXAMPLES / "defensive_phong.py").read_text()
+    path = tmp_path / "broken_lobe.py"
+    assert "return 0.5 * phong_lobe_pdf(" in src
+    path.write_text(src.replace("return 0.5 * phong_lobe_pdf(", "return 0.5 * phong_lobe_pdff("))
+    with pytest.raises(InputError) as e:
+        plugins.load_plugin(path)
+    assert "lobe sampler 'defensive-phong' does not compile at" in e.value.message
+    assert str(path) in e.value.message and "\n" not in e.value.message
+    from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
+    assert "defensive-phong" not in LOBE_SAMPLERS
+
+
 def test_an_edited_integrator_changes_its_kernel_and_run_keys(tmp_path, clean_registry):
     from drtlab.estimators.registry import parse_sampler
     from drtlab.kernels.plugin_compile import small_features
