@@ -44,7 +44,7 @@ REPEAT_NEXT_EVENT = "repeat_next_event"  # the whole light sample: pick, point, 
 REPEAT_SAMPLE_LIGHT = "repeat_sample_light"  # the light pick and the point on it
 REPEAT_VISIBLE = "repeat_visible"        # the shadow ray (reversed direction)
 REPEAT_SAMPLE_BSDF = "repeat_sample_bsdf"    # the scattering direction and its weight
-REPEAT_DRAW = "repeat_draw"              # one 2D point-set draw per bounce
+REPEAT_DRAW = "repeat_draw"              # every 2D point-set draw of the integrator, once more
 REPEATS = (REPEAT_CAMERA, REPEAT_INTERSECT, REPEAT_NEXT_EVENT, REPEAT_SAMPLE_LIGHT, REPEAT_VISIBLE,
            REPEAT_SAMPLE_BSDF, REPEAT_DRAW)
 
