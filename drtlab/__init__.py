@@ -18,12 +18,17 @@ The Python API a notebook needs; each name imports its layer (and Warp) only whe
     drtlab.register_strategy("importance-nearest", "...", like="importance", light_selection="nearest",
                              lobe_samplers=["wide"])
     drtlab.register_metric("edge-mse", per_run)   # a study's error: per_run(images, ref, ref_stderr)
+    drtlab.register_integrator("splitting", make, "...", unbiased=True)   # make(api) -> trace
     drtlab.load_plugin("my_sets.py")                      # a file that registers some
 
 The top-level folders are mapped under this package: `drtlab.estimators`, `drtlab.kernels`,
 `drtlab.experiments` (see pyproject.toml).
 """
 from drtlab.version import __version__  # noqa: F401  (a leaf: imports nothing)
+
+# The register_* functions, all defined in drtlab/registration.py (the one registration module).
+REGISTER = ("register_pointset", "register_light_selection", "register_lobe_sampler",
+            "register_strategy", "register_integrator", "register_metric")
 
 
 def render(scene, *args, stats: bool = False, variance: bool = False, seconds: float | None = None,
@@ -86,6 +91,9 @@ def __getattr__(name: str):
     if name == "LobeSampler":
         from drtlab.kernels.lobe_samplers import LobeSampler
         return LobeSampler
+    if name in REGISTER:
+        from drtlab import registration
+        return getattr(registration, name)
     if name == "DEFAULT_SAMPLER":
         from drtlab.estimators.defaults import DEFAULT_SAMPLER
         return DEFAULT_SAMPLER
@@ -156,13 +164,6 @@ def variance_sources(scene, spp: int = 256, **kwargs):
     return _sources(scene, spp=spp, **kwargs).frame()
 
 
-def register_pointset(pointset, check: bool = True):
-    """`drtlab.estimators.plugins.register_pointset`: make a `drtlab.PointSet` (your own Warp functions, or
-    `pointset_from_table(...)`) usable by name in every render, study and check."""
-    from drtlab.estimators.plugins import register_pointset as _register
-    return _register(pointset, check)
-
-
 def pointset_from_table(name: str, points, n: int | None = None, randomize: str = "owen",
                         description: str | None = None):
     """A PointSet from a table of points: an (M, D) array, a .npy or UTK text file, or a
@@ -176,76 +177,3 @@ def load_plugin(path_or_module):
     """Import a plugin file or module (it registers its point sets); returns its record."""
     from drtlab.estimators.plugins import load_plugin as _load
     return _load(path_or_module, "plugin")
-
-
-def register_light_selection(selection):
-    """Register a `drtlab.LightSelection` (two Warp functions: pick(sd, x, u) -> light index and
-    pmf(sd, x, li) -> its probability; kernels/light_selection.py) for strategies to name."""
-    from drtlab.estimators.plugins import attribute
-    from drtlab.kernels.light_selection import register
-    who, fingerprint = attribute("light_selection", getattr(selection, "name", "?"),
-                                 getattr(selection, "pick", None), getattr(selection, "pmf", None))
-    return register(selection, who, fingerprint)
-
-
-def register_lobe_sampler(sampler):
-    """Register a `drtlab.LobeSampler` (two Warp functions for one material kind: sample(albedo,
-    shape, ior, nf, wo, u_lobe, u) -> wi and pdf(shape, ior, nf, wo, wi) -> its density;
-    kernels/lobe_samplers.py) for strategies to compose."""
-    from drtlab.estimators.plugins import attribute
-    from drtlab.kernels.lobe_samplers import register
-    who, fingerprint = attribute("lobe_sampler", getattr(sampler, "name", "?"),
-                                 getattr(sampler, "sample", None), getattr(sampler, "pdf", None))
-    return register(sampler, who, fingerprint)
-
-
-def register_metric(name: str, per_run, description: str = "", label: str | None = None,
-                    mse_label: str | None = None):
-    """Register an error metric a study may rank samplers by (`metric = NAME`): `per_run(images,
-    reference, reference_stderr)` gives each image's mean squared error, the reference's noise removed
-    (experiments/error_metrics/base.py); reports print `label` (its root) and `mse_label`."""
-    from drtlab.experiments.error_metrics import register_metric as _register
-    return _register(name, per_run, description, label, mse_label)
-
-
-def register_strategy(name: str, description: str, like: str = "importance", *,
-                      light_selection: str | None = None, heuristic: str | None = None,
-                      lobe_samplers=None):
-    """A strategy composed of registered routines: the built-in strategy `like` with another light
-    selection (a built-in or `register_light_selection`'s), another MIS heuristic ("power" or
-    "balance", kernels/mis.py) and/or lobe samplers (`register_lobe_sampler`'s, one per material
-    kind); used as POINTS+NAME in any sampler."""
-    from dataclasses import replace
-
-    from drtlab.errors import InputError
-    from drtlab.estimators.plugins import register_strategy as _register
-    from drtlab.estimators.strategies import MIS_HEURISTICS, STRATEGIES
-    from drtlab.kernels.light_selection import LIGHT_SELECTIONS
-    if like not in STRATEGIES:
-        raise InputError("like", f"must be a registered strategy ({', '.join(STRATEGIES)}), got {like!r}")
-    base = STRATEGIES[like]
-    if (light_selection is not None or heuristic is not None) and base.light is None:
-        raise InputError("like", f"must be a strategy that samples lights to change its light selection or "
-                                 f"heuristic ({', '.join(k for k, v in STRATEGIES.items() if v.light)}), "
-                                 f"got {like!r}")
-    light, fingerprint, lobes = base.light, base.fingerprint, base.lobes
-    if light_selection is not None:
-        if light_selection not in LIGHT_SELECTIONS:
-            raise InputError("light_selection", f"unknown light selection {light_selection!r}; "
-                                                f"registered: {', '.join(LIGHT_SELECTIONS)}")
-        light = replace(light, pick=light_selection)
-        fingerprint = LIGHT_SELECTIONS[light_selection].fingerprint
-    if heuristic is not None:
-        if heuristic not in MIS_HEURISTICS or not light.mis:
-            raise InputError("heuristic", f"must be one of {', '.join(MIS_HEURISTICS)} for a strategy that "
-                                          f"combines by MIS, got {heuristic!r} (like={like!r})")
-        light = replace(light, heuristic=heuristic)
-    if lobe_samplers is not None:
-        from drtlab.kernels.lobe_samplers import composed
-        if not base.lobe:
-            raise InputError("like", f"must sample BSDF lobes to compose lobe samplers "
-                                     f"({', '.join(k for k, v in STRATEGIES.items() if v.lobe)}), got {like!r}")
-        lobes, lobe_fp = composed(lobe_samplers)
-        fingerprint = f"{fingerprint}:{lobe_fp}"
-    return _register(replace(base, name=name, description=description, light=light, lobes=lobes,
-                             fingerprint=fingerprint))

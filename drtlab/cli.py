@@ -309,7 +309,7 @@ def _add_render(sub) -> None:
                         f"(= POINTS+{POINTSET_STRATEGY}); `drtlab samplers` lists them (not with the "
                         "whitted integrator, which samples nothing)")
     r.add_argument("--integrator", default=None,
-                   help="whitted, drt or path (default: the scene's)")
+                   help="whitted, drt, path, direct or a plugin's (default: the scene's)")
     r.add_argument("--seed", type=int_flag(0, fields.MAX_SEED), default=0, action=Given,
                    help="root seed (not with the whitted integrator, which samples nothing)")
     r.add_argument("--res", type=resolution_flag, default=None,

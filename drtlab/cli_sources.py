@@ -88,7 +88,8 @@ def add_sources_command(sub) -> None:
                    help=f"groups to decompose, from {','.join(GROUPS)} (default: all)")
     p.add_argument("--strategy", choices=list(STRATEGIES), default=None,
                    help="the estimator whose variance is decomposed (default: the default sampler's)")
-    p.add_argument("--integrator", default=None, help="whitted, drt or path (default: the scene's)")
+    p.add_argument("--integrator", default=None,
+                   help="whitted, drt, path, direct or a plugin's (default: the scene's)")
     p.add_argument("--metric", choices=("mse", "relmse"), default="mse",
                    help="what the image-level indices split: the mean per-pixel variance (mse), or "
                         "with each pixel weighted by 1/(mean^2 + 0.01) as the studies' relMSE "

@@ -26,6 +26,12 @@ at a time), each a distributed effect of Cook 1984:
     later      every dimension of bounces 1, 2, ... and the first hit's Russian roulette: what the
                path does after its first scattering, together
 
+An integrator's own decisions (a plugin's splitting count, one-sample MIS's choice of technique:
+its `DIMENSIONS`, ((name, size), ...)) get dimensions of their own, after every built-in one:
+    OWN_BASE + stride * b + offset(name)    (stride: the sum of the sizes it declares)
+so declaring one moves no built-in dimension (an integrator that reads only the built-in ones draws
+exactly today's values) and no other of its own (`own_layout`). Their group is `later`.
+
 Everything that computes with the layout is here, in Python (`split`, `slot`, `label`, `group_of`,
 `tracer_dims`) and in Warp (`warp_functions()`: a bounce's first dimension, a dimension's offset
 within its bounce, its group), so that no other module redoes the arithmetic.
@@ -43,15 +49,45 @@ LIGHT_POSITION = 1
 LOBE_CHOICE = 3
 DIRECTION = 4
 ROULETTE = 6
+# The first dimension of an integrator's own decisions: past any built-in one a path reads
+# (bounce_dim(DEPTH_CAP = 512, 0) is ~4e3), so no layout of bounces reaches it.
+OWN_BASE = 1 << 20
+# What the API names the built-in per-bounce decisions (their offset within a bounce's 8).
+BUILT_IN = {"light_choice": (LIGHT_CHOICE, 1), "light_position": (LIGHT_POSITION, 2),
+            "lobe_choice": (LOBE_CHOICE, 1), "direction": (DIRECTION, 2), "roulette": (ROULETTE, 1)}
 
 
 def bounce_dim(bounce: int, offset: int) -> int:
     return BOUNCE_BASE + PER_BOUNCE * bounce + offset
 
 
+def own_layout(declared) -> tuple[dict, int]:
+    """({name: offset within a bounce's own block}, the block's size) of an integrator's own
+    decisions `declared`, ((name, size), ...), in the order declared; ValueError on a bad entry
+    (the registration words it for the user)."""
+    offsets, at = {}, 0
+    for entry in declared or ():
+        if not (isinstance(entry, tuple) and len(entry) == 2 and isinstance(entry[0], str)
+                and isinstance(entry[1], int) and not isinstance(entry[1], bool) and entry[1] >= 1):
+            raise ValueError(f"each entry is (name, size >= 1), got {entry!r}")
+        name, size = entry
+        if name in offsets or name in BUILT_IN:
+            raise ValueError(f"the decision {name!r} is declared twice or is a built-in one "
+                             f"({', '.join(BUILT_IN)})")
+        offsets[name] = at
+        at += size
+    return offsets, at
+
+
+def own_dim(stride: int, bounce: int, offset: int) -> int:
+    """The dimension of an integrator's own decision at `offset` of bounce `bounce` (own_layout)."""
+    return OWN_BASE + stride * bounce + offset
+
+
 def split(dim: int) -> tuple[int, int] | None:
-    """(bounce, offset within it) of a per-bounce dimension; None for the camera's (pixel, lens, time)."""
-    return None if dim < BOUNCE_BASE else divmod(dim - BOUNCE_BASE, PER_BOUNCE)
+    """(bounce, offset within it) of a built-in per-bounce dimension; None for the camera's (pixel,
+    lens, time) and an integrator's own (OWN_BASE on)."""
+    return None if dim < BOUNCE_BASE or dim >= OWN_BASE else divmod(dim - BOUNCE_BASE, PER_BOUNCE)
 
 
 def slot(dim: int) -> tuple[int, int]:
@@ -79,6 +115,8 @@ _CAMERA_LABELS = {PIXEL: "pixel.x", PIXEL + 1: "pixel.y", LENS: "lens.x", LENS +
 def label(dim: int) -> str:
     """What the tracer reads dimension `dim` for: `pixel.x`, `direction0.y`, `reserved1` (a
     per-bounce dimension the tracer never reads)."""
+    if dim >= OWN_BASE:
+        return f"own.{dim - OWN_BASE}"
     at = split(dim)
     if at is None:
         return _CAMERA_LABELS[dim]
@@ -107,6 +145,8 @@ def group_of(dim: int) -> int:
         return 1
     if dim < BOUNCE_BASE:
         return 2
+    if dim >= OWN_BASE:
+        return 5
     bounce, offset = split(dim)
     if bounce > 0 or offset >= ROULETTE:
         return 5
@@ -116,6 +156,7 @@ def group_of(dim: int) -> int:
 class WarpDimensions(NamedTuple):
     bounce_base: object      # (depth: int) -> uint32, the first dimension of bounce `depth`
     bounce_offset: object    # (dim: uint32) -> int, the offset within its bounce, -1 for the camera's
+                             # and an integrator's own
     group: object            # (dim: uint32) -> int, group_of
 
 
@@ -131,7 +172,7 @@ def warp_functions() -> WarpDimensions:
 
     @wp.func
     def bounce_offset(dim: wp.uint32) -> int:
-        if dim < wp.uint32(wp.static(BOUNCE_BASE)):
+        if dim < wp.uint32(wp.static(BOUNCE_BASE)) or dim >= wp.uint32(wp.static(OWN_BASE)):
             return -1
         return int((dim - wp.uint32(wp.static(BOUNCE_BASE))) % wp.uint32(wp.static(PER_BOUNCE)))
 

@@ -7,7 +7,8 @@ Three ways in, all ending in the same `register_*` calls a built-in's module mak
 * the entry-point group `drtlab.plugins` of an installed package (each entry a module, imported,
   or a callable, called), loaded the first time a name is not found among the registered ones.
 
-A plugin is a Python file or module that calls `drtlab.register_pointset(...)` when imported. What
+A plugin is a Python file or module that calls `drtlab.register_pointset(...)` (or another of
+drtlab/registration.py's register_* functions, the one place they live) when imported. What
 it registers carries a fingerprint (the hash of the plugin's source, or of a table's points), part
 of every kernel key and run key: an edited plugin recompiles and re-renders, an unchanged one reuses
 the kernel cache and the stored runs. The manifest of every result lists the loaded plugins with
@@ -56,7 +57,8 @@ class Plugin:
 _loaded: dict[str, Plugin] = {}       # by resolved path or module name
 # Every registration a plugin may make (docs/plugins.md, `--plugin`'s help, "registers nothing").
 REGISTER_CALLS = ("drtlab.register_pointset(...), register_light_selection(...), "
-                  "register_lobe_sampler(...), register_strategy(...) or register_metric(...)")
+                  "register_lobe_sampler(...), register_strategy(...), register_integrator(...) or "
+                  "register_metric(...)")
 _loading: list[list] = []             # registrations of the plugins being imported (nested)
 _entry_points_done = False
 
@@ -97,6 +99,8 @@ def _reserved(name: str) -> str | None:
         return "a built-in preset"
     if name in registry.BUILT_IN_STRATEGIES:
         return "a built-in strategy"
+    if name in registry.BUILT_IN_INTEGRATORS:
+        return "a built-in integrator"
     return None
 
 
@@ -128,7 +132,7 @@ def _check_signature(ps, who: str) -> None:
                             "(seed, pixel, index, dim, spp), each wp.uint32")
 
 
-def _user_frame(exc: BaseException, files: set[str]) -> str:
+def user_frame(exc: BaseException, files: set[str]) -> str:
     """'file:line' of the deepest frame of the exception in one of `files`, else ''."""
     where = ""
     for fs in traceback.extract_tb(exc.__traceback__):
@@ -140,7 +144,7 @@ def _user_frame(exc: BaseException, files: set[str]) -> str:
     return where
 
 
-def _last_words(exc: BaseException) -> str:
+def last_words(exc: BaseException) -> str:
     """The innermost message of an exception (Warp's codegen errors nest every enclosing function)."""
     parts = [p.strip(" '\"\n") for p in re.split(r"\\n;|\n;|;\n", str(exc))]
     parts = [p for p in parts if p and not p.startswith("Error while parsing function")]
@@ -160,9 +164,9 @@ def _check_values(ps, who: str) -> None:
         except InputError:
             raise
         except Exception as e:                                    # noqa: BLE001 (user code)
-            where = _user_frame(e, files)
+            where = user_frame(e, files)
             raise InputError(who, f"point set '{ps.name}' does not compile"
-                                  f"{' at ' + where if where else ''}: {_last_words(e)}") from None
+                                  f"{' at ' + where if where else ''}: {last_words(e)}") from None
         bad = ~(np.isfinite(u) & (u >= 0.0) & (u < 1.0))
         if bad.any():
             i, d = (int(v) for v in np.argwhere(bad)[0])
@@ -170,28 +174,9 @@ def _check_values(ps, who: str) -> None:
                                   f"{d} (seed {seed}, pixel {pixel}); values must lie in [0, 1)")
 
 
-def register_pointset(ps, check: bool = True):
-    """Register a PointSet (a user's own, or `tabulated(...)`) under its name, for renders, studies
-    and checks alike. Its name must not be a built-in's; registering a name again replaces the set
-    (an edited notebook cell). With `check`, the set is compiled and drawn once: a wrong signature,
-    a compile error or values outside [0, 1) are one InputError. Returns the registered set (with
-    its fingerprint)."""
-    from drtlab.estimators.pointsets.base import PointSet
-    from drtlab.estimators.registry import POINTSETS
-    who = _checked_name(ps, PointSet, "pointset", "point set")
-    _check_signature(ps, who)
-    ps = replace(ps, fingerprint=_fingerprint(ps.fingerprint, ps.get1d, ps.get2d, ps.pixel_key,
-                                              ps.count_word))
-    if check:
-        _check_values(ps, who)
-    POINTSETS[ps.name] = ps
-    _note("pointset", ps.name)
-    return ps
-
-
-def _checked_name(obj, cls, kind: str, words: str) -> str:
+def checked_name(obj, cls, kind: str, words: str) -> str:
     """`obj` is a `cls` with a free, well-formed name; returns what its errors name."""
-    who = _who(kind)
+    who = who_registers(kind)
     if not isinstance(obj, cls):
         raise InputError(who, f"register_{kind} takes a drtlab {cls.__name__}, got {type(obj).__name__}")
     if not isinstance(obj.name, str) or not NAME.match(obj.name):
@@ -203,19 +188,19 @@ def _checked_name(obj, cls, kind: str, words: str) -> str:
     return who
 
 
-def _who(kind: str) -> str:
+def who_registers(kind: str) -> str:
     """What an error of a registration names: the plugin being imported, else the API call."""
     return _loading[-1][0] if _loading else f"register_{kind}"
 
 
-def _fingerprint(own: str, *functions) -> str:
+def fingerprint(own: str, *functions) -> str:
     """A registration's fingerprint: the plugin's source hash while one is imported, else the hash
     of the functions' source; with `own` (a table's hash) mixed in."""
     base = _loading[-1][1] if _loading else _source_fingerprint(*functions)
     return _sha(f"{base}:{own}".encode())[:16]
 
 
-def _note(kind: str, name: str) -> None:
+def note(kind: str, name: str) -> None:
     if _loading:
         _loading[-1][2].append(f"{kind}:{name}")
 
@@ -223,20 +208,47 @@ def _note(kind: str, name: str) -> None:
 def attribute(kind: str, name: str, *functions) -> tuple[str, str]:
     """(who, fingerprint) of a registration made outside this module (a light selection, in
     kernels/light_selection.py), recorded as the importing plugin's."""
-    who, fp = _who(kind), _fingerprint("", *functions)
-    _note(kind, name)
+    who, fp = who_registers(kind), fingerprint("", *functions)
+    note(kind, name)
     return who, fp
 
 
-def register_strategy(strategy):
-    """Register a Strategy (a composition of the registered routines: a built-in's fields with
-    another light selection, say) under its name; its fingerprint says what it compiles from."""
+def add_strategy(strategy):
+    """Add a Strategy under its name (drtlab.register_strategy composes it), its fingerprint
+    mixed with the importing plugin's source."""
     from drtlab.estimators.strategies import STRATEGIES, Strategy
-    _checked_name(strategy, Strategy, "strategy", "strategy")
-    strategy = replace(strategy, fingerprint=_fingerprint(strategy.fingerprint))
+    checked_name(strategy, Strategy, "strategy", "strategy")
+    strategy = replace(strategy, fingerprint=fingerprint(strategy.fingerprint))
     STRATEGIES[strategy.name] = strategy
-    _note("strategy", strategy.name)
+    note("strategy", strategy.name)
     return strategy
+
+
+def add_pointset(ps, check: bool = True):
+    """Add a PointSet under its name (drtlab.register_pointset): checked (signature; with `check`,
+    compiled and drawn once), fingerprinted."""
+    from drtlab.estimators.pointsets.base import PointSet
+    from drtlab.estimators.registry import POINTSETS
+    who = checked_name(ps, PointSet, "pointset", "point set")
+    _check_signature(ps, who)
+    ps = replace(ps, fingerprint=fingerprint(ps.fingerprint, ps.get1d, ps.get2d, ps.pixel_key,
+                                             ps.count_word))
+    if check:
+        _check_values(ps, who)
+    POINTSETS[ps.name] = ps
+    note("pointset", ps.name)
+    return ps
+
+
+def compile_error(e: BaseException, what: str, functions) -> str:
+    """One line for a Warp error in a plugin's code: `what` does not compile at FILE:LINE: why."""
+    files = set()
+    for f in functions:
+        code = getattr(getattr(f, "func", f), "__code__", None)
+        if code is not None:
+            files.add(code.co_filename)
+    where = user_frame(e, files)
+    return f"{what} does not compile{' at ' + where if where else ''}: {last_words(e)}"
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -315,7 +327,7 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
                                 "not end the program") from None
     except Exception as e:                                        # noqa: BLE001 (user code)
         sys.modules.pop(module, None)
-        where = _user_frame(e, {path} if path else set())
+        where = user_frame(e, {path} if path else set())
         raise InputError(label, f"{type(e).__name__} while importing it"
                                 f"{' at ' + where if where else ''}: {e}") from None
     finally:
@@ -400,9 +412,12 @@ def ensure_shipped(items: tuple) -> None:
         load_plugin(str(path), "worker plugin")
 
 
-def sampler_fingerprint(sampler: str) -> str:
-    """The fingerprint of a sampler's point set and strategy ("" for the built-ins)."""
+def sampler_fingerprint(sampler: str, integrator: str | None = None) -> str:
+    """The fingerprint of a sampler's point set and strategy, and of `integrator` when given (""
+    for the built-ins): what a run's key mixes in, so an edited plugin re-renders its cells."""
+    from drtlab.estimators.integrators import integrator_fingerprint
     from drtlab.estimators.registry import parse_sampler
     spec = parse_sampler(sampler)
-    both = [f for f in (spec.pointset.fingerprint, spec.strategy.fingerprint) if f]
+    both = [f for f in (spec.pointset.fingerprint, spec.strategy.fingerprint,
+                        integrator_fingerprint(integrator)) if f]
     return "" if not both else both[0] if len(both) == 1 else _sha(":".join(both).encode())[:16]

@@ -10,7 +10,7 @@ from collections.abc import MutableMapping
 from dataclasses import dataclass
 
 from drtlab.estimators.defaults import DEFAULT_SAMPLER, POINTSET_STRATEGY  # noqa: F401 (re-exported)
-from drtlab.estimators.integrators import INTEGRATORS, Integrator
+from drtlab.estimators.integrators import BUILT_IN_INTEGRATORS, INTEGRATORS, Integrator  # noqa: F401
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.strategies import STRATEGIES, Strategy
 
@@ -158,7 +158,11 @@ def _parse_base(name: str, full: str, field: str) -> SamplerSpec:
 
 
 def parse_integrator(name: str, field: str = "integrator", unbiased: bool = False) -> Integrator:
-    """The integrator called `name`; with `unbiased`, one that can make a ground truth."""
+    """The integrator called `name` (a built-in, or a plugin's: an installed package's entry point
+    is loaded when the name is not yet registered); with `unbiased`, one that can make a ground
+    truth."""
+    if name not in INTEGRATORS:
+        _entry_points()
     allowed = [i.name for i in INTEGRATORS.values() if not (unbiased and i.biased)]
     if unbiased and name in INTEGRATORS and INTEGRATORS[name].biased:
         raise InputError(field, f"'{name}' is biased and cannot make a ground truth; "

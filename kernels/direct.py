@@ -8,6 +8,8 @@ make_bsdf and make_lights) returns DirectLighting, Warp functions:
     next_event(sd, beta, mat, h, wo, u_light, u_point, bounce, dt) -> beta
         times one area-light sample's estimate (MIS-weighted when the strategy combines by MIS) at
         h, the path vertex of bounce index `bounce` (0: the camera ray's hit)
+    light_visible(sd, h, li, ls, dt) -> 1 when the shadow ray of light li's sample ls from hit h
+        reaches it unblocked, else 0
     hit_weight(sd, h, prev_delta, prev_pdf, prev_p, prev_bounce, dt) -> weight of an emitter a
         scattered ray hits (light_pdf at the hit's point and, on a mesh, its face, from prev_p, the
         vertex of bounce index prev_bounce that scattered it: which density its light sample used
@@ -25,7 +27,7 @@ from drtlab.kernels.device_scene import MESH, SceneData
 from drtlab.kernels.features import DROP_COSINE, REPEAT_SAMPLE_LIGHT, REPEAT_VISIBLE, Features
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import SceneRays
-from drtlab.kernels.lights import AreaLights
+from drtlab.kernels.lights import AreaLights, LightSample
 from drtlab.kernels.materials import Bsdf
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.mis import heuristic_of
@@ -35,6 +37,7 @@ class DirectLighting(NamedTuple):
     direct_delta_lights: wp.Function
     next_event: wp.Function
     hit_weight: wp.Function
+    light_visible: wp.Function
 
 
 def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
@@ -157,5 +160,16 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 w = 0.0
         return w
 
+    @wp.func
+    def light_visible(sd: SceneData, h: Hit, li: int, ls: LightSample, dt: float) -> int:
+        # The shadow ray of light li's sample ls from the hit h: 1 when nothing blocks it.
+        so = offset_origin(h.p, h.n, ls.wi, sd.eps)
+        lk = sd.lights.shape_kind[li]
+        target = sd.lights.shape[li]
+        if wp.static(MESHES):
+            if lk == MESH:
+                target = ls.prim        # visible() needs the face, not just the mesh
+        return visible(sd, so, ls.wi, ls.dist, dt, lk, target)
+
     return DirectLighting(direct_delta_lights=direct_delta_lights, next_event=next_event,
-                          hit_weight=hit_weight)
+                          hit_weight=hit_weight, light_visible=light_visible)

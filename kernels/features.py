@@ -49,7 +49,7 @@ REPEAT_NEXT_EVENT = "repeat_next_event"  # the whole light sample: pick, point, 
 REPEAT_SAMPLE_LIGHT = "repeat_sample_light"  # the light pick and the point on it
 REPEAT_VISIBLE = "repeat_visible"        # the shadow ray (reversed direction)
 REPEAT_SAMPLE_BSDF = "repeat_sample_bsdf"    # the scattering direction and its weight
-REPEAT_DRAW = "repeat_draw"              # one 2D point-set draw per bounce
+REPEAT_DRAW = "repeat_draw"              # every 2D point-set draw of the integrator, once more
 REPEATS = (REPEAT_CAMERA, REPEAT_INTERSECT, REPEAT_NEXT_EVENT, REPEAT_SAMPLE_LIGHT, REPEAT_VISIBLE,
            REPEAT_SAMPLE_BSDF, REPEAT_DRAW)
 
@@ -121,6 +121,8 @@ class Features:
     filter_clip: bool = False   # the filter truncated to the film (Camera.filter_clip)
     quad_simd: bool = False  # quads by the CPU's vector test (QUAD_SIMD_MAX), else grouped scalar tests
     orthographic: bool = False  # an orthographic camera (kernels/camera.py; absent: compiled out)
+    emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
+    bsdf_samples: int = 1
 
     def __post_init__(self):
         if self.roulette and self.integrator != "path":
@@ -175,6 +177,8 @@ class Features:
                 + ("-clip" if self.filter_clip else "") + ("-splat" if self.splat else "")
                 if self.filter != "box" else "")
         key += "+moments" if self.moments else ""
+        if self.integrator == "direct":
+            key += f"+e{self.emitter_samples}b{self.bsdf_samples}"
         return key + (f"!{','.join(sorted(self.faults))}" if self.faults else "")
 
 
@@ -203,6 +207,9 @@ def features_of(scene: Scene, integrator: str) -> Features:
         filter_stddev=scene.camera.filter_stddev,
         filter_clip=scene.camera.filter_clip,
         orthographic=scene.camera.orthographic,
+        # Other integrators ignore them: the defaults, so that their variants stay one each.
+        emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
+        bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,
     )
 
 

@@ -1,8 +1,10 @@
 """Kernel factory: one compiled render kernel per scene feature set.
 
 `build_kernel(features, pointset, strategy)` returns a Warp kernel in which everything the scene does
-not use (material kinds, light kinds, shape kinds, roulette, the other integrators) is removed at
-code generation by `wp.static`. Four features cost only a branch per sample, hit or shape test and
+not use (material kinds, light kinds, shape kinds, roulette) is removed at code generation by
+`wp.static`. The integrator (`features.integrator`: a built-in of kernels/integrators/ or a
+plugin's) is built by its `make(api)` from the variant's estimator API (kernels/integrators/api.py)
+and called once per camera sample. Four features cost only a branch per sample, hit or shape test and
 are runtime switches instead (a thin lens: aperture > 0; motion: SceneData.moving; checker
 textures: per material; a background: drt's last segment), so that scenes differing only in them
 share one compiled variant (`Features.code_key`): half the cold compiles of a study.
@@ -22,19 +24,12 @@ import warp as wp
 from drtlab.estimators.pointsets.base import PointSet
 from drtlab.estimators.pointsets.stratified import grid_columns
 from drtlab.estimators.strategies import Strategy
-from drtlab.kernels.camera import grid_ray_dir, make_camera
+from drtlab.kernels.camera import grid_ray_dir
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.direct import make_direct
 from drtlab.estimators import dimensions as dims
-from drtlab.kernels.environment_lighting import make_environment_lighting
 from drtlab.kernels.features import REPEAT_CAMERA, Features, grown_margin
-from drtlab.kernels.filter_sampling import make_pixel_filter
-from drtlab.kernels.intersection.motion import make_motion
-from drtlab.kernels.intersection.scene_rays import make_intersect
-from drtlab.kernels.lights import make_lights
-from drtlab.kernels.materials import make_bsdf
-from drtlab.kernels.tracers import make_trace
-from drtlab.kernels.whitted import make_whitted
+from drtlab.kernels.integrators import integrator_factory
+from drtlab.kernels.integrators.api import make_api
 
 
 @wp.struct
@@ -57,16 +52,10 @@ class PixelSums:
 
 def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     WHITTED = f.whitted
-    motion = make_motion()
-    rays = make_intersect(f, motion=motion)
-    bsdf = make_bsdf(f, strategy)
-    lights = make_lights(f, strategy, motion=motion)
-    environment = (make_environment_lighting(f, strategy, rays=rays, bsdf=bsdf)
-                   if f.environment and not WHITTED else None)
-    lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights,
-                           environment=environment)
-    pixel_filter = make_pixel_filter(f)
-    sample_ray = make_camera(f, pointset, pixel_filter)
+    make, own_dimensions = integrator_factory(f.integrator)
+    api = make_api(f, pointset, strategy, own_dimensions)
+    pixel_filter = api.pixel_filter
+    sample_ray = api.camera_ray
     FIS = pixel_filter is not None and not f.splat
     SPLAT = pixel_filter is not None and f.splat
     K = 2 * f.filter_def.margin + 1 if SPLAT else 1
@@ -74,9 +63,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
     MARGIN = grown_margin(f)
     reach = pixel_filter.reach if SPLAT else None
     get2d = pointset.get2d
-    trace_whitted = make_whitted(f, rays=rays, bsdf=bsdf, lighting=lighting)
-    trace = make_trace(f, pointset, strategy, rays=rays, bsdf=bsdf, lighting=lighting,
-                       environment=environment)
+    trace = make(api)
     pixel_key = pointset.pixel_key
     count_word = pointset.count_word
     TWICE_CAMERA = REPEAT_CAMERA in f.faults
@@ -117,7 +104,7 @@ def build_kernel(f: Features, pointset: PointSet, strategy: Strategy):
             idx = wp.uint32(index0 + k)
             if wp.static(WHITTED):
                 d = grid_ray_dir(sd, px, py, (index0 + k) % spp, nx, spp / nx)
-                Ls = trace_whitted(sd, sd.camera.position, d)
+                Ls = trace(sd, seed, pix, idx, word, sd.camera.position, d, 0.0)
             else:
                 ray = sample_ray(sd, seed, pix, idx, word, px, py)
                 Ls = trace(sd, seed, pix, idx, word, ray.o, ray.d, ray.dt)

@@ -7,6 +7,7 @@ import os
 import threading
 import time
 
+from drtlab.estimators.integrators import integrator_fingerprint
 from drtlab.estimators.registry import SamplerSpec, parse_sampler
 from drtlab.kernels.features import Features
 from drtlab.warp_runtime import warp as _wp
@@ -33,8 +34,10 @@ if hasattr(os, "register_at_fork"):
 
 def variant_key(features: Features, spec: SamplerSpec, device: str) -> tuple:
     """What tells two compiled kernels apart (features as Features.code_key() gives them; a plugin's
-    point set by its fingerprint too, so an edited one recompiles; a strategy by all its fields)."""
-    return (features, spec.pointset.name, spec.pointset.fingerprint, spec.strategy, device)
+    point set and a plugin's integrator by their fingerprints too, so an edited one recompiles; a
+    strategy by all its fields)."""
+    return (features, spec.pointset.name, spec.pointset.fingerprint, spec.strategy,
+            integrator_fingerprint(features.integrator), device)
 
 
 def get_kernel(features: Features, spec: SamplerSpec, device: str):

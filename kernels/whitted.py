@@ -1,35 +1,37 @@
-"""Whitted's deterministic tracer per kernel variant: mirror chains, dielectric splits, shadow rays.
+"""Whitted's pieces per kernel variant, for the estimator API (the integrator itself is
+kernels/integrators/whitted.py): shadow rays to light centres, which kinds end a ray, mirror
+chains, which kinds split.
 
-`make_whitted(features, rays=rays, bsdf=bsdf, lighting=lighting)` (from make_intersect, make_bsdf
-and make_direct) returns the Warp function trace_whitted(sd, o, d) -> radiance. Its area lights
-light a surface by light_centres(sd, mat, p, n, ns, wo): each seen as a point source at its centre
-(a mesh light: at its area-weighted centroid; n geometric, ns shading normal, as in
-kernels/direct.py).
+`make_whitted_parts(features, rays=rays, bsdf=bsdf)` (from make_intersect and make_bsdf) returns
+WhittedParts. Its area lights light a surface by light_centres(sd, mat, p, n, ns, wo): each seen
+as a point source at its centre (a mesh light: at its area-weighted centroid; n geometric, ns
+shading normal, as in kernels/direct.py).
 """
+from typing import NamedTuple
+
 import warp as wp
 
 from drtlab.estimators.domain_maps import PI
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
-from drtlab.kernels.direct import DirectLighting
-from drtlab.kernels.environment import env_radiance
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.scene_rays import SceneRays
 from drtlab.kernels.intersection.primitives import offset_origin, shading_consistent
-from drtlab.kernels.materials import EMITTER, Bsdf, emitted
+from drtlab.kernels.materials import Bsdf, Scatter
 from drtlab.kernels.materials.kinds import model_module
-from drtlab.kernels.materials.material_at import MaterialAt, material_at
+from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
-from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.static_tag import variant_tag
 
 
-def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
-                 lighting: DirectLighting) -> wp.Function:
-    AREA_CENTRES = f.light_centres
-    DELTA_LIGHTS = f.delta_lights
-    SPLITS = f.whitted_splits
+class WhittedParts(NamedTuple):
+    light_centres: wp.Function      # (sd, mat, p, n, ns, wo) -> direct light of the area lights' centres
+    ends_path: wp.Function          # (kind) -> a non-delta reflecting kind: light it and end the ray
+    specular_reflect: wp.Function   # (mat, kind, ns, wo) -> Scatter: the mirror direction and weight
+    splits: wp.Function             # (kind) -> a transmitting kind: split into reflection and refraction
+
+
+def make_whitted_parts(f: Features, *, rays: SceneRays, bsdf: Bsdf) -> WhittedParts:
     MESHES = f.meshes
-    ENV = f.environment
     # From the kind table's flags: a reflecting non-delta kind (diffuse, glossy, plastic, ggx, ...)
     # ends the ray with its direct light; a reflecting delta kind (mirror, conductor) continues it
     # by its module's sample_delta; a transmitting one splits as a smooth dielectric.
@@ -38,11 +40,9 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     MIRRORS = tuple((MATERIAL_CODE[k.name], model_module(k))
                     for k in KINDS if k.delta and not k.transmits and k.name in f.kinds)
     SPLITTING = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.transmits and k.name in f.kinds)
-    intersect = rays.intersect
     visible = rays.visible
     visible_mesh = rays.visible_mesh
     eval_bsdf = bsdf.eval_bsdf
-    direct_delta_lights = lighting.direct_delta_lights
 
     @wp.func
     def light_centres(sd: SceneData, mat: MaterialAt, p: wp.vec3, n: wp.vec3, ns: wp.vec3, wo: wp.vec3) -> wp.vec3:
@@ -96,93 +96,47 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                         L += wp.cw_mul(fc, sd.materials.emission[m]) * (intensity / (dist * dist))
         return L
 
-    # Called once per sample: inlined, so SceneData is not copied per call.
-    @wp.func(inline=True)
-    def trace_whitted(sd: SceneData, o0: wp.vec3, d0: wp.vec3) -> wp.vec3:
-        total = wp.vec3(0.0)
-        # A dynamic bound: Warp would unroll a constant one 2**SPLITS times and compile for long.
-        for code in range(sd.whitted_codes):
-            L = wp.vec3(0.0)
-            beta = wp.vec3(1.0)
-            o = o0
-            d = d0
-            used = int(0)
-            depth = int(0)
-            while True:
-                h = intersect(sd, o, d, 1.0e30, 0.0)
-                if h.index < 0:
-                    if wp.static(ENV):      # seen, but lights no surface (as its area lights)
-                        L += wp.cw_mul(beta, env_radiance(sd.environment, d))
-                    else:
-                        L += wp.cw_mul(beta, sd.background)
-                    break
-                wo = -d
-                L += wp.cw_mul(beta, emitted(sd, h, wo))
-                if sd.max_depth >= 0 and depth + 1 >= sd.max_depth:
-                    break
-                m = h.material
-                kind = sd.materials.kind[m]
-                if kind == EMITTER:
-                    break
-                mat = material_at(sd, m, h.uv)
-                albedo = mat.albedo
-                ns = h.n                # the shading normal (a mesh's interpolated one)
-                if wp.static(MESHES):
-                    ns = h.ns
-                cos_o = wp.dot(ns, wo)
-                nf = ns
-                if cos_o < 0.0:
-                    nf = -ns
-                co = wp.abs(cos_o)
-                ends = False
-                _variant = wp.static(variant_tag(ENDS))  # noqa: F841 (static_tag.py)
-                for i in range(wp.static(len(ENDS))):
-                    if kind == wp.static(ENDS[i]):
-                        ends = True
-                if ends:
-                    direct = wp.vec3(0.0)
-                    if wp.static(AREA_CENTRES):
-                        direct += light_centres(sd, mat, h.p, h.n, ns, wo)
-                    if wp.static(DELTA_LIGHTS):
-                        direct += direct_delta_lights(sd, mat, h.p, h.n, ns, wo, 0.0)
-                    L += wp.cw_mul(beta, direct)
-                    break
-                wi = 2.0 * co * nf - wo
-                _mirrors = wp.static(variant_tag(MIRRORS))  # noqa: F841 (static_tag.py)
-                for i in range(wp.static(len(MIRRORS))):
-                    if kind == wp.static(MIRRORS[i][0]):
-                        s = wp.static(MIRRORS[i][1].sample_delta)(mat, ns, wo, 0.0, 0)
-                        wi = s.wi
-                        beta = wp.cw_mul(beta, s.weight)
-                if wp.static(SPLITS > 0):
-                    splits = False
-                    _split_variant = wp.static(variant_tag(SPLITTING))  # noqa: F841 (static_tag.py)
-                    for i in range(wp.static(len(SPLITTING))):
-                        if kind == wp.static(SPLITTING[i]):
-                            splits = True
-                    if splits:
-                        it = interface(ns, wo, mat.ior)
-                        eta = it.eta
-                        F = it.F
-                        if F < 1.0:
-                            if used >= wp.static(SPLITS):
-                                break
-                            if ((code >> used) & 1) == 1:
-                                wi = refract_dir(wo, nf, co, eta)
-                                beta = wp.cw_mul(beta, albedo) * ((1.0 - F) / (eta * eta))
-                            else:
-                                beta = beta * F
-                            used += 1
-                if wp.static(MESHES):
-                    if shading_consistent(h.n, ns, wo, wi) == 0.0:
-                        break           # reflected through the geometric surface: no leak
-                o = offset_origin(h.p, h.n, wi, sd.eps)
-                d = wi
-                depth += 1
-            # A path that used fewer splits than the code encodes is counted by the code whose
-            # unused bits are zero only.
-            if (code >> used) == 0:
-                total += L
-        return total
+    @wp.func
+    def ends_path(kind: int) -> bool:
+        # A reflecting non-delta kind: Whitted takes its direct light and ends the ray there.
+        ends = False
+        _variant = wp.static(variant_tag(ENDS))  # noqa: F841 (static_tag.py)
+        for i in range(wp.static(len(ENDS))):
+            if kind == wp.static(ENDS[i]):
+                ends = True
+        return ends
 
-    return trace_whitted
+    @wp.func
+    def specular_reflect(mat: MaterialAt, kind: int, ns: wp.vec3, wo: wp.vec3) -> Scatter:
+        # The mirror direction about the shading normal on wo's side, weight 1; a reflecting delta
+        # kind's own (its module's sample_delta: a conductor's Fresnel, say) where the kind is one.
+        cos_o = wp.dot(ns, wo)
+        nf = ns
+        if cos_o < 0.0:
+            nf = -ns
+        s = Scatter()
+        s.wi = 2.0 * wp.abs(cos_o) * nf - wo
+        s.weight = wp.vec3(1.0)
+        s.pdf = 0.0
+        s.delta = 1
+        s.valid = 1
+        _mirrors = wp.static(variant_tag(MIRRORS))  # noqa: F841 (static_tag.py)
+        for i in range(wp.static(len(MIRRORS))):
+            if kind == wp.static(MIRRORS[i][0]):
+                m = wp.static(MIRRORS[i][1].sample_delta)(mat, ns, wo, 0.0, 0)
+                s.wi = m.wi
+                s.weight = m.weight
+        return s
+
+    @wp.func
+    def splits(kind: int) -> bool:
+        # A transmitting kind: Whitted splits the ray into its reflection and refraction.
+        split = False
+        _split_variant = wp.static(variant_tag(SPLITTING))  # noqa: F841 (static_tag.py)
+        for i in range(wp.static(len(SPLITTING))):
+            if kind == wp.static(SPLITTING[i]):
+                split = True
+        return split
+
+    return WhittedParts(light_centres=light_centres, ends_path=ends_path,
+                        specular_reflect=specular_reflect, splits=splits)

@@ -38,9 +38,10 @@ def pytest_configure(config):
 
 @pytest.fixture
 def clean_registry():
-    """The point sets, light selections, lobe samplers, strategies, metrics and loaded plugins as they were before the test:
+    """The point sets, light selections, lobe samplers, strategies, integrators, metrics and loaded plugins as they were before the test:
     a test that registers a plugin leaves no trace for the tests after it (in its worker)."""
     from drtlab.estimators import plugins
+    from drtlab.estimators.integrators import INTEGRATORS
     from drtlab.estimators.registry import POINTSETS
     from drtlab.estimators.strategies import STRATEGIES
     from drtlab.experiments.error_metrics import METRICS
@@ -48,11 +49,12 @@ def clean_registry():
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     names, loaded, was = list(POINTSETS._names), dict(POINTSETS._loaded), dict(plugins._loaded)
     sels, strats, metrics, lobes = dict(LIGHT_SELECTIONS), dict(STRATEGIES), dict(METRICS), dict(LOBE_SAMPLERS)
+    integrators = dict(INTEGRATORS)
     yield
     POINTSETS._names[:], POINTSETS._loaded = names, loaded
     plugins._loaded.clear()
     plugins._loaded.update(was)
     for registry, before in ((LIGHT_SELECTIONS, sels), (STRATEGIES, strats), (METRICS, metrics),
-                             (LOBE_SAMPLERS, lobes)):
+                             (LOBE_SAMPLERS, lobes), (INTEGRATORS, integrators)):
         registry.clear()
         registry.update(before)

@@ -21,7 +21,7 @@ import tomllib
 
 from drtlab.experiments.study.config import EXPERIMENT_DIR
 from drtlab.kernels import lights
-from drtlab.kernels.tracers import DEPTH_CAP
+from drtlab.kernels.integrators.api import DEPTH_CAP
 
 RES = (96, 72)
 SAMPLERS = ("independent+importance-area", "importance")

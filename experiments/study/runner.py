@@ -197,12 +197,12 @@ class _Sweep(CellGrowth):
             self._seconds["sweep_seconds"] = time.perf_counter() - t0
             self.stats.update({k: round(v, 3) for k, v in self._seconds.items()})
 
-    def _code(self, sampler: str) -> str:
+    def _code(self, sampler: str, integrator: str | None = None) -> str:
         """The code a sampler's runs were rendered and scored by: the backend's, with a plugin point
         set's fingerprint (an edited plugin re-renders its cells, and only those) and the plugin
         metrics' (a run keeps no image to score again)."""
         from drtlab.estimators.plugins import sampler_fingerprint
-        fps = [fp for fp in [sampler_fingerprint(sampler)] + [m.fingerprint for m in self._plugin_metrics()] if fp]
+        fps = [fp for fp in [sampler_fingerprint(sampler, integrator)] + [m.fingerprint for m in self._plugin_metrics()] if fp]
         return self.backend.code_version if not fps else short_hash([self.backend.code_version, *fps], 16)
 
     def _plugin_metrics(self, studies=None) -> list:
@@ -267,7 +267,7 @@ class _Sweep(CellGrowth):
     def _cell_batches(self, cell: str, cruns: list[RunSpec], gt) -> list[Batch]:
         """The batches of a cell still to render; a cell with stored runs of other code or another
         reference starts over (its cell file merged those runs' images)."""
-        key, code = gt.manifest.get("key"), self._code(cruns[0].sampler)
+        key, code = gt.manifest.get("key"), self._code(cruns[0].sampler, cruns[0].integrator)
         if any(rec.get("cell") == cell and (rec.get("gt_key") != key or rec.get("code_version") != code)
                for rec in self.records.values()):
             for rid in [rid for rid, rec in self.records.items() if rec.get("cell") == cell]:
@@ -282,7 +282,7 @@ class _Sweep(CellGrowth):
         is reused: its images are in the cell file already)."""
         out = []
         for a, b in ranges:
-            fps = [run_fingerprint(r, gt, self._code(r.sampler)) for r in cruns[a:b]]
+            fps = [run_fingerprint(r, gt, self._code(r.sampler, r.integrator)) for r in cruns[a:b]]
             todo = [(r, fp) for r, fp in zip(cruns[a:b], fps)
                     if self.records.get(r.run_id, {}).get("fingerprint") != fp]
             self.stats["runs_reused"] += (b - a) - len(todo)
@@ -333,7 +333,7 @@ class _Sweep(CellGrowth):
         with signals_held():                  # a batch is reported finished once it is dirty
             for r, fp, m in zip(b.runs, b.fingerprints, metrics):
                 self.records[r.run_id] = run_record(r, fp, b, result, wall, ctx.gt, m,
-                                                     self._code(r.sampler), worker)
+                                                     self._code(r.sampler, r.integrator), worker)
             if b.cell not in self.cell_files:
                 self.cell_files[b.cell] = store.load_cell(self.out_dir, b.cell)
             self.cell_files[b.cell] = self.cell_files[b.cell].with_batch(

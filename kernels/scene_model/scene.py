@@ -13,7 +13,7 @@ import numpy as np
 
 from drtlab.kernels.scene_model.environment_map import EnvironmentMap
 
-INTEGRATORS = ("whitted", "drt", "path")
+INTEGRATORS = ("whitted", "drt", "path", "direct")
 
 
 @dataclass
@@ -147,6 +147,8 @@ class Scene:
     point_lights: list[PointLight] = field(default_factory=list)
     directional_lights: list[DirectionalLight] = field(default_factory=list)
     environment: EnvironmentMap | None = None   # the [environment] light (kernels/scene_model/environment_map.py)
+    emitter_samples: int = 1                    # integrator "direct" (Mitsuba 3's): light samples at the hit
+    bsdf_samples: int = 1                       # ... and BSDF samples
     source: str = ""                            # built-in name or file path
     text: str = ""                              # the TOML text the scene came from
 
@@ -156,6 +158,8 @@ class Scene:
         h = hashlib.sha256(self.text.encode())
         h.update(repr((self.width, self.height, self.integrator, self.max_depth, self.rr_depth,
                        self.russian_roulette)).encode())
+        if (self.emitter_samples, self.bsdf_samples) != (1, 1):    # the defaults keep older hashes
+            h.update(repr((self.emitter_samples, self.bsdf_samples)).encode())
         for s in self.shapes:           # a mesh file may change under an unchanged TOML text
             if s.mesh is not None:
                 h.update(s.mesh.digest().encode())

@@ -27,7 +27,7 @@ from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, pa
 
 TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environment")
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
-              "rr_depth", "background")
+              "rr_depth", "background", "emitter_samples", "bsdf_samples")
 CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
                "focal_length", "image_distance", "shutter", "filter", "filter_stddev", "filter_clip",
                "ortho_height")
@@ -114,8 +114,26 @@ def parse_settings(value: Any) -> dict:
     max_depth = _max_depth(t.get("max_depth", 5, ""), t.field("max_depth"), roulette)
     rr_depth = integer(t.get("rr_depth", 5, ""), t.field("rr_depth"), ">= 1", lambda n: n >= 1)
     background = _color(t.get("background", [0, 0, 0], ""), t.field("background"))
+    counts = _direct_samples(t, integrator)
     return dict(description=description, width=width, height=height, spp=spp, integrator=integrator,
-                max_depth=max_depth, rr_depth=rr_depth, russian_roulette=roulette, background=background)
+                max_depth=max_depth, rr_depth=rr_depth, russian_roulette=roulette, background=background,
+                **counts)
+
+
+def _direct_samples(t, integrator: str) -> dict:
+    """The direct integrator's sample counts (Mitsuba 3's `emitter_samples`, `bsdf_samples`,
+    default 1 each, at least one in all); for another integrator they are not allowed."""
+    counts = {}
+    for key in ("emitter_samples", "bsdf_samples"):
+        value = t.get(key, 1, "")
+        if key in t.data and integrator != "direct":
+            raise InputError(t.field(key), f"is for integrator 'direct' (Mitsuba 3's), got integrator "
+                                           f"'{integrator}'")
+        counts[key] = integer(value, t.field(key), "an integer 0 ... 64", lambda n: 0 <= n <= 64)
+    if counts["emitter_samples"] + counts["bsdf_samples"] == 0:
+        raise InputError(t.field("emitter_samples"), "emitter_samples and bsdf_samples are both 0; "
+                                                     "at least one sample is needed")
+    return counts
 
 
 def _max_depth(v: Any, field: str, roulette: bool) -> int:

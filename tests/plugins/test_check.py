@@ -9,7 +9,6 @@ import sys
 
 from scipy.stats import qmc
 
-from drtlab.estimators import plugins
 from drtlab.experiments.checks.pointset import check
 
 from plugin_sources import OFF_BY_10
@@ -31,7 +30,7 @@ def test_the_example_plugin_passes_its_scorecard_from_the_command_line(tmp_path)
 
 
 def test_an_unrandomized_table_fails_the_battery_and_the_furnace(clean_registry):
-    raw = plugins.register_pointset(
+    raw = __import__("drtlab").register_pointset(
         __import__("drtlab").pointset_from_table("raw-sobol", qmc.Sobol(4, scramble=False), n=256,
                                                  randomize="none"))
     card = check(raw.name, pixels=512)

@@ -1,0 +1,113 @@
+"""Path tracing with splitting: SPLITS next-event samples at the first vertex (where the camera ray
+lands, the one vertex every pixel's noise starts at), one at every later vertex; their mean is the
+light sample's estimate there. Each extra sample draws its own light choice and point from the
+integrator's own sample decision `split_light` (DIMENSIONS), so every built-in dimension keeps its
+value: sample 0 is exactly path tracing's.
+
+    drtlab render cornell-box --plugin examples/plugins/splitting.py --integrator splitting
+
+Unbiased: each of the SPLITS samples is an unbiased estimate of the direct light (the built-in
+next_event, MIS-weighted against the BSDF sample as path tracing weighs one), so their mean is too.
+Written against the estimator API alone (docs/plugins.md).
+"""
+import warp as wp
+
+import drtlab
+from drtlab.kernels.device_scene import SceneData
+
+SPLITS = 4
+# The extra light samples of a vertex: (choice, point.x, point.y) each.
+DIMENSIONS = (("split_light", 3 * (SPLITS - 1)),)
+
+
+def make(api):
+    f = api.features
+    MESHES, ENV, DELTA_LIGHTS = f.meshes, f.environment, f.delta_lights
+    NEE, CHOICE_FROM, LOBE_CHOICE = api.next_events, api.choice_from, api.lobe_choice
+    DEPTH_CAP, EMITTER = api.depth_cap, api.emitter
+    get1d, get2d = api.get1d, api.get2d
+    LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
+    LOBE, DIRECTION, SPLIT = api.dim("lobe_choice"), api.dim("direction"), api.dim("split_light")
+    intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
+    kind_of, material_at, is_delta = api.kind, api.material_at, api.is_delta
+    shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
+    next_event, direct_delta_lights = api.next_event, api.direct_delta_lights
+    sample_bsdf, offset_origin, oriented = api.sample_bsdf, api.offset_origin, api.oriented
+
+    @wp.func(inline=True)
+    def trace(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32, spp: wp.uint32,
+              o0: wp.vec3, d0: wp.vec3, dt: float) -> wp.vec3:
+        L = wp.vec3(0.0)
+        beta = wp.vec3(1.0)
+        o = o0
+        d = d0
+        depth = int(0)
+        prev_delta = int(1)
+        prev_pdf = float(0.0)
+        prev_p = o0
+        prev_n = d0
+        while True:
+            h = intersect(sd, o, d, 1.0e30, dt)
+            if h.index < 0:
+                L += wp.cw_mul(beta, escape(sd, d, prev_delta, prev_pdf, prev_n))
+                break
+            wo = -d
+            if h.light >= 0:
+                L += wp.cw_mul(beta, emitted(sd, h, wo)) * hit_weight(sd, h, prev_delta, prev_pdf,
+                                                                      prev_p, depth - 1, dt)
+            if (sd.max_depth >= 0 and depth + 1 >= sd.max_depth) or depth >= wp.static(DEPTH_CAP):
+                break
+            kind = kind_of(sd, h.material)
+            if kind == wp.static(EMITTER):
+                break
+            mat = material_at(sd, h.material, h.uv)
+            ns = shading_normal(h)
+            if not is_delta(kind):
+                if wp.static(NEE):
+                    n = int(1)
+                    if depth == 0:
+                        n = wp.static(SPLITS)
+                    direct = wp.vec3(0.0)
+                    for j in range(n):
+                        ul = float(0.0)
+                        up = wp.vec2(0.0)
+                        if j == 0:      # path tracing's own light sample
+                            if sd.lights.n_area >= wp.static(CHOICE_FROM):
+                                ul = get1d(seed, pix, idx, LIGHT_CHOICE(depth), spp)
+                            up = get2d(seed, pix, idx, LIGHT_POSITION(depth), spp)
+                        else:           # the extra ones, from split_light
+                            at = SPLIT(depth) + wp.uint32(3 * (j - 1))
+                            ul = get1d(seed, pix, idx, at, spp)
+                            up = get2d(seed, pix, idx, at + wp.uint32(1), spp)
+                        direct += next_event(sd, beta, mat, h, wo, ul, up, depth, dt)
+                    L += direct / float(n)
+                if wp.static(DELTA_LIGHTS):
+                    L += wp.cw_mul(beta, direct_delta_lights(sd, mat, h.p, h.n, ns, wo, dt))
+            u_lobe = float(0.0)
+            if wp.static(LOBE_CHOICE):
+                u_lobe = get1d(seed, pix, idx, LOBE(depth), spp)
+            s = sample_bsdf(mat, ns, wo, u_lobe, get2d(seed, pix, idx, DIRECTION(depth), spp))
+            if s.valid == 0:
+                break
+            if wp.static(MESHES):
+                if shading_consistent(h.n, ns, wo, s.wi) == 0.0:
+                    break
+            beta = wp.cw_mul(beta, s.weight)
+            prev_delta = s.delta
+            prev_pdf = s.pdf
+            prev_p = h.p
+            if wp.static(ENV):
+                prev_n = oriented(ns, wo)
+            o = offset_origin(h.p, h.n, s.wi, sd.eps)
+            d = s.wi
+            depth += 1
+        return L
+
+    return trace
+
+
+drtlab.register_integrator(
+    "splitting", make, f"path tracing, {SPLITS} light samples at the first vertex", unbiased=True,
+    handles=("direct", "indirect", "specular", "glossy", "transmission", "environment",
+             "point_lights", "lens", "motion", "meshes"),
+    dimensions=DIMENSIONS)
