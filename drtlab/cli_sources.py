@@ -53,7 +53,8 @@ def _check_cost(scene, args) -> None:
     first and refused past the study limits unless --yes (study/estimate.py)."""
     from drtlab.estimators.defaults import DEFAULT_SAMPLER
     from drtlab.experiments.sources.decompose import PILOT_SPP, check_groups
-    from drtlab.experiments.study.estimate import PROBE_SECONDS, check_render
+    from drtlab.experiments.study.backend import PROBE_SECONDS
+    from drtlab.experiments.study.estimate import check_render
     from drtlab.kernels.render import measured_speed
     width, height = (scene.width, scene.height) if args.res is None else \
         fields.resolution(args.res, "--res", aspect=scene.height / scene.width)

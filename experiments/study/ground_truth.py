@@ -293,3 +293,11 @@ def load_ground_truth(directory) -> GroundTruth:
         manifest = {}
     return GroundTruth(mean=mean, stderr=_stderr(m2, batches), spp=batches * batch_spp,
                        batches=batches, directory=d, manifest=manifest, reused=True)
+
+
+def reference_info(gt) -> dict:
+    """What the summary and the manifest record of a group's ground truth."""
+    return {"dir": str(gt.directory), "spp": gt.spp, "batches": gt.batches, "variance": gt.variance,
+            "reused": gt.reused, "key": gt.manifest.get("key"),
+            "wall_seconds": gt.manifest.get("wall_seconds"),
+            "compile_seconds": gt.manifest.get("compile_seconds"), "seeds": gt.manifest.get("seeds")}

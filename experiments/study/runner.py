@@ -142,14 +142,6 @@ def _precompile(plan, backend, threads, executor, log) -> dict | None:
     return {k: round(v, 3) if isinstance(v, float) else v for k, v in facts.items()}
 
 
-def _reference_info(gt) -> dict:
-    """What the summary and the manifest record of a group's ground truth."""
-    return {"dir": str(gt.directory), "spp": gt.spp, "batches": gt.batches, "variance": gt.variance,
-            "reused": gt.reused, "key": gt.manifest.get("key"),
-            "wall_seconds": gt.manifest.get("wall_seconds"),
-            "compile_seconds": gt.manifest.get("compile_seconds"), "seeds": gt.manifest.get("seeds")}
-
-
 @dataclass
 class _Sweep(CellGrowth):
     """The cells of a plan, group by group (one ground truth in memory at a time): each batch of
@@ -233,7 +225,7 @@ class _Sweep(CellGrowth):
             threads=self.threads, progress=False, log=self.log,
             on_batch=lambda n, lab=scene_ref.label: self.bar.update(n, f"ground truth {lab}"))
         self._seconds["ground_truth_total"] += time.perf_counter() - t0
-        self.gts[g] = _reference_info(gt)
+        self.gts[g] = gtmod.reference_info(gt)
         cells: dict = {}
         for r in runs:
             cells.setdefault(r.cell, []).append(r)

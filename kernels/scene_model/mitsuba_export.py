@@ -54,9 +54,10 @@ CAMERA_FIELDS = {"position": "to_world lookat origin", "look_at": "to_world look
                  "focus_distance": "thinlens focus_distance (a pinhole reads none)",
                  "filter": "the film's rfilter", "filter_stddev": "the rfilter's stddev",
                  "filter_clip": "the film's sample_border (false: the filter cut at the film's edge)"}
-# The scene's fields the exporter writes or checks (the integrator: path only; the background:
+# The scene's fields the exporter writes or checks (the integrator: path or direct; the background:
 # black only), and those that only name and describe it; any other is refused.
 SCENE_FIELDS = ("width", "height", "spp", "integrator", "max_depth", "rr_depth", "russian_roulette",
+                "emitter_samples", "bsdf_samples",
                 "background", "camera", "materials", "shapes", "point_lights", "directional_lights",
                 "environment")
 SCENE_METADATA = ("name", "description", "source", "text")
@@ -68,9 +69,9 @@ DEFAULT_ENV_SHAPE = (32, 64)
 
 def check_exportable(scene: Scene) -> None:
     """One InputError for the first thing of `scene` Mitsuba 3 cannot render as drtlab does."""
-    if scene.integrator != "path":
+    if scene.integrator not in ("path", "direct"):
         raise InputError("scene.integrator", f"'{scene.integrator}' has no Mitsuba 3 counterpart "
-                                             "(exportable: path)")
+                                             "(exportable: path, direct)")
     if np.any(scene.background != 0.0):
         raise InputError("scene.background", "an unsampled background has no Mitsuba 3 counterpart; "
                                              "use [environment] kind = \"constant\" (Mitsuba's constant emitter)")
@@ -198,6 +199,11 @@ def _vec(parent, tag: str, name: str, v) -> None:
 
 
 def _integrator(root, scene: Scene) -> None:
+    if scene.integrator == "direct":
+        it = ET.SubElement(root, "integrator", type="direct")
+        for name in ("emitter_samples", "bsdf_samples"):
+            ET.SubElement(it, "integer", name=name, value=str(getattr(scene, name)))
+        return
     it = ET.SubElement(root, "integrator", type="path")
     ET.SubElement(it, "integer", name="max_depth", value=str(scene.max_depth))
     # rr_depth means the same vertex index in both (mitsuba_import.py); a roulette-free path rolls

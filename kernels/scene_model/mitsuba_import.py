@@ -13,8 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.estimators.integrators import INTEGRATORS as DRTLAB_INTEGRATORS
-
 from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
 from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
 from drtlab.kernels.filters import MITSUBA_GAUSSIAN, MITSUBA_STDDEV, STDDEV_MAX, STDDEV_MIN
@@ -27,11 +25,6 @@ INTEGRATORS, WRAPPERS = ("path", "direct", "ptracer"), ("moment",)
 SENSORS = ("perspective", "thinlens", "orthographic")
 NEAR_CLIP = 0.01            # Mitsuba's ProjectiveCamera default
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
-
-
-def integrator_names() -> tuple[str, ...]:
-    """drtlab's integrators (a `direct` one maps Mitsuba's direct onto itself when present)."""
-    return tuple(DRTLAB_INTEGRATORS)
 
 
 def scene_dict(path: Path) -> tuple[dict, str]:
@@ -189,14 +182,7 @@ class _Importer(ShapeMapping, MaterialMapping):
             counts = {name: int(self.number(o, name, shading, lambda n: n == int(n) and n >= 0,
                                             "an integer >= 0"))
                       for name in ("emitter_samples", "bsdf_samples")}
-            if "direct" in integrator_names():
-                s.update(integrator="direct", **counts)
-            else:       # emitter and BSDF samples combined by MIS: path of depth 2
-                for name, n in counts.items():
-                    if n != 1:
-                        given = o.props.get(name) or o.props["shading_samples"]
-                        self.r.fail(given.path, f"{name} must be 1 (drtlab takes one sample of each), got {n}")
-                s["max_depth"] = 2
+            s.update(integrator="direct", **counts)
         else:
             depth = self.number(o, "max_depth", -1, lambda n: n == -1 or n >= 1, "-1 or >= 1")
             rr = self.number(o, "rr_depth", 5, lambda n: n >= 0, ">= 0")

@@ -18,19 +18,16 @@ from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as nu
                            scene_numbers as numbers, show, string)
 from drtlab.kernels.scene_model.environment_map import parse_environment
 from drtlab.kernels.scene_model.float32_checks import check_emitter_sizes, check_float32_area
-from drtlab.kernels.filters import BOX, FILTER_NAMES, STDDEV_FILTERS, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
-from drtlab.kernels.scene_model.scene import (INTEGRATORS, Camera, DirectionalLight, Material, PointLight, Scene,
+from drtlab.kernels.scene_model.scene import (INTEGRATORS, DirectionalLight, Material, PointLight, Scene,
                                   Shape)
-from drtlab.kernels.scene_model.transforms import parse_transform, transform_quad, transform_sphere
+from drtlab.kernels.scene_model.camera_table import parse_camera
+from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
 TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environment")
 SCENE_KEYS = ("description", "resolution", "spp", "integrator", "max_depth", "russian_roulette",
               "rr_depth", "background", "emitter_samples", "bsdf_samples")
-CAMERA_KEYS = ("position", "look_at", "up", "fov", "aperture_radius", "f_number", "focus_distance",
-               "focal_length", "image_distance", "shutter", "filter", "filter_stddev", "filter_clip",
-               "ortho_height")
 # What a file may say; boxes become quads, sphere grids spheres (meshes: kernels/scene_model/mesh_file.py).
 SHAPE_FILE_KINDS = ("sphere", "quad", "box", "mesh", "sphere_grid")
 SHAPE_COMMON_KEYS = ("kind", "material", "name", "velocity", "transform")
@@ -45,9 +42,6 @@ LIGHT_KEYS = {
     "point": ("kind", "position", "intensity"),
     "directional": ("kind", "direction", "irradiance"),
 }
-
-_PARALLEL_TOL = 1e-9        # |a x b| <= tol * |a| |b| counts as parallel
-
 
 # ---------------------------------------------------------------------------------------------------
 # Scene-specific values
@@ -82,7 +76,7 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
         if key not in TOP_LEVEL_KEYS:
             raise InputError(key, f"unknown top-level table '{key}'; allowed: {', '.join(TOP_LEVEL_KEYS)}")
     settings = parse_settings(data.get("scene", REQUIRED))
-    camera = _parse_camera(data.get("camera", REQUIRED))
+    camera = parse_camera(data.get("camera", REQUIRED))
     materials = _parse_materials(data.get("materials", {}))
     groups = _parse_shapes(data.get("shapes", []), materials)
     check_emitter_sizes(groups, data["shapes"], materials, camera)
@@ -92,6 +86,10 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     if environment is not None and np.any(settings["background"] > 0.0):
         raise InputError("scene.background", "give either a background or an [environment] "
                                              "(kind = \"constant\" is a sampled background), not both")
+    if environment is not None and settings["integrator"] == "direct" and settings["bsdf_samples"] == 0:
+        # drtlab's direct reaches the environment through BSDF samples only: none would be missing.
+        raise InputError("scene.bsdf_samples", "the direct integrator lights an [environment] by its "
+                                               "BSDF samples: give bsdf_samples >= 1")
     return Scene(name=name, camera=camera, materials=materials, shapes=shapes,
                  point_lights=point_lights, directional_lights=directional_lights,
                  environment=environment, source=source, text=text, **settings)
@@ -144,113 +142,6 @@ def _max_depth(v: Any, field: str, roulette: bool) -> int:
         raise InputError(field, "-1 (unbounded) needs russian_roulette = true (integrator 'path'); "
                                 "otherwise use a depth >= 1")
     return depth
-
-
-def _parse_camera(value: Any) -> Camera:
-    if value is REQUIRED:
-        raise InputError("camera", "the [camera] table is required (position, look_at, ...)")
-    t = Table(value, "camera", "[camera]")
-    t.check_keys(CAMERA_KEYS)
-    position = _vec3(t.get("position", REQUIRED, "a list of 3 finite numbers"), t.field("position"))
-    look_at = _vec3(t.get("look_at", REQUIRED, "a list of 3 finite numbers"), t.field("look_at"))
-    up = _vec3(t.get("up", [0, 1, 0], ""), t.field("up"))
-    view = look_at - position
-    if not np.all(np.isfinite(view)) or not np.any(view != 0.0):
-        raise InputError(t.field("look_at"), f"must differ from camera.position (a finite view "
-                                             f"direction is needed), got {show(look_at.tolist())}")
-    if _parallel(view, up):
-        raise InputError(t.field("up"), f"must be non-zero and not parallel to the view direction "
-                                        f"look_at - position = {show(view.tolist())}, got {show(up.tolist())}")
-    fov = number(t.get("fov", 40.0, ""), t.field("fov"), "in (0, 180) degrees", lambda x: 0.0 < x < 180.0)
-    aperture, focus = _parse_lens(t)
-    shutter = _parse_shutter(t.get("shutter", [0.0, 0.0], ""), t.field("shutter"))
-    pixel_filter = string(t.get("filter", BOX, ""), t.field("filter"), FILTER_NAMES)
-    stddev = t.get("filter_stddev", None, "")
-    if stddev is not None:
-        if pixel_filter not in STDDEV_FILTERS:
-            raise InputError(t.field("filter_stddev"), f"is for filter {' or '.join(STDDEV_FILTERS)} "
-                                                       f"(the others' shapes are fixed), not {pixel_filter!r}")
-        stddev = number(stddev, t.field("filter_stddev"), f"in [{STDDEV_MIN}, {STDDEV_MAX}] pixels",
-                        lambda x: STDDEV_MIN <= x <= STDDEV_MAX)
-    clip = boolean(t.get("filter_clip", False, ""), t.field("filter_clip"))
-    ortho = 0.0
-    if t.has("ortho_height"):
-        ortho = number(t.data["ortho_height"], t.field("ortho_height"), "> 0 (the film's height in world "
-                       "units, orthographic)", lambda x: x > 0.0)
-        if aperture > 0.0:
-            raise InputError(t.field("ortho_height"), "an orthographic camera has no lens: drop "
-                                                      "aperture_radius / f_number")
-    return Camera(position=position, look_at=look_at, up=up, vfov_deg=fov, aperture_radius=aperture,
-                  focus_distance=focus, shutter=shutter, filter=pixel_filter,
-                  filter_stddev=float(stddev or 0.0), filter_clip=clip and pixel_filter != BOX,
-                  ortho_height=float(ortho))
-
-
-def _parallel(a: np.ndarray, b: np.ndarray) -> bool:
-    """True when a and b are parallel or either is zero (relative test, safe against overflow)."""
-    na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    if na == 0.0 or nb == 0.0 or not (np.isfinite(na) and np.isfinite(nb)):
-        return True
-    return float(np.linalg.norm(np.cross(a / na, b / nb))) <= _PARALLEL_TOL
-
-
-def _parse_lens(t: Table) -> tuple[float, float]:
-    """(aperture_radius, focus_distance) from the thin-lens keys; (0, 1) for a pinhole."""
-    positive = ("> 0", lambda x: x > 0.0)
-    focal = number(t.data["focal_length"], t.field("focal_length"), *positive) \
-        if t.has("focal_length") else None
-
-    # Aperture: aperture_radius XOR f_number (which needs the focal length).
-    if t.has("aperture_radius") and t.has("f_number"):
-        raise InputError(t.field("f_number"), "give either aperture_radius or f_number "
-                                              "(aperture_radius = focal_length / (2 f_number)), not both")
-    if t.has("f_number"):
-        f_number = number(t.data["f_number"], t.field("f_number"), *positive)
-        if focal is None:
-            raise InputError(t.field("f_number"), "needs camera.focal_length > 0 "
-                                                  "(aperture_radius = focal_length / (2 f_number))")
-        aperture = focal / (2.0 * f_number)
-    elif t.has("aperture_radius"):
-        aperture = number(t.data["aperture_radius"], t.field("aperture_radius"), ">= 0 (0 = pinhole)",
-                           lambda x: x >= 0.0)
-    else:
-        aperture = 0.0
-
-    # Focus: focus_distance XOR the Gaussian lens formula 1/di + 1/do = 1/f.
-    if t.has("focus_distance") and t.has("image_distance"):
-        raise InputError(t.field("image_distance"), "give either focus_distance or focal_length + "
-                                                    "image_distance (Gaussian lens formula), not both")
-    if t.has("image_distance"):
-        image = number(t.data["image_distance"], t.field("image_distance"), *positive)
-        if focal is None:
-            raise InputError(t.field("focal_length"), "is required with camera.image_distance: a finite "
-                                                      "number > 0 (focus = 1 / (1/f - 1/di))")
-        if not image > focal:
-            raise InputError(t.field("image_distance"), f"must be > focal_length = {focal:g} (an image "
-                                                        f"inside the focal length focuses nothing), got {image:g}")
-        focus = 1.0 / (1.0 / focal - 1.0 / image)
-        if not (math.isfinite(focus) and focus > 0.0):
-            raise InputError(t.field("image_distance"), f"must be clearly > focal_length = {focal:g}: the "
-                                                        f"focus distance 1 / (1/f - 1/di) is not finite")
-    elif t.has("focus_distance"):
-        focus = number(t.data["focus_distance"], t.field("focus_distance"), *positive)
-    else:
-        focus = None
-
-    if focal is not None and not (t.has("f_number") or t.has("image_distance")):
-        raise InputError(t.field("focal_length"), "is used only with camera.f_number (aperture) or "
-                                                  "camera.image_distance (focus); give one or drop it")
-    if aperture > 0.0 and focus is None:
-        raise InputError(t.field("focus_distance"), f"a lens with aperture {aperture:g} > 0 needs focus: "
-                                                    "focus_distance > 0, or focal_length + image_distance")
-    return aperture, (1.0 if focus is None else focus)
-
-
-def _parse_shutter(v: Any, field: str) -> tuple[float, float]:
-    times = numbers(v, field, 2)
-    if times[1] < times[0]:
-        raise InputError(field, f"must be [open, close] with open <= close, got {show(v)}")
-    return float(times[0]), float(times[1])
 
 
 def _parse_materials(value: Any) -> list[Material]:
@@ -380,7 +271,7 @@ def _parse_shape(i: int, value: Any, materials: list[Material], index: dict[str,
         edge_v = _vec3(t.get("edge_v", REQUIRED, "a list of 3 finite numbers"), t.field("edge_v"))
         if not np.any(edge_u != 0.0):
             raise InputError(t.field("edge_u"), "must be a non-zero list of 3 finite numbers, got [0, 0, 0]")
-        if _parallel(edge_u, edge_v):
+        if parallel(edge_u, edge_v):
             raise InputError(t.field("edge_v"), "must be non-zero and not parallel to edge_u (the normal "
                                                 "normalize(edge_u x edge_v) must exist"
                                                 f"{'; an emitting quad needs area > 0' if emissive else ''})"

@@ -188,3 +188,14 @@ def _matrix(v: Any, field: str) -> np.ndarray:
         raise InputError(field, f"is singular (determinant {det:g} of its 3x3 part): a transform "
                                 "must be invertible")
     return m
+
+
+PARALLEL_TOL = 1e-9        # |a x b| <= tol * |a| |b| counts as parallel
+
+
+def parallel(a: np.ndarray, b: np.ndarray) -> bool:
+    """True when a and b are parallel or either is zero (relative test, safe against overflow)."""
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    if na == 0.0 or nb == 0.0 or not (np.isfinite(na) and np.isfinite(nb)):
+        return True
+    return float(np.linalg.norm(np.cross(a / na, b / nb))) <= PARALLEL_TOL

@@ -268,9 +268,10 @@ def _material_keys(T) -> set[str]:
 
 def check_scene_reference(ref: dict) -> None:
     from drtlab.kernels.scene_model import scene_tables as T
+    from drtlab.kernels.scene_model.camera_table import CAMERA_KEYS
     from drtlab.kernels.scene_model.transforms import TRANSFORM_KEYS
     assert set(ref["scene"]) == set(T.SCENE_KEYS)
-    assert set(ref["camera"]) == set(T.CAMERA_KEYS)
+    assert set(ref["camera"]) == set(CAMERA_KEYS)
     for kind, keys in T.SHAPE_KEYS.items():
         documented = set().union(*(s for s in ref["shapes"] if s["kind"].split()[0] == kind))
         assert documented <= set(keys), (kind, documented - set(keys))

@@ -123,6 +123,7 @@ CAMERA_CHANGES = {
     "filter": {"filter": "mitchell"},
     "filter_stddev": {"filter": "mitsuba_gaussian", "filter_stddev": 0.4},
     "filter_clip": {"filter": "mitchell", "filter_clip": True},
+    "ortho_height": {"ortho_height": 2.0},
 }
 
 
@@ -158,6 +159,8 @@ SCENE_CHANGES = {
     "spp": {"scene": {"spp": 7}},
     "integrator": {"scene": {"integrator": "drt", "russian_roulette": False}},
     "max_depth": {"scene": {"max_depth": 3}},
+    "emitter_samples": {"scene": {"integrator": "direct", "emitter_samples": 3}},
+    "bsdf_samples": {"scene": {"integrator": "direct", "bsdf_samples": 2}},
     "rr_depth": {"scene": {"russian_roulette": True, "rr_depth": 2}},
     "russian_roulette": {"scene": {"russian_roulette": True, "rr_depth": 3}},
     "background": {"scene": {"background": [0.1, 0.2, 0.3]}},
