@@ -32,7 +32,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
     ENV = f.environment
     # From the kind table's flags: a reflecting non-delta kind (diffuse, glossy, plastic, ggx, ...)
     # ends the ray with its direct light; a reflecting delta kind (mirror, conductor) continues it
-    # by its module's sample_delta; a transmitting one splits as a smooth dielectric.
+    # by its module's sample; a transmitting one splits as a smooth dielectric.
     ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS
                  if not (k.delta or k.transmits or k.emitter) and k.name in f.kinds)
     MIRRORS = tuple((MATERIAL_CODE[k.name], model_module(k))
@@ -151,7 +151,7 @@ def make_whitted(f: Features, *, rays: SceneRays, bsdf: Bsdf,
                 _mirrors = wp.static(variant_tag(MIRRORS))  # noqa: F841 (static_tag.py)
                 for i in range(wp.static(len(MIRRORS))):
                     if kind == wp.static(MIRRORS[i][0]):
-                        s = wp.static(MIRRORS[i][1].sample_delta)(mat, ns, wo, 0.0, 0)
+                        s = wp.static(MIRRORS[i][1].sample)(mat, ns, wo, 0.0, wp.vec2(0.0))
                         wi = s.wi
                         beta = wp.cw_mul(beta, s.weight)
                 if wp.static(SPLITS > 0):
