@@ -1,8 +1,9 @@
 """Materials per kernel variant: kind codes (`kinds.py`), one model module per kind that scatters,
 named by its kind-table row's `model` (`diffuse.py`, `phong.py`, `mirror.py`, `dielectric.py` (also
 Fresnel and refraction), `conductor.py` (also a metal's Fresnel), `glossy_dielectric.py`,
-`plastic.py`, `ggx.py`, `ggx_dielectric.py`, `beckmann.py`, ...), a variant's composition of them
-(`bsdf.py`; `Scatter` in `scatter.py`), the material at a hit as one record (`material_at.py`),
+`plastic.py`, `ggx.py`, `ggx_dielectric.py`, `beckmann.py`, `beckmann_conductor.py`, ...), a
+variant's composition of them (`bsdf.py`; `Scatter` in `scatter.py`; the uniform strategy's
+proposals in `uniform.py`), the material at a hit as one record (`material_at.py`),
 (checkered) albedo and emission (`surface.py`).
 
 Every kind that scatters is a model module (`MaterialKind.model`) with one interface on the material

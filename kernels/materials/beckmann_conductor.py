@@ -1,7 +1,8 @@
 """`beckmann_conductor`: a rough metal of complex index `eta` + i `k`, Beckmann facets (beckmann.py):
-Mitsuba 3's `roughconductor` with `distribution="beckmann"` and a `material`. The facets reflect `albedo` times the conductor
-Fresnel at the half vector (conductor.py's `half_fresnel`). A kind of the kind table on the one BSDF
-interface (the package docstring); it samples as beckmann.py does (the Fresnel is in eval only).
+Mitsuba 3's `roughconductor` with `distribution="beckmann"` and a `material`. The facets reflect
+`albedo` times the conductor Fresnel at the half vector (conductor.py's `half_fresnel`). A kind of
+the kind table on the one BSDF interface (the package docstring); it samples as beckmann.py does
+(the Fresnel is in eval only).
 """
 import warp as wp
 

@@ -1,8 +1,8 @@
 """`ggx_conductor`: a rough metal of complex index `eta` + i `k`, GGX facets with separable Smith
 masking (ggx_separable.py): Mitsuba 3's `roughconductor` with `distribution="ggx"` and a `material`.
-The facets reflect `albedo` times the conductor
-Fresnel at the half vector (conductor.py's `half_fresnel`). A kind of the kind table on the one BSDF
-interface (the package docstring); it samples as ggx_separable.py does (the Fresnel is in eval only).
+The facets reflect `albedo` times the conductor Fresnel at the half vector (conductor.py's
+`half_fresnel`). A kind of the kind table on the one BSDF interface (the package docstring); it
+samples as ggx_separable.py does (the Fresnel is in eval only).
 """
 import warp as wp
 
