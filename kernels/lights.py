@@ -91,8 +91,8 @@ def light_kinds(f: Features, strategy: Strategy, *, motion: Motion) -> tuple:
     """(LightKind, ...) of the variant: every kind module's, built with the spherical rules as they
     are now (experiments/bench/light_switch.py and light_bounce.py set SPHERICAL_PAYS and
     SPHERICAL_MAX_BOUNCE before building)."""
-    rules = SphericalRules(make_spherical_maps(linear=SPHERICAL_LINEAR in f.faults), SPHERICAL_LINEAR in f.faults,
-                           SPHERICAL_PAYS, SPHERICAL_MAX_BOUNCE, SPHERICAL_MIS_AREA in f.faults,
+    linear = SPHERICAL_LINEAR in f.faults
+    rules = SphericalRules(make_spherical_maps(linear=linear), linear, SPHERICAL_PAYS, SPHERICAL_MAX_BOUNCE, SPHERICAL_MIS_AREA in f.faults,
                            SPHERICAL_MIS_FIRST_VERTEX in f.faults)
     modules = KIND_MODULES + ((mesh_light,) if f.meshes else ())
     return tuple(m.make(f, strategy, motion, rules) for m in modules)
