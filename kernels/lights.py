@@ -92,8 +92,8 @@ def light_kinds(f: Features, strategy: Strategy, *, motion: Motion) -> tuple:
     are now (experiments/bench/light_switch.py and light_bounce.py set SPHERICAL_PAYS and
     SPHERICAL_MAX_BOUNCE before building)."""
     linear = SPHERICAL_LINEAR in f.faults
-    rules = SphericalRules(make_spherical_maps(linear=linear), linear, SPHERICAL_PAYS, SPHERICAL_MAX_BOUNCE, SPHERICAL_MIS_AREA in f.faults,
-                           SPHERICAL_MIS_FIRST_VERTEX in f.faults)
+    rules = SphericalRules(make_spherical_maps(linear=linear), linear, SPHERICAL_PAYS, SPHERICAL_MAX_BOUNCE,
+                           SPHERICAL_MIS_AREA in f.faults, SPHERICAL_MIS_FIRST_VERTEX in f.faults)
     modules = KIND_MODULES + ((mesh_light,) if f.meshes else ())
     return tuple(m.make(f, strategy, motion, rules) for m in modules)
 
