@@ -64,9 +64,10 @@ def register_light_selection(selection, check: bool = True):
 
 
 def register_lobe_sampler(sampler, check: bool = True):
-    """Register a `drtlab.LobeSampler` (two Warp functions for one material kind: sample(albedo,
-    shape, ior, nf, wo, u_lobe, u) -> wi and pdf(shape, ior, nf, wo, wi) -> its density;
-    kernels/lobe_samplers.py) for strategies to compose. With `check`, both are compiled at once."""
+    """Register a `drtlab.LobeSampler` (two Warp functions for one material kind: sample(mat, n, wo,
+    u_lobe, u) -> Scatter and pdf(mat, n, wo, wi) -> its density, the signatures of every material
+    kind's; kernels/lobe_samplers.py) for strategies to compose. With `check`, both are compiled at
+    once."""
     from drtlab.estimators.plugins import attribute
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS, register
     name = getattr(sampler, "name", "?")

@@ -101,7 +101,7 @@ class MaterialData:
     albedo: wp.array(dtype=wp.vec3)
     albedo2: wp.array(dtype=wp.vec3)
     checker: wp.array(dtype=wp.vec2)
-    exponent: wp.array(dtype=float)            # the lobe shape: Phong exponent or GGX alpha
+    shape: wp.array(dtype=float)               # the lobe's shape (MaterialKind.shape)
     ior: wp.array(dtype=float)
     emission: wp.array(dtype=wp.vec3)
     eta: wp.array(dtype=wp.vec3)               # a conductor's complex index eta + i k, per channel

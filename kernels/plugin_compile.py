@@ -12,6 +12,7 @@ import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import Features
+from drtlab.kernels.materials.material_at import MaterialAt
 
 
 def _load(kernel) -> None:
@@ -37,8 +38,12 @@ def compile_lobe_sampler(ls) -> None:
     def probe(out: wp.array(dtype=float)):
         n = wp.vec3(0.0, 0.0, 1.0)
         wo = wp.normalize(wp.vec3(0.3, 0.1, 1.0))
-        wi = sample(wp.vec3(0.5), 10.0, 1.5, n, wo, 0.5, wp.vec2(0.3, 0.7))
-        out[0] = pdf(10.0, 1.5, n, wo, wi) + wi[0]
+        mat = MaterialAt()
+        mat.albedo = wp.vec3(0.5)
+        mat.shape = 10.0
+        mat.ior = 1.5
+        s = sample(mat, n, wo, 0.5, wp.vec2(0.3, 0.7))
+        out[0] = pdf(mat, n, wo, s.wi) + s.wi[0]
 
     _load(probe)
 

@@ -163,11 +163,6 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     q.group = arr(groups.group_of, int, (1,))
 
 
-def _shape_parameter(material) -> float:
-    key = KIND_BY_NAME[material.kind].shape_key
-    return getattr(material, key) if key is not None else material.exponent
-
-
 def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m = sd.materials
     m.kind = arr([MATERIAL_CODE[x.kind] for x in materials], int, (1,))
@@ -176,8 +171,7 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
                     wp.vec3, (1, 3))
     m.checker = arr([x.checker if x.checker is not None else (0, 0) for x in materials],
                     wp.vec2, (1, 2))
-    # One shape parameter per material: the Phong exponent or GGX alpha (MaterialKind.shape_key).
-    m.exponent = arr([_shape_parameter(x) for x in materials], float, (1,))
+    m.shape = arr([KIND_BY_NAME[x.kind].shape(x) for x in materials], float, (1,))
     m.ior = arr([x.ior for x in materials], float, (1,))
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
     m.eta = arr([x.eta for x in materials], wp.vec3, (1, 3))

@@ -34,7 +34,7 @@ def make_whitted_parts(f: Features, *, rays: SceneRays, bsdf: Bsdf) -> WhittedPa
     MESHES = f.meshes
     # From the kind table's flags: a reflecting non-delta kind (diffuse, glossy, plastic, ggx, ...)
     # ends the ray with its direct light; a reflecting delta kind (mirror, conductor) continues it
-    # by its module's sample_delta; a transmitting one splits as a smooth dielectric.
+    # by its module's sample; a transmitting one splits as a smooth dielectric.
     ENDS = tuple(MATERIAL_CODE[k.name] for k in KINDS
                  if not (k.delta or k.transmits or k.emitter) and k.name in f.kinds)
     MIRRORS = tuple((MATERIAL_CODE[k.name], model_module(k))
@@ -109,7 +109,7 @@ def make_whitted_parts(f: Features, *, rays: SceneRays, bsdf: Bsdf) -> WhittedPa
     @wp.func
     def specular_reflect(mat: MaterialAt, kind: int, ns: wp.vec3, wo: wp.vec3) -> Scatter:
         # The mirror direction about the shading normal on wo's side, weight 1; a reflecting delta
-        # kind's own (its module's sample_delta: a conductor's Fresnel, say) where the kind is one.
+        # kind's own (its module's delta sample: a conductor's Fresnel, say) where the kind is one.
         cos_o = wp.dot(ns, wo)
         nf = ns
         if cos_o < 0.0:
@@ -123,7 +123,7 @@ def make_whitted_parts(f: Features, *, rays: SceneRays, bsdf: Bsdf) -> WhittedPa
         _mirrors = wp.static(variant_tag(MIRRORS))  # noqa: F841 (static_tag.py)
         for i in range(wp.static(len(MIRRORS))):
             if kind == wp.static(MIRRORS[i][0]):
-                m = wp.static(MIRRORS[i][1].sample_delta)(mat, ns, wo, 0.0, 0)
+                m = wp.static(MIRRORS[i][1].sample)(mat, ns, wo, 0.0, wp.vec2(0.0))
                 s.wi = m.wi
                 s.weight = m.weight
         return s

@@ -13,26 +13,27 @@ import warp as wp
 import drtlab
 from drtlab.estimators.domain_maps import (INV_PI, frame_to_world, phong_lobe_pdf, square_to_cosine_hemisphere,
                                            square_to_phong_lobe)
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 
 
 @wp.func
-def defensive_sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-                     u: wp.vec2) -> wp.vec3:
+def defensive_sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
     nf = wp.sign(wp.dot(n, wo)) * n                 # the normal on wo's side: the lobe reflects
     if u[0] < 0.5:
-        return frame_to_world(square_to_phong_lobe(wp.vec2(2.0 * u[0], u[1]), shape),
-                              2.0 * wp.dot(nf, wo) * nf - wo)
-    return frame_to_world(square_to_cosine_hemisphere(wp.vec2(2.0 * u[0] - 1.0, u[1])), nf)
+        return proposal(frame_to_world(square_to_phong_lobe(wp.vec2(2.0 * u[0], u[1]), mat.shape),
+                                       2.0 * wp.dot(nf, wo) * nf - wo))
+    return proposal(frame_to_world(square_to_cosine_hemisphere(wp.vec2(2.0 * u[0] - 1.0, u[1])), nf))
 
 
 @wp.func
-def defensive_pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+def defensive_pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
     nf = wp.sign(wp.dot(n, wo)) * n
     cos_i = wp.dot(nf, wi)
     if cos_i <= 0.0:
         return 0.0
     refl = 2.0 * wp.dot(nf, wo) * nf - wo
-    return 0.5 * phong_lobe_pdf(wp.dot(refl, wi), shape) + 0.5 * cos_i * INV_PI
+    return 0.5 * phong_lobe_pdf(wp.dot(refl, wi), mat.shape) + 0.5 * cos_i * INV_PI
 
 
 drtlab.register_lobe_sampler(drtlab.LobeSampler(

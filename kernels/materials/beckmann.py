@@ -1,8 +1,9 @@
 """`beckmann`: a rough conductor with Beckmann microfacets, as Mitsuba 3's `roughconductor` with
 `distribution="beckmann"` and `material="none"` (facets reflect `albedo`, its `specular_reflectance`).
 
-A kind from the kind table (`material_kinds.MaterialKind.model`): eval_bsdf, and the lobe sampling
-behind the same interface as a lobe sampler's (kernels/lobe_samplers.py). With wo, wi on the side
+A kind of the kind table (`material_kinds.MaterialKind.model`) on the one BSDF interface (the
+package docstring); the facets' functions of loose arguments (`eval_facets`, `sample_facets`,
+`pdf_facets`) are what beckmann_conductor.py and rough_plastic.py build on. With wo, wi on the side
 of nf and wm their half vector (Walter et al. 2007; Mitsuba's conventions):
     D(m) = exp(-tan^2 theta_m / alpha^2) / (pi alpha^2 cos^4 theta_m)
     G(wo, wi) = G1(wo) G1(wi), Smith's G1 in Walter's rational fit of the Beckmann masking:
@@ -15,6 +16,8 @@ Single scattering only, as the GGX conductor: light among the facets is lost at 
 import warp as wp
 
 from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, sincos_turns
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 
 
 @wp.func
@@ -59,7 +62,7 @@ def _half(nf: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
 
 
 @wp.func
-def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+def eval_facets(albedo: wp.vec3, shape: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
     cos_o = wp.dot(n, wo)
     cos_i = wp.dot(n, wi)
     if cos_o * cos_i <= 0.0:
@@ -75,8 +78,7 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3
 
 
 @wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-           u: wp.vec2) -> wp.vec3:
+def sample_facets(shape: float, n: wp.vec3, wo: wp.vec3, u: wp.vec2) -> wp.vec3:
     nf = facing(n, wo)
     wm = beckmann_normal(shape, nf, u)
     om = wp.dot(wo, wm)
@@ -89,7 +91,7 @@ def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u
 
 
 @wp.func
-def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+def pdf_facets(shape: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
     nf = facing(n, wo)
     if wp.dot(nf, wi) <= 0.0 or wp.dot(nf, wo) <= 0.0:
         return 0.0
@@ -99,3 +101,18 @@ def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float
         return 0.0
     c = wp.dot(nf, wm)
     return beckmann_d(shape, c) * c / (4.0 * om)
+
+
+@wp.func
+def eval(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    return eval_facets(mat.albedo, mat.shape, n, wo, wi)
+
+
+@wp.func
+def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+    return proposal(sample_facets(mat.shape, n, wo, u))
+
+
+@wp.func
+def pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    return pdf_facets(mat.shape, n, wo, wi)

@@ -9,13 +9,15 @@ at |cos| c of an interface from vacuum into a metal of complex index eta + i k, 
     F = (r_s + r_p) / 2,     s^2 = 1 - c^2
 Mitsuba's conductors have no exterior index: eta and k are the metal's against vacuum. 0 + 1i
 reflects everything (its material "none"). The smooth `conductor` reflects about the normal (c the
-cosine to it), the rough ones take c = wo.wm at the half vector (bsdf.py applies it to their model's
-eval_bsdf). `sample_delta` is the smooth `conductor` kind's (a delta kind of the kind table).
+cosine to it), the rough ones take c = wo.wm at the half vector (`half_fresnel`, which their modules
+beckmann_conductor.py and ggx_conductor.py put on their facets' eval). This module is also the smooth
+`conductor` kind, a delta kind on the one BSDF interface (the package docstring; mirror.py's).
 """
 import warp as wp
 
 from drtlab.estimators.domain_maps import mirror_dir
 from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.mirror import eval, pdf  # noqa: F401 (a delta kind: no density)
 from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
@@ -54,8 +56,7 @@ def half_fresnel(eta: wp.vec3, k: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
 
 
 @wp.func
-def sample_delta(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, uniform: int) -> Scatter:
-    """The smooth `conductor` kind (a delta kind, mirror.py's docstring): albedo times F at the
-    normal."""
+def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+    """The smooth `conductor` kind's delta lobe: albedo times F at the normal."""
     return delta_scatter(mirror_dir(n, wo), wp.cw_mul(mat.albedo, fresnel_conductor(wp.abs(wp.dot(n, wo)), mat.eta,
                                                                                      mat.k)))

@@ -1,15 +1,16 @@
 """Smooth dielectric boundaries: Fresnel reflectance, refraction, the side a direction arrives from
 (the glossy dielectric's two Phong lobes are glossy_dielectric.py).
 
-This module is also the `dielectric` kind of the kind table, a delta kind (`MaterialKind.model`
-with `delta`): `sample_delta` (mirror.py's docstring) in place of eval_bsdf, sample and pdf. Mirror
-reflection with weight F, else refraction tinted by `albedo` (the 1/eta^2 of radiance); the lobe
-chosen by u_lobe with probability F (1/2 under a strategy that samples uniformly, `uniform` 1; 1
-under total internal reflection), the weight divided by the choice's probability."""
+This module is also the `dielectric` kind of the kind table, a delta kind on the one BSDF interface
+(the package docstring; eval and pdf 0, as mirror.py's). Mirror reflection with weight F, else
+refraction tinted by `albedo` (the 1/eta^2 of radiance); the lobe chosen by u_lobe with probability F
+(1/2 under the uniform strategy, `sampling`; 1 under total internal reflection), the weight divided
+by the choice's probability."""
 import warp as wp
 
 from drtlab.estimators.domain_maps import mirror_dir
 from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.mirror import eval, pdf  # noqa: F401 (a delta kind: no density)
 from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
@@ -57,19 +58,34 @@ def interface(n: wp.vec3, wo: wp.vec3, ior: float) -> Interface:
     return it
 
 
-@wp.func
-def sample_delta(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, uniform: int) -> Scatter:
-    it = interface(n, wo, mat.ior)
-    F = it.F
-    p_reflect = F
-    if uniform == 1:
-        p_reflect = 0.5
-    if F >= 1.0:
-        p_reflect = 1.0
-    if u_lobe < p_reflect:
-        return delta_scatter(mirror_dir(n, wo), wp.vec3(F / p_reflect))
-    return delta_scatter(refract_dir(wo, it.nf, it.co, it.eta),
-                         mat.albedo * ((1.0 - F) / ((1.0 - p_reflect) * it.eta * it.eta)))
+def _make_sample(uniform: bool):
+    """The kind's sample, its lobe chosen with probability F, or 1/2 when `uniform`."""
+    UNIFORM = uniform
+
+    @wp.func
+    def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+        it = interface(n, wo, mat.ior)
+        F = it.F
+        p_reflect = F
+        if wp.static(UNIFORM):
+            p_reflect = 0.5
+        if F >= 1.0:
+            p_reflect = 1.0
+        if u_lobe < p_reflect:
+            return delta_scatter(mirror_dir(n, wo), wp.vec3(F / p_reflect))
+        return delta_scatter(refract_dir(wo, it.nf, it.co, it.eta),
+                             mat.albedo * ((1.0 - F) / ((1.0 - p_reflect) * it.eta * it.eta)))
+
+    return sample
+
+
+_SAMPLES = {False: _make_sample(False), True: _make_sample(True)}
+sample = _SAMPLES[False]
+
+
+def sampling(strategy) -> tuple:
+    """(sample, pdf) under `strategy`: the lobe choice F, or 1/2 under the uniform strategy."""
+    return _SAMPLES[not strategy.lobe], pdf
 
 
 @wp.func

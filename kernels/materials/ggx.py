@@ -1,13 +1,15 @@
 """GGX (Trowbridge-Reitz) microfacets: the rough conductor `ggx` and rough dielectric `ggx_dielectric`,
 their normal distributions and the two ways of sampling a normal.
 
-This module is also the `ggx` kind of the kind table (`material_kinds.MaterialKind.model`):
-eval_bsdf, sample and pdf (the interface of a lobe sampler, kernels/lobe_samplers.py), the normal
-drawn as the strategy's `microfacet` says (`sampling`); `ggx_dielectric.py` is the other kind."""
+This module is also the `ggx` kind of the kind table (`material_kinds.MaterialKind.model`), on the
+one BSDF interface (the package docstring), the normal drawn as the strategy's `microfacet` says
+(`sampling`); `ggx_dielectric.py` is the other kind."""
 import warp as wp
 
 from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, sincos_turns
 from drtlab.kernels.materials.dielectric import fresnel, interface
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -216,8 +218,8 @@ def make_ggx_normals(vndf: bool):
 
 
 @wp.func
-def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-    return eval_ggx(albedo, shape, ior, n, wo, wi, 0)
+def eval(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    return eval_ggx(mat.albedo, mat.shape, mat.ior, n, wo, wi, 0)
 
 
 def _make_lobe(vndf: bool):
@@ -225,22 +227,21 @@ def _make_lobe(vndf: bool):
     sample_normal, normal_pdf = make_ggx_normals(vndf)
 
     @wp.func
-    def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-               u: wp.vec2) -> wp.vec3:
+    def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
         nf = facing(n, wo)
         co = wp.abs(wp.dot(n, wo))
         if co <= 0.0:
-            return wp.vec3(0.0)
-        wm = sample_normal(nf, wo, co, shape, u)
-        return 2.0 * wp.dot(wo, wm) * wm - wo
+            return proposal(wp.vec3(0.0))
+        wm = sample_normal(nf, wo, co, mat.shape, u)
+        return proposal(2.0 * wp.dot(wo, wm) * wm - wo)
 
     @wp.func
-    def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    def pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
         nf = facing(n, wo)
         p = float(0.0)
         mf = ggx_half(nf, 1.0, wo, wi, 0)
         if mf.valid == 1:
-            p = normal_pdf(shape, nf, wp.abs(wp.dot(n, wo)), mf.wm, mf.om) * mf.dwm
+            p = normal_pdf(mat.shape, nf, wp.abs(wp.dot(n, wo)), mf.wm, mf.om) * mf.dwm
         return p
 
     return sample, pdf
@@ -250,6 +251,6 @@ _LOBES = {True: _make_lobe(True), False: _make_lobe(False)}
 sample, pdf = _LOBES[True]
 
 
-def sampling(microfacet: str):
-    """(sample, pdf) as a strategy of `microfacet` ("vndf" or "d") draws the normal."""
-    return _LOBES[microfacet == "vndf"]
+def sampling(strategy):
+    """(sample, pdf) as `strategy` draws the normal (its `microfacet`: "vndf" or "d")."""
+    return _LOBES[strategy.microfacet == "vndf"]

@@ -2,65 +2,59 @@
 `exponent`, about the mirror direction (weight F) and the refracted one (weight (1 - F) albedo /
 eta^2), F the Fresnel reflectance of wo (`eval_glossy_dielectric`'s comment).
 
-A kind from the kind table (`material_kinds.MaterialKind.model`), transmitting: eval_bsdf, and the
-lobe sampling behind the interface of a lobe sampler (kernels/lobe_samplers.py): the reflected lobe
-with probability F (the lobe choice number u_lobe), else the refracted one; the pdf is their
-F-weighted mixture wherever wi lies.
+A kind of the kind table (`material_kinds.MaterialKind.model`), transmitting, on the one BSDF
+interface (the package docstring): the reflected lobe with probability F (the lobe choice number
+u_lobe), else the refracted one; the pdf is their F-weighted mixture wherever wi lies.
 """
 import warp as wp
 
 from drtlab.estimators.domain_maps import frame_to_world, mirror_dir, phong_lobe_pdf, square_to_phong_lobe
 from drtlab.kernels.materials.dielectric import Interface, interface, refract_dir
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 
 
 @wp.func
-def glossy_dielectric_lobes(it: Interface, wo: wp.vec3, wi: wp.vec3, exponent: float) -> wp.vec2:
+def glossy_dielectric_lobes(it: Interface, wo: wp.vec3, wi: wp.vec3, shape: float) -> wp.vec2:
     """Phong lobe densities at wi around the mirror (x) and refracted (y) directions, on either
     side of the surface: a lobe near the horizon proposes directions on both sides. The refracted
     lobe is zero under total internal reflection."""
-    r = phong_lobe_pdf(wp.dot(2.0 * it.co * it.nf - wo, wi), exponent)
+    r = phong_lobe_pdf(wp.dot(2.0 * it.co * it.nf - wo, wi), shape)
     t = float(0.0)
     if it.F < 1.0:
-        t = phong_lobe_pdf(wp.dot(refract_dir(wo, it.nf, it.co, it.eta), wi), exponent)
+        t = phong_lobe_pdf(wp.dot(refract_dir(wo, it.nf, it.co, it.eta), wi), shape)
     return wp.vec2(r, t)
 
 
 @wp.func
-def eval_glossy_dielectric(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3,
-                           wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+def eval(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
     # f|cos| is the Phong lobe density around the mirror (weight F) or the refracted direction
     # (weight (1 - F) * albedo / eta^2), so energy is conserved up to what crosses the surface.
     # A lobe's part on the wrong side of the surface is not scattering: reflection counts only
     # above, transmission only below (the sampler's pdf still counts both, see pdf below).
-    it = interface(n, wo, ior)
-    lobes = glossy_dielectric_lobes(it, wo, wi, exponent)
+    it = interface(n, wo, mat.ior)
+    lobes = glossy_dielectric_lobes(it, wo, wi, mat.shape)
     ci = wp.dot(it.nf, wi)
     r = wp.vec3(0.0)
     if ci > 0.0:
         r = wp.vec3(it.F * lobes[0])
     elif ci < 0.0:
-        r = albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
+        r = mat.albedo * ((1.0 - it.F) / (it.eta * it.eta) * lobes[1])
     return r
 
 
 @wp.func
-def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-    return eval_glossy_dielectric(albedo, shape, ior, n, wo, wi)
-
-
-@wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-           u: wp.vec2) -> wp.vec3:
-    it = interface(n, wo, ior)
+def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+    it = interface(n, wo, mat.ior)
     axis = mirror_dir(n, wo)
     if u_lobe >= it.F:
         axis = refract_dir(wo, it.nf, it.co, it.eta)
-    return frame_to_world(square_to_phong_lobe(u, shape), axis)
+    return proposal(frame_to_world(square_to_phong_lobe(u, mat.shape), axis))
 
 
 @wp.func
-def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
-    it = interface(n, wo, ior)
-    lobes = glossy_dielectric_lobes(it, wo, wi, shape)
+def pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    it = interface(n, wo, mat.ior)
+    lobes = glossy_dielectric_lobes(it, wo, wi, mat.shape)
     # The proposal is the Fresnel-weighted mixture of both lobes wherever wi lies.
     return it.F * lobes[0] + (1.0 - it.F) * lobes[1]

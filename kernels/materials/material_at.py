@@ -12,7 +12,8 @@ from drtlab.kernels.materials.surface import surface_albedo
 class MaterialAt:
     kind: int                       # its code in the kind table (material_kinds.MATERIAL_CODE)
     albedo: wp.vec3                 # at the hit (a checker texture's colour there)
-    shape: float                    # the lobe's one shape parameter (MaterialKind.shape_key)
+    shape: float                    # the lobe's one shape parameter (MaterialKind.shape): the
+                                    # Phong exponent, the microfacet alpha or the albedo's mean
     ior: float
     eta: wp.vec3                    # a conductor kind's complex index eta + i k (conductor.py)
     k: wp.vec3
@@ -26,7 +27,7 @@ def material_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     r = MaterialAt()
     r.kind = sd.materials.kind[m]
     r.albedo = surface_albedo(sd, m, uv)
-    r.shape = sd.materials.exponent[m]
+    r.shape = sd.materials.shape[m]
     r.ior = sd.materials.ior[m]
     r.eta = sd.materials.eta[m]
     r.k = sd.materials.k[m]

@@ -1,11 +1,7 @@
 """`mirror`: a smooth reflector of `albedo` about the normal on wo's side (a delta lobe).
 
-A delta kind of the kind table (`MaterialKind.model` with `delta`): no density to sample or
-evaluate, so its module has `sample_delta` in place of eval_bsdf, sample and pdf:
-    sample_delta(mat: MaterialAt, n, wo, u_lobe, uniform: int) -> Scatter
-(the delta lobe's direction and weight, delta 1, from the material at the hit, material_at.py;
-`uniform` is 1 under a strategy that samples directions uniformly, for a kind that chooses
-between two lobes).
+A delta kind of the kind table (`MaterialKind.delta`), on the one BSDF interface (the package
+docstring): no density, so eval and pdf are 0 and sample returns the delta lobe.
 """
 import warp as wp
 
@@ -15,5 +11,15 @@ from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 
 
 @wp.func
-def sample_delta(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, uniform: int) -> Scatter:
+def eval(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    return wp.vec3(0.0)
+
+
+@wp.func
+def pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    return 0.0
+
+
+@wp.func
+def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
     return delta_scatter(mirror_dir(n, wo), mat.albedo)

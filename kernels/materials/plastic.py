@@ -1,15 +1,16 @@
 """Plastic: a diffuse base under a smooth-Fresnel Phong coat (the model is eval_plastic's docstring).
 
-The `plastic` kind of the kind table (`material_kinds.MaterialKind.model`): eval_bsdf, and the lobe
-sampling behind the interface of a lobe sampler (kernels/lobe_samplers.py): the coat's Phong lobe
-with probability plastic_coat_probability (the lobe choice number u_lobe), else the base's cosine
-lobe; the pdf is their mixture."""
+The `plastic` kind of the kind table (`material_kinds.MaterialKind.model`), on the one BSDF
+interface (the package docstring): the coat's Phong lobe with probability plastic_coat_probability
+(the lobe choice number u_lobe), else the base's cosine lobe; the pdf is their mixture."""
 import numpy as np
 import warp as wp
 
 from drtlab.estimators.domain_maps import (INV_PI, facing, frame_to_world, mirror_dir, phong_lobe_pdf,
                                            square_to_cosine_hemisphere, square_to_phong_lobe)
 from drtlab.kernels.materials.dielectric import fresnel
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -37,7 +38,7 @@ def fresnel_average(eta: float) -> float:
 
 
 @wp.func
-def eval_plastic(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3, wo: wp.vec3,
+def eval_plastic(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3,
                  wi: wp.vec3) -> wp.vec3:
     """f|cos_i| of plastic, two-sided like diffuse and glossy: with F_o = F(|cos_o|), F_i = F(|cos_i|)
     (fresnel at the coat's ior), alpha the angle between wi and wo's mirror direction and
@@ -62,7 +63,7 @@ def eval_plastic(albedo: wp.vec3, exponent: float, ior: float, n: wp.vec3, wo: w
         ca = wp.dot(mirror_dir(n, wo), wi)
         coat = float(0.0)
         if ca > 0.0:
-            coat = wp.min(fo, fi) * (exponent + 2.0) * 0.5 * INV_PI * wp.pow(ca, exponent)
+            coat = wp.min(fo, fi) * (shape + 2.0) * 0.5 * INV_PI * wp.pow(ca, shape)
         base = (1.0 - fo) * (1.0 - fi) * INV_PI / (1.0 - fresnel_average(ior))
         r = (wp.vec3(coat) + albedo * base) * ci
     return r
@@ -76,20 +77,21 @@ def plastic_coat_probability(co: float, ior: float) -> float:
 
 
 @wp.func
-def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
-    return eval_plastic(albedo, shape, ior, n, wo, wi)
+def eval(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    return eval_plastic(mat.albedo, mat.shape, mat.ior, n, wo, wi)
 
 
 @wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-           u: wp.vec2) -> wp.vec3:
-    if u_lobe < plastic_coat_probability(wp.abs(wp.dot(n, wo)), ior):
-        return frame_to_world(square_to_phong_lobe(u, shape), mirror_dir(n, wo))
-    return frame_to_world(square_to_cosine_hemisphere(u), facing(n, wo))
+def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+    if u_lobe < plastic_coat_probability(wp.abs(wp.dot(n, wo)), mat.ior):
+        return proposal(frame_to_world(square_to_phong_lobe(u, mat.shape), mirror_dir(n, wo)))
+    return proposal(frame_to_world(square_to_cosine_hemisphere(u), facing(n, wo)))
 
 
 @wp.func
-def pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+def pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    shape = mat.shape
+    ior = mat.ior
     cos_o = wp.dot(n, wo)
     cos_i = wp.dot(n, wi)
     p = float(0.0)

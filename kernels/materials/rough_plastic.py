@@ -13,18 +13,21 @@ proposed as beckmann.py / ggx_separable.py propose theirs (Mitsuba's sample_visi
 the proposal), the base by a cosine lobe. Mitsuba's roughplastic is one-sided; drtlab's is
 two-sided, as its `twosided` (the importer's rule).
 
-A kind from the kind table that reads a per-material table (`MaterialKind.table`): its eval_bsdf,
-sample and pdf take the flat MaterialData.table and the material's row offset after `ior`.
+A kind of the kind table that reads a per-material table (`MaterialKind.table`), on the one BSDF
+interface (the package docstring): eval, sample and pdf read the flat MaterialData.table at the
+material's row (MaterialAt.table, .row); `table_row` builds the row on the host.
 """
 import warp as wp
 
 from drtlab.estimators.domain_maps import INV_PI, facing, frame_to_world, square_to_cosine_hemisphere
 from drtlab.kernels.materials import beckmann, ggx_separable
 from drtlab.kernels.materials.dielectric import fresnel
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 from drtlab.kernels.materials import rough_plastic_table as _t
 from drtlab.kernels.materials.rough_plastic_table import table_row  # noqa: F401 (the host half)
 
-__all__ = ["eval_bsdf", "sample", "pdf", "table_row"]
+__all__ = ["eval", "sample", "pdf", "table_row"]
 
 # Offsets in a material's row (rough_plastic_table.py).
 RES = wp.constant(_t.RES)
@@ -53,8 +56,12 @@ def coat_probability(table: wp.array(dtype=float), row: int, co: float) -> float
 
 
 @wp.func
-def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, table: wp.array(dtype=float), row: int,
-              n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+def eval(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> wp.vec3:
+    albedo = mat.albedo
+    shape = mat.shape
+    ior = mat.ior
+    table = mat.table
+    row = mat.row
     cos_o = wp.dot(n, wo)
     cos_i = wp.dot(n, wi)
     if cos_o * cos_i <= 0.0:
@@ -65,9 +72,9 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, table: wp.array(dtype=f
     white = wp.vec3(1.0)
     spec = wp.vec3(0.0)
     if table[row + GGX] > 0.0:
-        spec = ggx_separable.eval_bsdf(white, shape, ior, nf, wo, wi)
+        spec = ggx_separable.eval_facets(white, shape, nf, wo, wi)
     else:
-        spec = beckmann.eval_bsdf(white, shape, ior, nf, wo, wi)
+        spec = beckmann.eval_facets(white, shape, nf, wo, wi)
     wm = wp.normalize(wo + wi)
     r_int = table[row + R_INT]
     d = albedo / (1.0 - r_int)
@@ -79,19 +86,20 @@ def eval_bsdf(albedo: wp.vec3, shape: float, ior: float, table: wp.array(dtype=f
 
 
 @wp.func
-def sample(albedo: wp.vec3, shape: float, ior: float, table: wp.array(dtype=float), row: int,
-           n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> wp.vec3:
+def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
     nf = facing(n, wo)
-    if u_lobe < coat_probability(table, row, wp.abs(wp.dot(n, wo))):
-        if table[row + GGX] > 0.0:
-            return ggx_separable.sample(albedo, shape, ior, nf, wo, 0.0, u)
-        return beckmann.sample(albedo, shape, ior, nf, wo, 0.0, u)
-    return frame_to_world(square_to_cosine_hemisphere(u), nf)
+    if u_lobe < coat_probability(mat.table, mat.row, wp.abs(wp.dot(n, wo))):
+        if mat.table[mat.row + GGX] > 0.0:
+            return proposal(ggx_separable.sample_facets(mat.shape, nf, wo, u))
+        return proposal(beckmann.sample_facets(mat.shape, nf, wo, u))
+    return proposal(frame_to_world(square_to_cosine_hemisphere(u), nf))
 
 
 @wp.func
-def pdf(shape: float, ior: float, table: wp.array(dtype=float), row: int, n: wp.vec3, wo: wp.vec3,
-        wi: wp.vec3) -> float:
+def pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+    shape = mat.shape
+    table = mat.table
+    row = mat.row
     nf = facing(n, wo)
     co = wp.dot(nf, wo)
     ci = wp.dot(nf, wi)
@@ -100,7 +108,7 @@ def pdf(shape: float, ior: float, table: wp.array(dtype=float), row: int, n: wp.
     pc = coat_probability(table, row, co)
     coat = float(0.0)
     if table[row + GGX] > 0.0:
-        coat = ggx_separable.pdf(shape, ior, nf, wo, wi)
+        coat = ggx_separable.pdf_facets(shape, nf, wo, wi)
     else:
-        coat = beckmann.pdf(shape, ior, nf, wo, wi)
+        coat = beckmann.pdf_facets(shape, nf, wo, wi)
     return pc * coat + (1.0 - pc) * ci * INV_PI

@@ -4,15 +4,19 @@ The scene loader reads which keys a kind takes (`MaterialKind.keys`), the kernel
 (`MATERIAL_CODE`) and which of their code paths it needs (features.SPLITTING_KINDS,
 materials.LOBE_CHOICE_KINDS), the lobe tool which kinds have a lobe to plot and how
 (experiments/tools/lobes.py). A new kind is one row here naming its `model`, a module of
-kernels/materials/ with eval_bsdf, sample and pdf (`beckmann.py`; the interface of a lobe sampler,
-kernels/lobe_samplers.py, plus the BSDF itself): two files. The built-in kinds register the same
-way (diffuse.py, phong.py, ...; a module whose sampling follows the strategy's microfacet normals
-has `sampling(microfacet)`). A `delta` kind's module has `sample_delta` instead (mirror.py): it has
-no density to sample or evaluate. Only the emitter, which scatters nothing, has no module.
+kernels/materials/ with the one BSDF interface on the material at a hit (`MaterialAt`):
+eval(mat, n, wo, wi), pdf(mat, n, wo, wi) and sample(mat, n, wo, u_lobe, u) -> Scatter
+(kernels/materials/__init__.py states the contract; a lobe sampler, kernels/lobe_samplers.py, has
+the same sample and pdf): two files. The built-in kinds register the same way (diffuse.py,
+phong.py, mirror.py, rough_plastic.py, ...). What a module has beyond the three is declared here:
+`strategy_sampling` (its `sampling(strategy)`), `table` (its `table_row`). Only the emitter, which
+scatters nothing, has no module.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import numpy as np
 
 
 # GGX alpha in [ROUGHNESS_MIN, 1]: below 1e-3 the surface is a mirror to float32 (the lobe's peak
@@ -31,14 +35,20 @@ class MaterialKind:
     coat: bool = False          # a dielectric coat of index `ior` (> 1) over a diffuse base
     checker: bool = False       # may alternate two albedos (`albedo2`, `checker`)
     emitter: bool = False       # black: it only emits, and scatters nothing
-    model: str = ""             # its module in kernels/materials/ (eval_bsdf, sample, pdf); "" for
-                                # the emitter; a delta kind's module has sample_delta
-    albedo_shape: bool = False  # the kernels' shape argument is the albedo's mean (Mitsuba's plastics
-                                # weigh their lobe choice by it, and pdf_bsdf has no albedo)
+    model: str = ""             # its module in kernels/materials/ (eval, pdf, sample on MaterialAt;
+                                # the package docstring); "" for the emitter
+    albedo_shape: bool = False  # its lobe shape (MaterialAt.shape) is the albedo's mean (Mitsuba's
+                                # plastics weigh their lobe choice by it, and pdf reads no albedo)
     conductor: bool = False     # a metal of complex index `eta` + i `k` (per channel): its facets
-                                # reflect albedo times the conductor Fresnel (conductor.py)
+                                # reflect albedo times the conductor Fresnel (conductor.py, applied
+                                # by its model)
     table: bool = False         # its model reads a row of the flat per-material table
                                 # (MaterialData.table), built on the host by the model's `table_row`
+    delta_lobe: bool = False    # a delta (mirror) lobe beside its density: its `sample` may return
+                                # a delta Scatter, so a uniform proposal cannot stand in for it
+    strategy_sampling: bool = False  # its module's `sampling(strategy)` gives (sample, pdf) as the
+                                # strategy says (GGX normals by `microfacet`; a delta lobe chosen
+                                # with probability 1/2 under the uniform strategy)
 
     @property
     def ior(self) -> bool:
@@ -63,10 +73,17 @@ class MaterialKind:
 
     @property
     def shape_key(self) -> str | None:
-        """The Material field the kernels receive as the lobe's shape parameter (their `exponent`
-        argument): the Phong exponent, GGX's alpha, or the albedo's mean; None for kinds without."""
-        return ("exponent" if self.phong else "roughness" if self.microfacet
-                else "albedo_mean" if self.albedo_shape else None)
+        """The scene-file key that gives the lobe's one shape parameter (`shape`: MaterialData.shape,
+        MaterialAt.shape): the Phong `exponent`, the microfacet `roughness` (alpha); None for kinds
+        whose shape is not a key (the albedo's mean, `albedo_shape`) or that have none."""
+        return "exponent" if self.phong else "roughness" if self.microfacet else None
+
+    def shape(self, material) -> float:
+        """The lobe's shape parameter of `material` (a scene_model Material of this kind): the value
+        of its `shape_key`, the albedo's mean for an `albedo_shape` kind, else 0."""
+        if self.albedo_shape:
+            return float(np.mean(material.albedo))
+        return float(getattr(material, self.shape_key)) if self.shape_key else 0.0
 
 
 # New kinds go at the end: a kind's code is its place here, and the codes of the existing ones stay
@@ -75,21 +92,24 @@ KINDS = (
     MaterialKind("diffuse", checker=True, model="diffuse"),
     MaterialKind("glossy", phong=True, checker=True, model="phong"),
     MaterialKind("mirror", delta=True, model="mirror"),
-    MaterialKind("dielectric", delta=True, transmits=True, model="dielectric"),
+    MaterialKind("dielectric", delta=True, transmits=True, model="dielectric", strategy_sampling=True),
     MaterialKind("glossy_dielectric", phong=True, transmits=True, model="glossy_dielectric"),
     MaterialKind("emitter", emitter=True),
     MaterialKind("plastic", phong=True, coat=True, checker=True, model="plastic"),
-    MaterialKind("ggx", microfacet=True, checker=True, model="ggx"),
-    MaterialKind("ggx_dielectric", microfacet=True, transmits=True, model="ggx_dielectric"),
+    MaterialKind("ggx", microfacet=True, checker=True, model="ggx", strategy_sampling=True),
+    MaterialKind("ggx_dielectric", microfacet=True, transmits=True, model="ggx_dielectric",
+                 strategy_sampling=True),
     MaterialKind("beckmann", microfacet=True, checker=True, model="beckmann"),
     MaterialKind("ggx_separable", microfacet=True, checker=True, model="ggx_separable"),
     MaterialKind("ggx_dielectric_separable", microfacet=True, transmits=True, model="ggx_dielectric_separable"),
-    MaterialKind("smooth_plastic", coat=True, albedo_shape=True, model="smooth_plastic"),
-    MaterialKind("smooth_plastic_nonlinear", coat=True, albedo_shape=True, model="smooth_plastic_nonlinear"),
+    MaterialKind("smooth_plastic", coat=True, albedo_shape=True, model="smooth_plastic", delta_lobe=True,
+                 strategy_sampling=True),
+    MaterialKind("smooth_plastic_nonlinear", coat=True, albedo_shape=True, model="smooth_plastic_nonlinear",
+                 delta_lobe=True, strategy_sampling=True),
     MaterialKind("beckmann_dielectric", microfacet=True, transmits=True, model="beckmann_dielectric"),
     MaterialKind("conductor", delta=True, conductor=True, model="conductor"),
-    MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann"),
-    MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_separable"),
+    MaterialKind("beckmann_conductor", microfacet=True, conductor=True, model="beckmann_conductor"),
+    MaterialKind("ggx_conductor", microfacet=True, conductor=True, model="ggx_conductor"),
     MaterialKind("beckmann_plastic", microfacet=True, coat=True, table=True, model="rough_plastic"),
     MaterialKind("ggx_plastic", microfacet=True, coat=True, table=True, model="rough_plastic"),
     MaterialKind("beckmann_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),

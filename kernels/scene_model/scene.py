@@ -68,11 +68,6 @@ class Material:
     def emissive(self) -> bool:
         return bool(np.any(self.emission > 0.0))
 
-    @property
-    def albedo_mean(self) -> float:
-        """The shape parameter of a kind with `albedo_shape` (material_kinds.MaterialKind)."""
-        return float(np.mean(self.albedo))
-
 
 @dataclass
 class TriangleMesh:

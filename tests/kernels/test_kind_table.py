@@ -1,5 +1,5 @@
 """What every material kind of the kind table (`MaterialKind.model`: a module in kernels/materials/
-with eval_bsdf, sample and pdf) must do in the renderer, whatever its model: every integrator
+with eval, pdf and sample on MaterialAt) must do in the renderer, whatever its model: every integrator
 renders it finite and non-negative, whitted ends a ray at it with direct light (as at ggx), and its
 sampled weights are what eval_bsdf / pdf say. Each model's own statistics live beside it
 (test_beckmann.py, test_ggx_separable.py). The renders here are of the kinds added after the nine
@@ -18,8 +18,8 @@ from bsdf_checks import assert_consistent
 from scene_pieces import glossy_ggx_as
 
 ALL_MODEL_KINDS = [k.name for k in KINDS if k.model]
-# The kinds with a density (a delta kind's module has sample_delta only: no weights to check, and
-# whitted continues its ray) added after the nine.
+# The kinds with a density (a delta kind's eval and pdf are 0: no weights to check, and whitted
+# continues its ray) added after the nine.
 ADDED = [k for k in KINDS[MATERIAL_CODE["ggx_dielectric"] + 1:] if not k.delta]
 MODEL_KINDS = [k.name for k in ADDED if k.model]
 REFLECTING = [k.name for k in ADDED if k.model and not k.transmits]
@@ -28,14 +28,36 @@ TRANSMITTING = [k.name for k in ADDED if k.model and k.transmits]
 RENDERED = [k.name for i, k in enumerate(ADDED)
             if k.model and not (k.table and any(j.table and j.model == k.model for j in ADDED[:i]))]
 # Kinds whose model has a mirror lobe beside its density (kernels/materials/smooth_plastic.py).
-MIRRORED = {k.name for k in KINDS
-            if k.model and hasattr(model_module(k), "delta_reflection")}
+MIRRORED = {k.name for k in KINDS if k.delta_lobe}
+
+
+@pytest.mark.parametrize("kind", ALL_MODEL_KINDS)
+def test_every_model_module_has_the_one_interface(kind):
+    """eval, pdf and sample of every kind's module (delta and table kinds included) take the material
+    at the hit (MaterialAt) and the same arguments, and what a module has beyond them is what its row
+    declares: `sampling` exactly where `strategy_sampling`, `table_row` exactly where `table`."""
+    import warp as wp
+    from drtlab.kernels.materials.material_at import MaterialAt
+    from drtlab.kernels.materials.scatter import Scatter
+    k = KIND_BY_NAME[kind]
+    m = model_module(k)
+    want = {"eval": ((MaterialAt, wp.vec3, wp.vec3, wp.vec3), wp.vec3),
+            "pdf": ((MaterialAt, wp.vec3, wp.vec3, wp.vec3), wp.float32),
+            "sample": ((MaterialAt, wp.vec3, wp.vec3, wp.float32, wp.vec2), Scatter)}
+    as32 = {float: wp.float32}
+    for name, (args, ret) in want.items():
+        fn = getattr(m, name)
+        assert tuple(as32.get(t, t) for t in fn.input_types.values()) == args, (kind, name)
+        r = fn.func.__annotations__["return"]
+        assert as32.get(r, r) is ret, (kind, name)
+    assert hasattr(m, "sampling") == k.strategy_sampling, kind
+    assert hasattr(m, "table_row") == k.table, kind
 
 
 def test_the_table_has_model_kinds():
     assert {"beckmann", "ggx_separable"} <= set(REFLECTING) and "ggx_dielectric_separable" in TRANSMITTING
-    # Every kind that scatters is a model module (a delta one's with sample_delta): bsdf.py has no
-    # kind's code but the emitter's "scatters nothing".
+    # Every kind that scatters is a model module (delta kinds included): bsdf.py has no kind's code
+    # but the emitter's "scatters nothing".
     assert {k.name for k in KINDS if not k.model} == {"emitter"}
 
 

@@ -64,7 +64,8 @@ def test_an_edited_sampler_changes_the_strategy_fingerprint(tmp_path, clean_regi
 @pytest.mark.parametrize("change, words", [
     (lambda t: t.replace('"diffuse",\n', '"mirror",\n'), "kind must be one of"),
     (lambda t: t.replace("wi: wp.vec3) -> float", "wi: float) -> float"), "pdf must take"),
-    (lambda t: t.replace("u: wp.vec2) -> wp.vec3", "u: wp.vec2) -> float"), "sample must return"),
+    (lambda t: t.replace("u: wp.vec2) -> Scatter", "u: wp.vec2) -> wp.vec3"), "sample must return"),
+    (lambda t: t.replace("def cosine_pdf(mat: MaterialAt,", "def cosine_pdf(mat: wp.vec3,"), "pdf must take"),
 ])
 def test_bad_lobe_samplers_are_one_line(clean_registry, tmp_path, change, words):
     (tmp_path / "bad.py").write_text(change(COSINE_OFF_BY_10))

@@ -25,16 +25,17 @@ COSINE_OFF_BY_10 = '''
 import warp as wp
 import drtlab
 from drtlab.estimators.domain_maps import INV_PI, frame_to_world, square_to_cosine_hemisphere
+from drtlab.kernels.materials.material_at import MaterialAt
+from drtlab.kernels.materials.scatter import Scatter, proposal
 
 
 @wp.func
-def cosine_sample(albedo: wp.vec3, shape: float, ior: float, n: wp.vec3, wo: wp.vec3, u_lobe: float,
-                  u: wp.vec2) -> wp.vec3:
-    return frame_to_world(square_to_cosine_hemisphere(u), wp.sign(wp.dot(n, wo)) * n)
+def cosine_sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) -> Scatter:
+    return proposal(frame_to_world(square_to_cosine_hemisphere(u), wp.sign(wp.dot(n, wo)) * n))
 
 
 @wp.func
-def cosine_pdf(shape: float, ior: float, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
+def cosine_pdf(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
     return wp.max(wp.sign(wp.dot(n, wo)) * wp.dot(n, wi), 0.0) * INV_PI * 1.1
 
 

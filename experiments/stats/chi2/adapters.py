@@ -197,8 +197,8 @@ class BSDFSamples:
 
 class BSDFAdapter:
     """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
-    evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, exponent, ior,
-    n, wo) or, for a conductor kind, (..., n, wo, eta, k), `exponent` the lobe's shape (GGX: alpha); a
+    evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, shape, ior,
+    n, wo) or, for a conductor kind, (..., n, wo, eta, k), `shape` the lobe's (MaterialAt.shape); a
     rough plastic kind's table row is built from the case (rough_plastic_table.py); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
     (Strategy.microfacet); `lobes`: registered lobe samplers replacing the built-in lobe sampling of
@@ -217,16 +217,16 @@ class BSDFAdapter:
 
     def _launch(self, mode, case, n, seed, pts=None):
         wp = _wp()
-        kind, albedo, exponent, ior, nrm, wo, *metal = case
+        kind, albedo, shape, ior, nrm, wo, *metal = case
         eta, k = metal or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
         inp, n = input_points(pts, n)
         arrays = outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
         from drtlab.kernels.materials.material_at import MaterialAt
         mat = MaterialAt()
         mat.kind = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
-        mat.albedo, mat.shape, mat.ior = as_vec3(albedo), float(exponent), float(ior)
+        mat.albedo, mat.shape, mat.ior = as_vec3(albedo), float(shape), float(ior)
         mat.eta, mat.k = as_vec3(eta), as_vec3(k)
-        mat.table, mat.row = _table(mat.kind, albedo, exponent, ior), 0
+        mat.table, mat.row = _table(mat.kind, albedo, shape, ior), 0
         wp.launch(self.kernel, dim=n, device="cpu",
                   inputs=[int(mode), mat, as_vec3(nrm), as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
@@ -259,7 +259,7 @@ class BSDFAdapter:
         return pdf
 
 
-def _table(kind: int, albedo, exponent: float, ior: float):
+def _table(kind: int, albedo, shape: float, ior: float):
     """The case's row of MaterialData.table (a kind whose model reads one, MaterialKind.table),
     else one zero."""
     from drtlab.kernels.materials.kinds import model_module
@@ -267,7 +267,7 @@ def _table(kind: int, albedo, exponent: float, ior: float):
     spec = KINDS[kind]
     row = np.zeros(1, dtype=np.float32)
     if spec.table:
-        row = model_module(spec).table_row(spec.name, albedo, exponent, ior)
+        row = model_module(spec).table_row(spec.name, albedo, shape, ior)
     return _wp().array(row, dtype=float, device="cpu")
 
 
