@@ -23,7 +23,7 @@ def register_pointset(pointset, check: bool = True):
     again replaces the set (an edited notebook cell). With `check`, the set is compiled and drawn
     once: a wrong signature, a compile error or values outside [0, 1) are one InputError. Returns
     the registered set (with its fingerprint)."""
-    from drtlab.estimators.plugins import add_pointset
+    from drtlab.estimators.plugin_checks import add_pointset
     return add_pointset(pointset, check)
 
 
@@ -99,40 +99,10 @@ def register_strategy(name: str, description: str, like: str = "importance", *,
     selection (a built-in or `register_light_selection`'s), another MIS heuristic ("power" or
     "balance", kernels/mis.py) and/or lobe samplers (`register_lobe_sampler`'s, one per material
     kind); used as POINTS+NAME in any sampler."""
-    from dataclasses import replace
-
-    from drtlab.errors import InputError
-    from drtlab.estimators.plugins import add_strategy
-    from drtlab.estimators.strategies import MIS_HEURISTICS, STRATEGIES
-    from drtlab.kernels.light_selection import LIGHT_SELECTIONS
-    if like not in STRATEGIES:
-        raise InputError("like", f"must be a registered strategy ({', '.join(STRATEGIES)}), got {like!r}")
-    base = STRATEGIES[like]
-    if (light_selection is not None or heuristic is not None) and base.light is None:
-        raise InputError("like", f"must be a strategy that samples lights to change its light selection or "
-                                 f"heuristic ({', '.join(k for k, v in STRATEGIES.items() if v.light)}), "
-                                 f"got {like!r}")
-    light, fingerprint, lobes = base.light, base.fingerprint, base.lobes
-    if light_selection is not None:
-        if light_selection not in LIGHT_SELECTIONS:
-            raise InputError("light_selection", f"unknown light selection {light_selection!r}; "
-                                                f"registered: {', '.join(LIGHT_SELECTIONS)}")
-        light = replace(light, pick=light_selection)
-        fingerprint = LIGHT_SELECTIONS[light_selection].fingerprint
-    if heuristic is not None:
-        if heuristic not in MIS_HEURISTICS or not light.mis:
-            raise InputError("heuristic", f"must be one of {', '.join(MIS_HEURISTICS)} for a strategy that "
-                                          f"combines by MIS, got {heuristic!r} (like={like!r})")
-        light = replace(light, heuristic=heuristic)
-    if lobe_samplers is not None:
-        from drtlab.kernels.lobe_samplers import composed
-        if not base.lobe:
-            raise InputError("like", f"must sample BSDF lobes to compose lobe samplers "
-                                     f"({', '.join(k for k, v in STRATEGIES.items() if v.lobe)}), got {like!r}")
-        lobes, lobe_fp = composed(lobe_samplers)
-        fingerprint = f"{fingerprint}:{lobe_fp}"
-    return add_strategy(replace(base, name=name, description=description, light=light, lobes=lobes,
-                                fingerprint=fingerprint))
+    from drtlab.estimators.plugin_checks import add_strategy
+    from drtlab.kernels.strategy_composition import compose_strategy
+    return add_strategy(compose_strategy(name, description, like, light_selection=light_selection,
+                                         heuristic=heuristic, lobe_samplers=lobe_samplers))
 
 
 def register_integrator(name: str, make, description: str = "", *, unbiased: bool, handles=(),

@@ -30,7 +30,7 @@ import re
 import sys
 import tempfile
 import traceback
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 from drtlab.errors import InputError
@@ -38,7 +38,6 @@ from drtlab.fields import file_kind, name_lengths
 
 ENTRY_POINT_GROUP = "drtlab.plugins"
 NAME = re.compile(r"^[a-z][a-z0-9_-]{0,39}$")
-CHECK_POINTS, CHECK_DIMS = 64, 12              # values drawn per (seed, pixel) at registration
 
 
 @dataclass(frozen=True)
@@ -91,19 +90,6 @@ def _source_fingerprint(*functions) -> str:
     return h.hexdigest()[:16]
 
 
-def _reserved(name: str) -> str | None:
-    from drtlab.estimators import registry
-    if name in registry.POINTSET_MODULES:
-        return "a built-in point set"
-    if name in registry.PRESETS:
-        return "a built-in preset"
-    if name in registry.BUILT_IN_STRATEGIES:
-        return "a built-in strategy"
-    if name in registry.BUILT_IN_INTEGRATORS:
-        return "a built-in integrator"
-    return None
-
-
 def check_warp_function(fn, what: str, args: tuple, ret, who: str, shape: str | None = None) -> None:
     """`fn` is a Warp function taking `args` (types) and returning `ret`, else one InputError naming
     `what`; `shape` words the expected parameters (default: the type names). float and int stand
@@ -125,13 +111,6 @@ def check_warp_function(fn, what: str, args: tuple, ret, who: str, shape: str | 
         raise InputError(who, f"{what} must return {name(ret)}, got {name(r)!r}")
 
 
-def _check_signature(ps, who: str) -> None:
-    import warp as wp
-    for attr, ret in (("get1d", float), ("get2d", wp.vec2)):
-        check_warp_function(getattr(ps, attr), attr, (wp.uint32,) * 5, ret, who,
-                            "(seed, pixel, index, dim, spp), each wp.uint32")
-
-
 def user_frame(exc: BaseException, files: set[str]) -> str:
     """'file:line' of the deepest frame of the exception in one of `files`, else ''."""
     where = ""
@@ -149,43 +128,6 @@ def last_words(exc: BaseException) -> str:
     parts = [p.strip(" '\"\n") for p in re.split(r"\\n;|\n;|;\n", str(exc))]
     parts = [p for p in parts if p and not p.startswith("Error while parsing function")]
     return (parts[-1] if parts else type(exc).__name__).splitlines()[-1].strip(" '\"")
-
-
-def _check_values(ps, who: str) -> None:
-    """Draw CHECK_POINTS x CHECK_DIMS values at two seeds and pixels through a real kernel: the set
-    must compile and give finite values in [0, 1)."""
-    import numpy as np
-
-    from drtlab.estimators.points import points
-    files = {getattr(getattr(ps, a), "func").__code__.co_filename for a in ("get1d", "get2d")}
-    for seed, pixel in ((0, 0), (7, 12345)):
-        try:
-            u = points(ps, CHECK_POINTS, CHECK_DIMS, seed=seed, pixel=pixel)
-        except InputError:
-            raise
-        except Exception as e:                                    # noqa: BLE001 (user code)
-            where = user_frame(e, files)
-            raise InputError(who, f"point set '{ps.name}' does not compile"
-                                  f"{' at ' + where if where else ''}: {last_words(e)}") from None
-        bad = ~(np.isfinite(u) & (u >= 0.0) & (u < 1.0))
-        if bad.any():
-            i, d = (int(v) for v in np.argwhere(bad)[0])
-            raise InputError(who, f"point set '{ps.name}' gives {float(u[i, d])!r} at sample {i}, dimension "
-                                  f"{d} (seed {seed}, pixel {pixel}); values must lie in [0, 1)")
-
-
-def checked_name(obj, cls, kind: str, words: str) -> str:
-    """`obj` is a `cls` with a free, well-formed name; returns what its errors name."""
-    who = who_registers(kind)
-    if not isinstance(obj, cls):
-        raise InputError(who, f"register_{kind} takes a drtlab {cls.__name__}, got {type(obj).__name__}")
-    if not isinstance(obj.name, str) or not NAME.match(obj.name):
-        raise InputError(who, f"a {words}'s name is lower-case letters, digits, - and _ (at most 40, "
-                              f"starting with a letter), got {obj.name!r}")
-    clash = _reserved(obj.name)
-    if clash:
-        raise InputError(who, f"'{obj.name}' is {clash}; give your {words} another name")
-    return who
 
 
 def who_registers(kind: str) -> str:
@@ -211,33 +153,6 @@ def attribute(kind: str, name: str, *functions) -> tuple[str, str]:
     who, fp = who_registers(kind), fingerprint("", *functions)
     note(kind, name)
     return who, fp
-
-
-def add_strategy(strategy):
-    """Add a Strategy under its name (drtlab.register_strategy composes it), its fingerprint
-    mixed with the importing plugin's source."""
-    from drtlab.estimators.strategies import STRATEGIES, Strategy
-    checked_name(strategy, Strategy, "strategy", "strategy")
-    strategy = replace(strategy, fingerprint=fingerprint(strategy.fingerprint))
-    STRATEGIES[strategy.name] = strategy
-    note("strategy", strategy.name)
-    return strategy
-
-
-def add_pointset(ps, check: bool = True):
-    """Add a PointSet under its name (drtlab.register_pointset): checked (signature; with `check`,
-    compiled and drawn once), fingerprinted."""
-    from drtlab.estimators.pointsets.base import PointSet
-    from drtlab.estimators.registry import POINTSETS
-    who = checked_name(ps, PointSet, "pointset", "point set")
-    _check_signature(ps, who)
-    ps = replace(ps, fingerprint=fingerprint(ps.fingerprint, ps.get1d, ps.get2d, ps.pixel_key,
-                                             ps.count_word))
-    if check:
-        _check_values(ps, who)
-    POINTSETS[ps.name] = ps
-    note("pointset", ps.name)
-    return ps
 
 
 def compile_error(e: BaseException, what: str, functions) -> str:
@@ -410,14 +325,3 @@ def ensure_shipped(items: tuple) -> None:
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text)
         load_plugin(str(path), "worker plugin")
-
-
-def sampler_fingerprint(sampler: str, integrator: str | None = None) -> str:
-    """The fingerprint of a sampler's point set and strategy, and of `integrator` when given (""
-    for the built-ins): what a run's key mixes in, so an edited plugin re-renders its cells."""
-    from drtlab.estimators.integrators import integrator_fingerprint
-    from drtlab.estimators.registry import parse_sampler
-    spec = parse_sampler(sampler)
-    both = [f for f in (spec.pointset.fingerprint, spec.strategy.fingerprint,
-                        integrator_fingerprint(integrator)) if f]
-    return "" if not both else both[0] if len(both) == 1 else _sha(":".join(both).encode())[:16]

@@ -138,7 +138,8 @@ def _mis_and_hard_cases(runs: dict) -> list[Line]:
 
 def check(name: str, seed: int = 0, level: float = 0.01) -> Scorecard:
     """The scorecard of registered light selection `name` (module docstring)."""
-    import drtlab
+    from drtlab.estimators.plugin_checks import add_strategy
+    from drtlab.kernels.strategy_composition import compose_strategy
     from drtlab.estimators.strategies import STRATEGIES
     t0 = time.perf_counter()
     per_line = per_test(level, TESTS)
@@ -149,8 +150,8 @@ def check(name: str, seed: int = 0, level: float = 0.01) -> Scorecard:
     card.lines += _mis_and_hard_cases(runs)
     strategy = f"check-{name}"
     if strategy not in STRATEGIES:
-        drtlab.register_strategy(strategy, f"importance with the {name} light selection", like="importance",
-                                 light_selection=name)
+        add_strategy(compose_strategy(strategy, f"importance with the {name} light selection",
+                                      like="importance", light_selection=name))
     sampler = f"independent+{strategy}"
     card.lines.append(furnace_unbiased(sampler, seed, per_line))
     card.lines.append(furnace_cost(sampler, "independent+importance", "the power pick's"))

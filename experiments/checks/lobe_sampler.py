@@ -130,7 +130,8 @@ def _cost(mine, built_in, kind: str) -> Line:
 
 def check(name: str, seed: int = 0, level: float = 0.01) -> Scorecard:
     """The scorecard of registered lobe sampler `name` (module docstring)."""
-    import drtlab
+    from drtlab.estimators.plugin_checks import add_strategy
+    from drtlab.kernels.strategy_composition import compose_strategy
     from drtlab.estimators.strategies import STRATEGIES
     from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
     t0 = time.perf_counter()
@@ -147,8 +148,8 @@ def check(name: str, seed: int = 0, level: float = 0.01) -> Scorecard:
         from drtlab.experiments.checks.pointset import furnace_unbiased
         strategy = f"check-{name}"
         if strategy not in STRATEGIES:
-            drtlab.register_strategy(strategy, f"importance with the {name} lobe sampler", like="importance",
-                                     lobe_samplers=[name])
+            add_strategy(compose_strategy(strategy, f"importance with the {name} lobe sampler",
+                                          like="importance", lobe_samplers=[name]))
         card.lines.append(furnace_unbiased(f"independent+{strategy}", seed, per_line))
     card.lines.append(_cost(mine, built_in, kind))
     card.seconds = time.perf_counter() - t0

@@ -193,7 +193,7 @@ class _Sweep(CellGrowth):
         """The code a sampler's runs were rendered and scored by: the backend's, with a plugin point
         set's fingerprint (an edited plugin re-renders its cells, and only those) and the plugin
         metrics' (a run keeps no image to score again)."""
-        from drtlab.estimators.plugins import sampler_fingerprint
+        from drtlab.estimators.plugin_checks import sampler_fingerprint
         fps = [fp for fp in [sampler_fingerprint(sampler, integrator)] + [m.fingerprint for m in self._plugin_metrics()] if fp]
         return self.backend.code_version if not fps else short_hash([self.backend.code_version, *fps], 16)
 

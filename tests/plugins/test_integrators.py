@@ -13,7 +13,7 @@ from scipy import stats
 import drtlab
 from drtlab.errors import InputError
 from drtlab.estimators import dimensions as dims
-from drtlab.estimators import plugins
+from drtlab.estimators import plugin_checks, plugins
 from drtlab.estimators.integrators import INTEGRATORS
 from drtlab.experiments.stats.hypothesis_tests import sidak
 
@@ -113,15 +113,15 @@ def test_an_edited_integrator_changes_its_kernel_and_run_keys(tmp_path, clean_re
     spec = parse_sampler("independent")
     fp1 = INTEGRATORS["seen"].fingerprint
     key1 = variant_key(small_features("seen"), spec, "cpu")
-    run1 = plugins.sampler_fingerprint("independent", "seen")
+    run1 = plugin_checks.sampler_fingerprint("independent", "seen")
     plugins.load_plugin(path)                                 # unchanged: the same record
     assert INTEGRATORS["seen"].fingerprint == fp1
     _write(path, scale="2.0", check=", check=False")          # the user edits it
     plugins.load_plugin(path)
     assert INTEGRATORS["seen"].fingerprint != fp1
     assert variant_key(small_features("seen"), spec, "cpu") != key1
-    assert plugins.sampler_fingerprint("independent", "seen") not in ("", run1)
-    assert plugins.sampler_fingerprint("independent", "path") == ""
+    assert plugin_checks.sampler_fingerprint("independent", "seen") not in ("", run1)
+    assert plugin_checks.sampler_fingerprint("independent", "path") == ""
     assert INTEGRATORS["seen"].biased and not INTEGRATORS["seen"].unbiased
     assert any(s[0] == str(path) for s in plugins.shipped())  # what a Dask worker loads
 
