@@ -317,8 +317,11 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
         run()
     except InputError as e:
         sys.modules.pop(module, None)
+        # A refused registration names the line of the user's file that made it.
+        where = user_frame(e, {path} if path else set())
+        message = e.message if not where or path in e.message else f"{e.message} (at {where})"
         raise InputError(label if e.field in (label, "pointset") else f"{label}: {e.field}",
-                         e.message) from None
+                         message) from None
     except SystemExit as e:
         # sys.exit() (or exit()) at import would end drtlab itself, silently, with the plugin's code.
         sys.modules.pop(module, None)
