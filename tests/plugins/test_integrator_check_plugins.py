@@ -4,8 +4,10 @@ fault: the built-in path tracer copied into a plugin (as the docs say to start),
 roulette hand-written without dividing the survivors by their probability, must fail
 `unbiased: indirect` (the one check scene deep enough for roulette to act). A plugin is told the
 scene's roulette (`api.features.roulette`) as path is; were it not, the copy would never roulette
-and the check could not see the bug. Level: the scorecard's 0.01, Sidak over its p-valued lines;
-fixed seeds (the check's seed 0)."""
+and the check could not see the bug. Every effect a registration may claim has its scene: a
+next-event-only integrator that ignores point lights passes the direct-light lines and fails its
+claim to handle point lights. Level: the scorecard's 0.01, Sidak over its p-valued lines; fixed
+seeds (the check's seed 0)."""
 from drtlab.estimators import plugins
 from drtlab.experiments.checks import integrator_scenes as S
 from drtlab.experiments.checks.integrator import check
@@ -56,3 +58,69 @@ def test_a_users_roulette_without_reweighting_fails_the_check(tmp_path, clean_re
     assert not card.passed and v["unbiased: indirect"] is False, "\n".join(card.text())
     # what roulette does not reach still holds: the direct light (depth 2), determinism, finite values
     assert v["unbiased: direct"] and v["threads and tiles"] and v["hard cases"]
+
+
+def test_every_effect_a_registration_may_claim_has_a_scene_showing_it():
+    from drtlab.estimators.integrators import EFFECTS
+    assert S.EFFECTS is EFFECTS
+    shows = {"direct": "area_lights", "environment": "environment", "point_lights": "delta_lights",
+             "lens": "lens", "motion": "motion", "meshes": "meshes", "indirect": "roulette"}
+    for effect in EFFECTS:
+        f = features_of(scene_from_dict(S.effect_scene(effect)), "path")
+        assert getattr(f, shows.get(effect, "area_lights")), effect
+    kinds = {e: features_of(scene_from_dict(S.effect_scene(e)), "path").kinds for e in EFFECTS}
+    assert "mirror" in kinds["specular"] and "dielectric" in kinds["transmission"]
+
+
+# A next-event-only integrator written from the docs: what the camera sees emitting, plus one
+# area-light sample at the first hit. Unbiased for direct light from area lights; it never looks
+# at point or directional lights, so a claim to handle them is false and must fail.
+NEXT_EVENT_ONLY = '''
+import warp as wp
+import drtlab
+from drtlab.kernels.device_scene import SceneData
+
+
+def make(api):
+    intersect, emitted, kind_of, material_at = api.intersect, api.emitted, api.kind, api.material_at
+    is_delta, shading_normal, eval_bsdf = api.is_delta, api.shading_normal, api.eval_bsdf
+    pick_light, sample_light, light_visible = api.pick_light, api.sample_light, api.light_visible
+    get1d, get2d = api.get1d, api.get2d
+    CHOICE, POSITION, EMITTER = api.dim("light_choice"), api.dim("light_position"), api.emitter
+
+    @wp.func
+    def trace(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32, spp: wp.uint32,
+              o: wp.vec3, d: wp.vec3, dt: float) -> wp.vec3:
+        h = intersect(sd, o, d, 1.0e30, dt)
+        if h.index < 0:
+            return sd.background
+        wo = -d
+        L = wp.vec3(0.0)
+        if h.light >= 0:
+            L += emitted(sd, h, wo)
+        kind = kind_of(sd, h.material)
+        if kind == wp.static(EMITTER) or is_delta(kind) or sd.lights.n_area == 0:
+            return L
+        mat = material_at(sd, h.material, h.uv)
+        li = pick_light(sd, h.p, get1d(seed, pix, idx, CHOICE(0), spp))
+        ls = sample_light(sd, li, h.p, get2d(seed, pix, idx, POSITION(0), spp), 0, dt)
+        if ls.valid == 1 and ls.pdf > 0.0:
+            if light_visible(sd, h, li, ls, dt) == 1:
+                L += wp.cw_mul(eval_bsdf(mat, shading_normal(h), wo, ls.wi), ls.radiance) / ls.pdf
+        return L
+
+    return trace
+
+
+drtlab.register_integrator("next-event-only", make, "one light sample", unbiased=True,
+                           handles=("direct", "point_lights"))
+'''
+
+
+def test_a_false_claim_to_handle_point_lights_fails_its_scene(tmp_path, clean_registry):
+    path = tmp_path / "next_event_only.py"
+    path.write_text(NEXT_EVENT_ONLY)
+    plugins.load_plugin(path)
+    v = {x.name: x.passed for x in check("next-event-only").lines}
+    assert v["unbiased: direct"] and v["white furnace"] and v["convergence"], v
+    assert v["unbiased: point_lights"] is False, v
