@@ -248,7 +248,9 @@ def compile_error(e: BaseException, what: str, functions) -> str:
         if code is not None:
             files.add(code.co_filename)
     where = user_frame(e, files)
-    return f"{what} does not compile{' at ' + where if where else ''}: {last_words(e)}"
+    # Warp names a function made in a factory FACTORY__locals__NAME: the user knows it as NAME.
+    why = re.sub(r"\b\w+__locals__", "", last_words(e))
+    return f"{what} does not compile{' at ' + where if where else ''}: {why}"
 
 
 # ---------------------------------------------------------------------------------------------------
