@@ -163,7 +163,9 @@ def compile_error(e: BaseException, what: str, functions) -> str:
         if code is not None:
             files.add(code.co_filename)
     where = user_frame(e, files)
-    return f"{what} does not compile{' at ' + where if where else ''}: {last_words(e)}"
+    # Warp names a function made in a factory FACTORY__locals__NAME: the user knows it as NAME.
+    why = re.sub(r"\b\w+__locals__", "", last_words(e))
+    return f"{what} does not compile{' at ' + where if where else ''}: {why}"
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -232,8 +234,11 @@ def load_plugin(spec, field: str = "--plugin", base: Path | None = None) -> Plug
         run()
     except InputError as e:
         sys.modules.pop(module, None)
+        # A refused registration names the line of the user's file that made it.
+        where = user_frame(e, {path} if path else set())
+        message = e.message if not where or path in e.message else f"{e.message} (at {where})"
         raise InputError(label if e.field in (label, "pointset") else f"{label}: {e.field}",
-                         e.message) from None
+                         message) from None
     except SystemExit as e:
         # sys.exit() (or exit()) at import would end drtlab itself, silently, with the plugin's code.
         sys.modules.pop(module, None)

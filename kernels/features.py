@@ -9,6 +9,10 @@ from drtlab.errors import InputError
 from drtlab.kernels.scene_model.material_kinds import kinds_where
 from drtlab.kernels.scene_model.scene import Scene
 
+# The built-in integrators that never roulette: their variants carry no roulette flag. Every other
+# integrator (path, and every plugin's) is told the scene's `russian_roulette` (api.features.roulette).
+ROULETTE_FREE = ("whitted", "drt", "direct")
+
 # Faults a test may compile into a kernel to check that a statistical test rejects a wrong estimator.
 DROP_COSINE = "drop_cosine"         # diffuse/glossy f|cos| loses its cosine (light samples, scattering)
 PDF_HIGH_10PCT = "pdf_high_10pct"   # scattered rays are weighted as if their pdf were 10% higher
@@ -107,7 +111,7 @@ class Features:
     area_lights: bool
     point_lights: bool
     dir_lights: bool
-    roulette: bool          # Russian roulette (path only)
+    roulette: bool          # Russian roulette (path and plugin integrators; not ROULETTE_FREE)
     background: bool        # escaping rays carry radiance
     # Deliberately wrong estimators, compiled in only for the tests' negative controls (see FAULTS).
     faults: frozenset = frozenset()
@@ -125,8 +129,8 @@ class Features:
     bsdf_samples: int = 1
 
     def __post_init__(self):
-        if self.roulette and self.integrator != "path":
-            raise ValueError(f"Russian roulette is for the path integrator, not {self.integrator}")
+        if self.roulette and self.integrator in ROULETTE_FREE:
+            raise ValueError(f"{self.integrator} has no Russian roulette")
 
     @property
     def whitted(self) -> bool:
@@ -198,7 +202,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         area_lights=bool(scene.emitter_shapes()),
         point_lights=bool(scene.point_lights),
         dir_lights=bool(scene.directional_lights),
-        roulette=scene.russian_roulette and integrator == "path",
+        roulette=scene.russian_roulette and integrator not in ROULETTE_FREE,
         background=bool(np.any(np.asarray(scene.background) > 0)),
         meshes=any(shape.kind == "mesh" for shape in scene.shapes),
         sphere_bvh=uses_sphere_bvh(scene),

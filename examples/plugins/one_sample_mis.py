@@ -23,11 +23,11 @@ DIMENSIONS = (("technique", 1),)
 
 def make(api):
     f = api.features
-    MESHES, ENV, DELTA_LIGHTS = f.meshes, f.environment, f.delta_lights
+    MESHES, ENV, DELTA_LIGHTS, RR = f.meshes, f.environment, f.delta_lights, f.roulette
     # The light technique needs area lights a strategy samples; else c = 0 (the BSDF alone).
     C = LIGHT_PROB if (f.sampled_area_lights and api.strategy.light is not None) else 0.0
     LOBE_CHOICE, DEPTH_CAP, EMITTER = api.lobe_choice, api.depth_cap, api.emitter
-    get1d, get2d = api.get1d, api.get2d
+    get1d, get2d, roulette, ROULETTE = api.get1d, api.get2d, api.roulette, api.dim("roulette")
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
     LOBE, DIRECTION, TECHNIQUE = api.dim("lobe_choice"), api.dim("direction"), api.dim("technique")
     intersect, emitted, env_radiance = api.intersect, api.emitted, api.env_radiance
@@ -75,6 +75,11 @@ def make(api):
             kind = kind_of(sd, h.material)
             if kind == wp.static(EMITTER):
                 break
+            if wp.static(RR):      # the scene's Russian roulette, as path tracing plays it
+                if depth >= sd.rr_depth:
+                    beta = roulette(beta, get1d(seed, pix, idx, ROULETTE(depth), spp))
+                    if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
+                        break
             mat = material_at(sd, h.material, h.uv)
             ns = shading_normal(h)
             chose_light = int(0)

@@ -22,10 +22,10 @@ DIMENSIONS = (("split_light", 3 * (SPLITS - 1)),)
 
 def make(api):
     f = api.features
-    MESHES, ENV, DELTA_LIGHTS = f.meshes, f.environment, f.delta_lights
+    MESHES, ENV, DELTA_LIGHTS, RR = f.meshes, f.environment, f.delta_lights, f.roulette
     NEE, CHOICE_FROM, LOBE_CHOICE = api.next_events, api.choice_from, api.lobe_choice
     DEPTH_CAP, EMITTER = api.depth_cap, api.emitter
-    get1d, get2d = api.get1d, api.get2d
+    get1d, get2d, roulette, ROULETTE = api.get1d, api.get2d, api.roulette, api.dim("roulette")
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
     LOBE, DIRECTION, SPLIT = api.dim("lobe_choice"), api.dim("direction"), api.dim("split_light")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
@@ -60,6 +60,11 @@ def make(api):
             kind = kind_of(sd, h.material)
             if kind == wp.static(EMITTER):
                 break
+            if wp.static(RR):      # the scene's Russian roulette, as path tracing plays it
+                if depth >= sd.rr_depth:
+                    beta = roulette(beta, get1d(seed, pix, idx, ROULETTE(depth), spp))
+                    if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
+                        break
             mat = material_at(sd, h.material, h.uv)
             ns = shading_normal(h)
             if not is_delta(kind):

@@ -4,7 +4,7 @@ checks its built-in peers get in the test suite, as one scorecard. Every render 
 a deliberately wrong estimator compiled in (features.FAULTS) as if it were a broken plugin.
 
 Scenes (experiments/checks/integrator_scenes.py): one per effect the integrator claims (`handles`;
-the built-ins' claims in CLAIMS until their registration carries them), the white furnace (every
+every effect of estimators/integrators.EFFECTS has one), the white furnace (every
 pixel exactly Le (1 + rho)) and the hard cases. Sampler `SAMPLER` (independent points, so the runs'
 pixels are independent), RUNS renders of RES pixels at SPP per scene, fixed seeds from `seed`.
 
@@ -46,18 +46,16 @@ BOOTSTRAP = 400
 # Independent samples: an unbiased integrator's RMSE falls as N^-0.5; a bias flattens the slope
 # towards 0 as N grows. Judged: the slope's bootstrap 97.5% end below SLOPE_MAX.
 SLOPE_MAX = -0.4
-# What the built-ins claim while their registration does not say (Integrator.handles supersedes it).
-CLAIMS = {"path": S.EFFECTS,
-          "drt": tuple(e for e in S.EFFECTS if e != "indirect"),
-          "whitted": ("direct", "specular", "transmission")}
+# What an entry that names no effect (`handles` empty) is checked on.
 DEFAULT_CLAIMS = ("direct",)
 
 
 def claims(name: str) -> tuple[str, ...]:
-    """The effects integrator `name` claims to handle: its registration's `handles`, else CLAIMS."""
+    """The effects integrator `name` claims to handle: its registration's `handles` (each one of
+    estimators/integrators.EFFECTS, every one with a scene), else DEFAULT_CLAIMS."""
     from drtlab.estimators.integrators import INTEGRATORS
     handles = getattr(INTEGRATORS[name], "handles", None)
-    return tuple(handles) if handles else CLAIMS.get(name, DEFAULT_CLAIMS)
+    return tuple(handles) if handles else DEFAULT_CLAIMS
 
 
 def claims_unbiased(name: str) -> bool:

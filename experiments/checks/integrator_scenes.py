@@ -12,22 +12,28 @@ a narrower estimand, such as drt without diffuse interreflection, still agrees: 
     specular      a mirror floor and a Phong sphere (10) under the two lights (depth 3)
     transmission  a glass sphere (ior 1.5) on a Phong floor (10) under the two lights (depth 4)
     environment   the direct scene under a constant environment as well (depth 2)
-    dof           the direct scene through a thin lens (aperture 0.15, focused on the sphere)
+    point_lights  the direct scene with a point light and a directional light as well (depth 2)
+    lens          the direct scene through a thin lens (aperture 0.15, focused on the sphere)
     motion        the direct scene over an open shutter, the sphere and the sphere light moving
+    meshes        the direct scene with the sphere a displaced-sphere mesh (smooth normals) and the
+                  quad light an emitting mesh disk (depth 2)
+
+The effects are the registry's (estimators/integrators.EFFECTS), one scene each.
 
 Every scene is built from the same shape types and material kinds (lights are black diffuse
 emitters; KIT adds tiny spheres of the other kinds 50 units below the floor, where nothing but a
-stray ray 1e-7 of whose directions point there reaches them), so all but the environment scene
-compile to one kernel variant per integrator: the check costs two compilations, not ten.
+stray ray 1e-7 of whose directions point there reaches them), so all but the environment, point
+light and mesh scenes compile to one kernel variant per integrator: the check costs at most four
+compilations, not twelve.
 """
 from __future__ import annotations
 
 import copy
 
+from drtlab.estimators.integrators import EFFECTS
 from drtlab.experiments.audit.renderer import EXACT as FURNACE_EXACT
 from drtlab.experiments.audit.renderer import furnace_scene
 
-EFFECTS = ("direct", "indirect", "glossy", "specular", "transmission", "environment", "dof", "motion")
 RES = (16, 12)
 MATERIALS = {
     "floor": {"kind": "diffuse", "albedo": [0.7, 0.7, 0.7]},
@@ -97,7 +103,19 @@ def effect_scene(effect: str, res=RES) -> dict:
         d = _scene("a constant environment", [FLOOR, BALL] + lights, 2)
         d["environment"] = {"kind": "constant", "radiance": [0.4, 0.5, 0.6]}
         return d
-    if effect == "dof":
+    if effect == "point_lights":
+        d = _scene("a point and a directional light", [FLOOR, BALL] + lights, 2)
+        d["lights"] = [{"kind": "point", "position": [0.9, 1.4, -0.3], "intensity": [1.5, 1.2, 1.0]},
+                       {"kind": "directional", "direction": [0.3, -1.0, 0.4], "irradiance": [0.3, 0.3, 0.4]}]
+        return d
+    if effect == "meshes":
+        ball = {"kind": "mesh", "material": "clay", "generate": "displaced_sphere",
+                "center": BALL["center"], "radius": BALL["radius"], "subdivisions": 2}
+        disk = {"kind": "mesh", "material": "panel", "generate": "disk", "radius": 0.4,
+                "transform": {"rotate": {"axis": [1.0, 0.0, 0.0], "degrees": 90.0},
+                              "translate": [-0.8, 2.0, 1.2]}}
+        return _scene("meshes", [FLOOR, ball, LAMP, disk], 2)
+    if effect == "lens":
         cam = {**CAMERA, "aperture_radius": 0.15, "focus_distance": 4.5}
         return _scene("a thin lens", [FLOOR, BALL] + lights, 2, camera=cam)
     if effect == "motion":

@@ -20,8 +20,8 @@ camera sample. docs/plugins.md states each function's contract; in short:
     camera     camera_ray(sd, seed, pix, idx, spp, px, py) -> CameraRay
     MIS        mis_weight(a, b) (the strategy's heuristic), power_heuristic, balance_heuristic
     roulette   roulette(beta, u) -> the survivor's throughput beta / q, or 0 (killed)
-    numbers    get1d(seed, pix, idx, dim, spp), get2d(...); dim(depth, name) -> the uint32 dimension
-               of a named decision at a bounce (the built-in ones and the integrator's own DIMENSIONS)
+    numbers    get1d(seed, pix, idx, dim, spp), get2d(...); dim(name)(depth) -> the uint32
+               dimension of a named decision at a bounce (the built-in ones and the integrator's own DIMENSIONS)
 
 The suite's negative controls (features.FAULTS) and the profiler's probes (features.REPEATS) are
 applied here, to the functions handed out (kernels/integrators/probes.py), so that no integrator's

@@ -31,7 +31,8 @@ def test_drt_passes_its_scorecard_from_the_command_line(tmp_path):
                        capture_output=True, text=True, cwd=tmp_path)
     assert r.returncode == 0, r.stdout + r.stderr
     judged = {x["name"]: x["passed"] for x in json.loads(out.read_text())["lines"] if x["passed"] is not None}
-    # drt claims every effect but diffuse interreflection
+    # drt claims every effect but diffuse interreflection, and each claim gets its scene's line
+    assert set(claims("drt")) == set(EFFECTS) - {"indirect"}
     assert set(judged) == {f"unbiased: {e}" for e in EFFECTS if e != "indirect"} | {
         "white furnace", "threads and tiles", "hard cases", "convergence"}
     assert all(judged.values())
@@ -62,7 +63,9 @@ def test_a_biased_integrator_has_its_unbiasedness_reported_not_judged():
     card = check("whitted")
     v = _verdicts(card)
     assert card.tests == 0 and card.passed
-    assert v["white furnace"] is None and v["unbiased: direct"] is None and v["convergence"] is None
+    assert claims("whitted") == ("specular", "point_lights")
+    assert v["white furnace"] is None and v["convergence"] is None
+    assert v["unbiased: specular"] is None and v["unbiased: point_lights"] is None
     furnace = next(x for x in card.lines if x.name == "white furnace")
     assert furnace.p < 1e-6, furnace.figure       # shadow rays to the walls' centres: visibly biased
     assert v["threads and tiles"] and v["hard cases"]

@@ -56,6 +56,7 @@ def _write(path, name="seen", scale="1.0", bad="", api="", check=""):
     ("missing", "asks the API for something it does not have"),
     ("clash", "is a built-in integrator"),
     ("signature", "make(api)'s trace must take"),
+    ("overload", "overload for 'intersect'"),
 ])
 def test_bad_integrators_are_one_line_with_exit_2(tmp_path, case, message):
     path = tmp_path / f"{case}.py"
@@ -65,6 +66,9 @@ def test_bad_integrators_are_one_line_with_exit_2(tmp_path, case, message):
         _write(path, api="nope = api.trace_everything")
     elif case == "clash":
         _write(path, name="path")
+    elif case == "overload":                        # an API function called with too few arguments
+        path.write_text(_write(path).read_text().replace("intersect(sd, o, d, 1.0e30, dt)",
+                                                         "intersect(sd, o, d, 1.0e30)"))
     elif case == "signature":
         path.write_text(PLUGIN.replace(", dt: float) -> wp.vec3", ") -> wp.vec3").replace(", dt)", ", 0.0)")
                         .replace("SCALE", "1.0").replace("{NAME}", "seen").replace("{BAD}", "")
@@ -75,8 +79,8 @@ def test_bad_integrators_are_one_line_with_exit_2(tmp_path, case, message):
     lines = r.stderr.splitlines()
     assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
     assert lines[0].startswith(f"drtlab: --plugin {path.name}: ") and message in lines[0], lines[0]
-    if case in ("codegen", "missing"):
-        assert str(path) in lines[0]                # the user's file and line, not Warp's
+    assert f"{path}:" in lines[0]                   # the user's file and line, not Warp's or drtlab's
+    assert "__locals__" not in lines[0]              # the API's names as the user calls them
 
 
 def test_a_light_selection_that_does_not_compile_is_refused_when_registered(tmp_path, clean_registry):
