@@ -120,7 +120,16 @@ class Shape:
 @dataclass
 class PointLight:
     position: np.ndarray
-    intensity: np.ndarray                       # W/sr per channel
+    intensity: np.ndarray                       # W/sr per channel (a spot's: on its axis)
+    # A spot (Mitsuba 3's): its axis as given (any length; the TOML direction or look_at - position),
+    # None for a point light; its cone in degrees, Mitsuba's falloff (kernels/spot.py).
+    direction: np.ndarray | None = None
+    cutoff_angle: float = 0.0
+    beam_width: float = 0.0
+
+    @property
+    def spot(self) -> bool:
+        return self.direction is not None
 
 
 @dataclass
