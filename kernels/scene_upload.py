@@ -214,7 +214,7 @@ def light_center(s) -> np.ndarray:
 
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
                 power: list, arr: Callable) -> None:
-    """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
+    """Area lights (emitting shapes, picked by power or uniformly), point (and spot) and directional lights."""
     index = {id(s): i for group in (spheres, quads, meshes) for i, s in enumerate(group)}
     code = {"sphere": SPHERE, "quad": QUAD, "mesh": MESH}
     emitters = [scene.shapes[i] for i in scene.emitter_shapes()]
