@@ -19,6 +19,7 @@ from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
 from drtlab.kernels.scene_model.mitsuba_xml import (Obj, chain_matrix, chain_point, chain_vector, coordinate_up,
                                                   drtlab_transform)
 from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
+from drtlab.kernels.scene_model.scene import SPOT_CUTOFF_DEFAULT
 
 SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk", "cylinder")
 EMITTERS = ("area", "point", "directional", "spot", "constant", "envmap")
@@ -176,7 +177,7 @@ class ShapeMapping:
         chain = self.get(o, "to_world", ("transform",), [])
         lin = chain_matrix(chain)[:3, :3]
         gram = lin.T @ lin
-        if not np.allclose(gram, gram[0, 0] * np.eye(3), rtol=0.0, atol=1e-9 * max(gram[0, 0], 1e-300)):
+        if gram[0, 0] == 0.0 or not np.allclose(gram, gram[0, 0] * np.eye(3), rtol=0.0, atol=1e-9 * gram[0, 0]):
             # Mitsuba measures the angle in the emitter's frame: a non-uniform scale skews the cone.
             self.r.fail(o.props["to_world"].path, "must be a rotation, a uniform scale and a translation "
                                                   f"for a spot, got the linear part {np.round(lin, 6).tolist()}")
@@ -184,7 +185,7 @@ class ShapeMapping:
                  "direction": chain_vector(chain, [0.0, 0.0, 1.0]).tolist(),
                  "intensity": self.colour(o, "intensity", 1.0, emitter=True)}
         cutoff = self.number(o, "cutoff_angle", None, lambda x: 0.0 < x <= 180.0, "in (0, 180] (degrees)")
-        limit = 0.75 * 20.0 if cutoff is None else cutoff
+        limit = SPOT_CUTOFF_DEFAULT if cutoff is None else cutoff
         beam = self.number(o, "beam_width", None, lambda x: 0.0 <= x <= limit,
                            f"in [0, cutoff_angle = {limit:g}] (degrees)")
         light.update({k: v for k, v in (("cutoff_angle", cutoff), ("beam_width", beam)) if v is not None})

@@ -117,6 +117,11 @@ class Shape:
         return float(np.linalg.norm(np.cross(self.edge_u, self.edge_v)))
 
 
+# Mitsuba 3's spot defaults (src/emitters/spot.cpp): a 20 degree cutoff, a beam of 3/4 of it.
+SPOT_CUTOFF_DEFAULT = 20.0
+SPOT_BEAM_SHARE = 0.75
+
+
 @dataclass
 class PointLight:
     position: np.ndarray

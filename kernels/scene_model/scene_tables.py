@@ -19,8 +19,8 @@ from drtlab.fields import (REQUIRED, Table, boolean, integer, scene_number as nu
 from drtlab.kernels.scene_model.environment_map import parse_environment
 from drtlab.kernels.scene_model.float32_checks import check_emitter_sizes, check_float32_area
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KINDS, ROUGHNESS_MIN
-from drtlab.kernels.scene_model.scene import (INTEGRATORS, DirectionalLight, Material, PointLight, Scene,
-                                  Shape)
+from drtlab.kernels.scene_model.scene import (INTEGRATORS, SPOT_BEAM_SHARE, SPOT_CUTOFF_DEFAULT,
+                                             DirectionalLight, Material, PointLight, Scene, Shape)
 from drtlab.kernels.scene_model.camera_table import parse_camera
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
@@ -371,9 +371,9 @@ def _spot_cone(t: Table, light: PointLight) -> None:
     if not (math.isfinite(norm) and norm > 0.0):
         raise InputError(t.field(key), "must give a non-zero axis (a direction, or a look_at away "
                                        f"from the position), got {show(t.data[key])}")
-    cutoff = number(t.get("cutoff_angle", 20.0, ""), t.field("cutoff_angle"),
+    cutoff = number(t.get("cutoff_angle", SPOT_CUTOFF_DEFAULT, ""), t.field("cutoff_angle"),
                     "in (0, 180] (degrees, where the light ends)", lambda x: 0.0 < x <= 180.0)
-    beam = number(t.get("beam_width", 0.75 * cutoff, ""), t.field("beam_width"),
+    beam = number(t.get("beam_width", SPOT_BEAM_SHARE * cutoff, ""), t.field("beam_width"),
                   f"in [0, cutoff_angle = {cutoff:g}] (degrees, the full-intensity cone)",
                   lambda x: 0.0 <= x <= cutoff)
     light.direction, light.cutoff_angle, light.beam_width = axis, float(cutoff), float(beam)

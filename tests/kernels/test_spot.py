@@ -221,6 +221,8 @@ def test_mitsuba_spot_imports_its_frame_angles_and_defaults(tmp_path):
     assert (light.cutoff_angle, light.beam_width, light.intensity.tolist()) == (20.0, 15.0, [1.0] * 3)
     (tmp_path / "c.xml").write_text(mitsuba_spot('<float name="cutoff_angle" value="40"/>'))
     assert load_scene(tmp_path / "c.xml").point_lights[0].beam_width == 30.0
+    (tmp_path / "d.xml").write_text(mitsuba_spot('<float name="beam_width" value="18"/>'))  # cutoff 20
+    assert load_scene(tmp_path / "d.xml").point_lights[0].beam_width == 18.0
 
 
 @pytest.mark.parametrize("body,transform,words", [
@@ -228,7 +230,8 @@ def test_mitsuba_spot_imports_its_frame_angles_and_defaults(tmp_path):
      "texture(bitmap): a spot's projected texture is not supported"),
     ('', '<scale x="2" y="1" z="1"/>', "uniform scale"),
     ('<float name="cutoff_angle" value="0"/>', None, "cutoff_angle"),
-    ('<float name="beam_width" value="16"/>', None, "cutoff_angle = 15"),
+    ('<float name="beam_width" value="21"/>', None, "cutoff_angle = 20"),
+    ('', '<scale value="0"/>', "singular"),
     ('<float name="cutoff_angle" value="10"/><float name="beam_width" value="12"/>', None, "cutoff_angle = 10"),
 ])
 def test_mitsuba_spot_refusals_are_one_line(tmp_path, body, transform, words):
