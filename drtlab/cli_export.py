@@ -35,7 +35,7 @@ def add_export_command(sub) -> None:
         description="Write SCENE (a built-in name, a .toml or a Mitsuba .xml path) as a Mitsuba 3 "
                     "XML file whose import renders bit-identically in drtlab: the path integrator; "
                     "diffuse, mirror, beckmann, dielectric and emitter materials; quads, boxes (as six "
-                    "rectangles), spheres, meshes (PLY files beside OUT); point and directional "
+                    "rectangles), spheres, meshes (PLY files beside OUT); point, spot and directional "
                     "lights; a constant environment; pinhole or thin-lens camera; box or mitchell filter. "
                     "Anything else (drt, whitted, Phong lobes, GGX, checkers, motion) is refused "
                     "in one line, exit 2.")

@@ -123,6 +123,8 @@ class LightData:
     n_area: int
     point_position: wp.array(dtype=wp.vec3)
     point_intensity: wp.array(dtype=wp.vec3)
+    point_axis: wp.array(dtype=wp.vec3)        # a spot's unit axis, and its cone (kernels/spot.py:
+    point_cone: wp.array(dtype=wp.vec4)        # spot_cone); read only by a variant with spots
     n_point: int
     dir_direction: wp.array(dtype=wp.vec3)     # the way the light travels
     dir_irradiance: wp.array(dtype=wp.vec3)

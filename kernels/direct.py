@@ -2,8 +2,8 @@
 
 `make_direct(features, strategy, rays=rays, bsdf=bsdf, lights=lights)` (from make_intersect,
 make_bsdf and make_lights) returns DirectLighting, Warp functions:
-    direct_delta_lights(sd, mat, p, n, ns, wo, dt) -> point and directional
-        light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
+    direct_delta_lights(sd, mat, p, n, ns, wo, dt) -> point (spot: times its falloff,
+        kernels/spot.py) and directional light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
         sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
     next_event(sd, beta, mat, h, wo, u_light, u_point, bounce, dt) -> beta
         times one area-light sample's estimate (MIS-weighted when the strategy combines by MIS) at
@@ -31,6 +31,7 @@ from drtlab.kernels.lights import AreaLights, LightSample
 from drtlab.kernels.materials import Bsdf
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.mis import heuristic_of
+from drtlab.kernels.spot import spot_falloff
 
 
 class DirectLighting(NamedTuple):
@@ -46,6 +47,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     env_pick = environment.env_pick if ENV else None
     env_next_event = environment.env_next_event if ENV else None
     POINTS = f.point_lights
+    SPOTS = f.spot_lights
     DIRS = f.dir_lights
     MIS = strategy.mis
     mis_weight = heuristic_of(strategy, f.faults)
@@ -75,6 +77,8 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                 fc = eval_bsdf(mat, ns, wo, wi)
                 if wp.static(MESHES):
                     fc = fc * shading_consistent(n, ns, wo, wi)
+                if wp.static(SPOTS):    # a point light's cone gives exactly 1
+                    fc = fc * spot_falloff(-wp.dot(wi, sd.lights.point_axis[i]), sd.lights.point_cone[i])
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, wp.length(sd.lights.point_position[i] - o), dt, -1, -1) == 1:

@@ -29,6 +29,7 @@ from drtlab.kernels.filters import BOX, clip_table, filter_cdf, get_filter
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
 from drtlab.kernels.scene_model.scene import Camera, Scene
+from drtlab.kernels.spot import spot_axis, spot_cone
 from drtlab.warp_runtime import warp as initialised_warp
 
 
@@ -207,7 +208,7 @@ def light_center(s) -> np.ndarray:
 
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
                 power: list, arr: Callable) -> None:
-    """Area lights (emitting shapes, picked by power or uniformly), point and directional lights."""
+    """Area lights (emitting shapes, picked by power or uniformly), point (and spot) and directional lights."""
     index = {id(s): i for group in (spheres, quads, meshes) for i, s in enumerate(group)}
     code = {"sphere": SPHERE, "quad": QUAD, "mesh": MESH}
     emitters = [scene.shapes[i] for i in scene.emitter_shapes()]
@@ -223,6 +224,8 @@ def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes:
     points, dirs = scene.point_lights, scene.directional_lights
     lights.point_position = arr([pl.position for pl in points], wp.vec3, (1, 3))
     lights.point_intensity = arr([pl.intensity for pl in points], wp.vec3, (1, 3))
+    lights.point_axis = arr([spot_axis(pl) for pl in points], wp.vec3, (1, 3))
+    lights.point_cone = arr([spot_cone(pl) for pl in points], wp.vec4, (1, 4))
     lights.n_point = len(points)
     lights.dir_direction = arr([dl.direction for dl in dirs], wp.vec3, (1, 3))
     lights.dir_irradiance = arr([dl.irradiance for dl in dirs], wp.vec3, (1, 3))

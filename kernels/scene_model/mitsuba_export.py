@@ -23,6 +23,7 @@ import dataclasses
 
 from drtlab.errors import InputError
 from drtlab.fields import output_files
+from drtlab.kernels.scene_model.mitsuba_xml import coordinate_up
 from drtlab.kernels.scene_model.scene import Camera, Scene
 
 # drtlab's kinds that are Mitsuba's roughconductor (material "none"), by its `distribution`.
@@ -303,8 +304,11 @@ def _lights(root, scene: Scene, data: dict | None) -> None:
     given = [light.get("direction") for light in (data or {}).get("lights", [])
              if isinstance(light, dict) and light.get("kind") == "directional"]
     for light in scene.point_lights:
-        e = ET.SubElement(root, "emitter", type="point")
-        _vec(e, "point", "position", light.position)
+        e = ET.SubElement(root, "emitter", type="spot" if light.spot else "point")
+        if light.spot:
+            _spot(e, light)
+        else:
+            _vec(e, "point", "position", light.position)
         _vec(e, "rgb", "intensity", light.intensity)
     for k, light in enumerate(scene.directional_lights):
         e = ET.SubElement(root, "emitter", type="directional")
@@ -314,6 +318,21 @@ def _lights(root, scene: Scene, data: dict | None) -> None:
     if scene.environment is not None:
         e = ET.SubElement(root, "emitter", type="constant")
         _vec(e, "rgb", "radiance", scene.environment.image[0, 0])
+
+
+def _spot(e, light) -> None:
+    """A spot's frame as a matrix whose columns are |d| u, |d| v, d and the position (u, v a unit frame
+    about d): rigid up to a uniform scale, as Mitsuba's cone needs, and the importer reads the position
+    and d back exactly (0 * x + p = p, 1 * d = d)."""
+    d = np.asarray(light.direction, dtype=np.float64)
+    s = float(np.linalg.norm(d))
+    u = np.asarray(coordinate_up(d / s))
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = s * u, s * np.cross(d / s, u), d, light.position
+    tw = ET.SubElement(e, "transform", name="to_world")
+    ET.SubElement(tw, "matrix", value=" ".join(repr(float(x)) for x in m.ravel()))
+    _num(e, "float", "cutoff_angle", light.cutoff_angle)
+    _num(e, "float", "beam_width", light.beam_width)
 
 
 def _ply_bytes(mesh) -> bytes:

@@ -19,9 +19,10 @@ from drtlab.kernels.scene_model.mesh_file import file_has_vertex_normals
 from drtlab.kernels.scene_model.mitsuba_xml import (Obj, chain_matrix, chain_point, chain_vector, coordinate_up,
                                                   drtlab_transform)
 from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
+from drtlab.kernels.scene_model.scene import SPOT_CUTOFF_DEFAULT
 
 SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk", "cylinder")
-EMITTERS = ("area", "point", "directional", "constant", "envmap")
+EMITTERS = ("area", "point", "directional", "spot", "constant", "envmap")
 MITSUBA_TO_DRTLAB = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
 ENVMAP_FORMATS = (".exr", ".hdr")
 # Mitsuba's disk flips its normal by to_world @ scale(1, 1, -1) (src/shapes/disk.cpp).
@@ -152,6 +153,8 @@ class ShapeMapping:
                                         "radiance": self.colour(o, "radiance", 1.0, emitter=True)}
         elif kind == "envmap":
             self.data["environment"] = self.envmap(o)
+        elif kind == "spot":
+            self.data.setdefault("lights", []).append(self.spot(o))
         else:
             chain = self.get(o, "to_world", ("transform",), None)
             key, value = ("position", "intensity") if kind == "point" else ("direction", "irradiance")
@@ -165,6 +168,28 @@ class ShapeMapping:
                 {"kind": kind, key: list(given), value: self.colour(o, value, 1.0, emitter=True)})
         self.done(o)
 
+    def spot(self, o: Obj) -> dict:
+        """Mitsuba's spot: at to_world's origin, its axis to_world's +z (kept at its length: the
+        loader normalises), the angles in degrees; absent ones keep the loader's (Mitsuba's) defaults."""
+        if "texture" in o.props:
+            self.r.fail(o.props["texture"].path, "a spot's projected texture is not supported (drtlab's "
+                                                 "spot emits its intensity times its falloff)")
+        chain = self.get(o, "to_world", ("transform",), [])
+        lin = chain_matrix(chain)[:3, :3]
+        gram = lin.T @ lin
+        if gram[0, 0] == 0.0 or not np.allclose(gram, gram[0, 0] * np.eye(3), rtol=0.0, atol=1e-9 * gram[0, 0]):
+            # Mitsuba measures the angle in the emitter's frame: a non-uniform scale skews the cone.
+            self.r.fail(o.props["to_world"].path, "must be a rotation, a uniform scale and a translation "
+                                                  f"for a spot, got the linear part {np.round(lin, 6).tolist()}")
+        light = {"kind": "spot", "position": chain_point(chain, [0.0] * 3).tolist(),
+                 "direction": chain_vector(chain, [0.0, 0.0, 1.0]).tolist(),
+                 "intensity": self.colour(o, "intensity", 1.0, emitter=True)}
+        cutoff = self.number(o, "cutoff_angle", None, lambda x: 0.0 < x <= 180.0, "in (0, 180] (degrees)")
+        limit = SPOT_CUTOFF_DEFAULT if cutoff is None else cutoff
+        beam = self.number(o, "beam_width", None, lambda x: 0.0 <= x <= limit,
+                           f"in [0, cutoff_angle = {limit:g}] (degrees)")
+        light.update({k: v for k, v in (("cutoff_angle", cutoff), ("beam_width", beam)) if v is not None})
+        return light
 
     def envmap(self, o: Obj) -> dict:
         name = self.string(o, "filename", None)

@@ -112,10 +112,24 @@ class Shape:
         return float(np.linalg.norm(np.cross(self.edge_u, self.edge_v)))
 
 
+# Mitsuba 3's spot defaults (src/emitters/spot.cpp): a 20 degree cutoff, a beam of 3/4 of it.
+SPOT_CUTOFF_DEFAULT = 20.0
+SPOT_BEAM_SHARE = 0.75
+
+
 @dataclass
 class PointLight:
     position: np.ndarray
-    intensity: np.ndarray                       # W/sr per channel
+    intensity: np.ndarray                       # W/sr per channel (a spot's: on its axis)
+    # A spot (Mitsuba 3's): its axis as given (any length; the TOML direction or look_at - position),
+    # None for a point light; its cone in degrees, Mitsuba's falloff (kernels/spot.py).
+    direction: np.ndarray | None = None
+    cutoff_angle: float = 0.0
+    beam_width: float = 0.0
+
+    @property
+    def spot(self) -> bool:
+        return self.direction is not None
 
 
 @dataclass

@@ -278,8 +278,8 @@ def check_scene_reference(ref: dict) -> None:
     shape_keys = set().union(*ref["shapes"])
     assert shape_keys >= set(T.SHAPE_COMMON_KEYS)
     assert set(ref["shapes"][-1]["transform"]) <= set(TRANSFORM_KEYS)
-    for light in ref["lights"]:
-        assert set(light) == set(T.LIGHT_KEYS[light["kind"]])
+    for kind, keys in T.LIGHT_KEYS.items():    # a kind's alternatives (direction, look_at) in two blocks
+        assert set().union(*(x for x in ref["lights"] if x["kind"] == kind)) == set(keys), kind
     from drtlab.kernels.scene_model.environment_map import KEYS as ENVIRONMENT_KEYS
     assert set(ref["environment"]) == set().union(*ENVIRONMENT_KEYS.values())
     (material,) = ref["materials"].values()

@@ -376,7 +376,7 @@ BAD = [
     ("missing shape kind", {"shapes[0].kind": DELETE}, "shapes[0].kind", ["required", "sphere | quad | box"]),
     ("unknown material kind", {"materials.red.kind": "metal"}, "materials.red.kind",
      ["diffuse, glossy, mirror, dielectric, glossy_dielectric, emitter"]),
-    ("unknown light kind", {"lights[0].kind": "spot"}, "lights[0].kind", ["point, directional"]),
+    ("unknown light kind", {"lights[0].kind": "area"}, "lights[0].kind", ["point, directional, spot"]),
     ("unknown integrator", {"scene.integrator": "bdpt"}, "scene.integrator", ["whitted, drt, path"]),
     ("unknown camera key", {"camera.fvo": 30}, "camera.fvo", ["allowed keys", "fov"]),
     ("unknown top-level table", {"render": {"spp": 4}}, "render", ["allowed", "scene, camera"]),
