@@ -114,7 +114,7 @@ def _scene(env, background=None):
      "environment.sun_direction", ["non-zero"]),
     (dict(kind="gradient", sun_direction=[0, 1, 0]), "environment.sun_radiance", ["required"]),
     (dict(kind="image"), "environment.file", ["required"]),
-    (dict(kind="image", file="/nonexistent/sky.exr"), "environment.file", ["cannot read"]),
+    (dict(kind="image", file="/nonexistent/sky.exr"), "environment.file", ["does not exist"]),
     (dict(kind="constant", scale=-1), "environment.scale", [">= 0"]),
     ([1, 2], "environment", ["table"]),
 ])

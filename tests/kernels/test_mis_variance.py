@@ -85,13 +85,17 @@ STRATEGIES = {"importance": ("solid_angle", "power", True), "importance-balance"
 # by solid angle (the spherical rectangle: every visible point is well inside lights.py's thresholds
 # for it) or by area; path only (the estimators are the sphere's).
 QUAD_ORIGIN, QUAD_SIDE = np.array([-0.4, 0.9, -0.4]), 0.8
-CASES = [(i, s, "sphere") for i in UNBIASED for s in STRATEGIES] + [("path", s, "quad") for s in STRATEGIES]
+# drtlab's direct (Mitsuba's) always takes a BSDF sample beside its emitter sample and reaches an
+# environment by its BSDF samples alone: its estimator is a strategy's only where that strategy's is
+# (not the light-only strategies; under the environment, the cosine sampler's).
+CASES = ([(i, s, "sphere") for i in UNBIASED for s in STRATEGIES if i != "direct" or STRATEGIES[s][2]]
+         + [("path", s, "quad") for s in STRATEGIES])
 CONTROLS = [("path", "importance", "sphere"), ("path", "importance-balance", "sphere"),
             ("path", "importance", "quad")]
 # The plane under a constant environment instead (no sphere light): strategy -> environment sampler.
 L_ENV = 2.0
 ENV_STRATEGIES = {"importance": "image", "env-uniform": "uniform", "env-cosine": "cosine"}
-ENV_CASES = [(i, s) for i in UNBIASED for s in ENV_STRATEGIES]
+ENV_CASES = [(i, s) for i in UNBIASED for s in ENV_STRATEGIES if i != "direct" or s == "env-cosine"]
 ENV_CONTROLS = [("path", "importance"), ("path", "env-uniform")]   # env-cosine's densities are equal
 ALPHA_TEST = sidak(ALPHA, len(CASES) + len(CONTROLS) + len(ENV_CASES) + len(ENV_CONTROLS))
 HEURISTICS = {"power": lambda a, b: a * a / (a * a + b * b), "balance": lambda a, b: a / (a + b)}

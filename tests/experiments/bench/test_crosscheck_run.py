@@ -22,7 +22,7 @@ def test_the_scene_folder_holds_the_test_scenes():
 def test_every_xml_test_scene_loads_small_in_drtlab(path):
     from drtlab.kernels.scene_model.scene_file import load_scene
     s = load_scene(path)
-    assert s.integrator == "path" and s.width * s.height <= 64 * 48 and s.shapes
+    assert s.integrator in ("path", "direct") and s.width * s.height <= 64 * 48 and s.shapes
 
 
 def test_the_scene_list_is_the_exportable_built_ins_and_the_xml_files(tmp_path):
