@@ -214,11 +214,19 @@ def test_bsdfs_emitters_ids_and_defaults(tmp_path):
      ("path", 6, True, 3)),
     ('<integrator type="path"><integer name="max_depth" value="6"/><integer name="rr_depth" value="6"/></integrator>',
      ("path", 6, False, 5)),                                       # roulette from max_depth: none
-    ('<integrator type="direct"/>', ("path", 2, False, 5)),
+    ('<integrator type="direct"/>', ("direct", 5, False, 5)),         # max_depth: direct reads none
 ])
 def test_integrators(tmp_path, integrator, want):
     s = load(tmp_path, xml(integrator))
     assert (s.integrator, s.max_depth, s.russian_roulette, s.rr_depth) == want
+
+
+def test_direct_takes_its_sample_counts(tmp_path):
+    s = load(tmp_path, xml('<integrator type="direct"><integer name="emitter_samples" value="3"/>'
+                           '<integer name="bsdf_samples" value="0"/></integrator>'))
+    assert (s.integrator, s.emitter_samples, s.bsdf_samples) == ("direct", 3, 0)
+    s = load(tmp_path, xml('<integrator type="direct"><integer name="shading_samples" value="2"/></integrator>'))
+    assert (s.emitter_samples, s.bsdf_samples) == (2, 2)
 
 
 # ---------------------------------------------------------------------------------------------------
