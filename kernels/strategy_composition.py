@@ -5,7 +5,8 @@ against what is registered. In kernels/ because the routines it names are Warp c
 from dataclasses import replace
 
 from drtlab.errors import InputError
-from drtlab.estimators.strategies import MIS_HEURISTICS, STRATEGIES, Strategy
+from drtlab.estimators import strategies
+from drtlab.estimators.strategies import Strategy
 from drtlab.kernels.light_selection import LIGHT_SELECTIONS
 from drtlab.kernels.lobe_samplers import composed
 
@@ -14,6 +15,8 @@ def compose_strategy(name: str, description: str, like: str = "importance", *,
                      light_selection: str | None = None, heuristic: str | None = None,
                      lobe_samplers=None) -> Strategy:
     """The Strategy `like` with the routines given replaced, named `name` (not yet registered)."""
+    # Read at call time: what is registered then (a test may add a heuristic).
+    STRATEGIES, MIS_HEURISTICS = strategies.STRATEGIES, strategies.MIS_HEURISTICS
     if like not in STRATEGIES:
         raise InputError("like", f"must be a registered strategy ({', '.join(STRATEGIES)}), got {like!r}")
     base = STRATEGIES[like]
