@@ -26,14 +26,14 @@ def make(api):
     MESHES, ENV, DELTA_LIGHTS, RR = f.meshes, f.environment, f.delta_lights, f.roulette
     # The light technique needs area lights a strategy samples; else c = 0 (the BSDF alone).
     C = LIGHT_PROB if (f.sampled_area_lights and api.strategy.light is not None) else 0.0
-    LOBE_CHOICE, DEPTH_CAP, EMITTER = api.lobe_choice, api.depth_cap, api.emitter
+    DEPTH_CAP, EMITTER = api.depth_cap, api.emitter
     get1d, get2d, roulette, ROULETTE = api.get1d, api.get2d, api.roulette, api.dim("roulette")
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
-    LOBE, DIRECTION, TECHNIQUE = api.dim("lobe_choice"), api.dim("direction"), api.dim("technique")
+    TECHNIQUE = api.dim("technique")
     intersect, emitted, env_radiance = api.intersect, api.emitted, api.env_radiance
     kind_of, material_at, is_delta = api.kind, api.material_at, api.is_delta
     shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
-    eval_bsdf, pdf_bsdf, sample_bsdf = api.eval_bsdf, api.pdf_bsdf, api.sample_bsdf
+    eval_bsdf, pdf_bsdf, scatter = api.eval_bsdf, api.pdf_bsdf, api.scatter
     pick_light, sample_light, light_pdf = api.pick_light, api.sample_light, api.light_pdf
     light_visible, direct_delta_lights = api.light_visible, api.direct_delta_lights
     offset_origin = api.offset_origin
@@ -100,15 +100,9 @@ def make(api):
                                 L += wp.cw_mul(beta, wp.cw_mul(fc, ls.radiance)) / mix
                 if wp.static(DELTA_LIGHTS):
                     L += wp.cw_mul(beta, direct_delta_lights(sd, mat, h.p, h.n, ns, wo, dt))
-            u_lobe = float(0.0)
-            if wp.static(LOBE_CHOICE):
-                u_lobe = get1d(seed, pix, idx, LOBE(depth), spp)
-            s = sample_bsdf(mat, ns, wo, u_lobe, get2d(seed, pix, idx, DIRECTION(depth), spp))
+            s = scatter(mat, h, wo, ns, seed, pix, idx, spp, depth)    # the BSDF sample continues
             if s.valid == 0:
                 break
-            if wp.static(MESHES):
-                if shading_consistent(h.n, ns, wo, s.wi) == 0.0:
-                    break
             beta = wp.cw_mul(beta, s.weight)
             prev_weighted = 1 - s.delta
             prev_light = chose_light

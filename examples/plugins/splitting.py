@@ -22,17 +22,16 @@ DIMENSIONS = (("split_light", 3 * (SPLITS - 1)),)
 
 def make(api):
     f = api.features
-    MESHES, ENV, DELTA_LIGHTS, RR = f.meshes, f.environment, f.delta_lights, f.roulette
-    NEE, CHOICE_FROM, LOBE_CHOICE = api.next_events, api.choice_from, api.lobe_choice
+    ENV, DELTA_LIGHTS, RR = f.environment, f.delta_lights, f.roulette
+    NEE, CHOICE_FROM = api.next_events, api.choice_from
     DEPTH_CAP, EMITTER = api.depth_cap, api.emitter
     get1d, get2d, roulette, ROULETTE = api.get1d, api.get2d, api.roulette, api.dim("roulette")
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
-    LOBE, DIRECTION, SPLIT = api.dim("lobe_choice"), api.dim("direction"), api.dim("split_light")
+    SPLIT = api.dim("split_light")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
-    kind_of, material_at, is_delta = api.kind, api.material_at, api.is_delta
-    shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
+    kind_of, material_at, is_delta, shading_normal = api.kind, api.material_at, api.is_delta, api.shading_normal
     next_event, direct_delta_lights = api.next_event, api.direct_delta_lights
-    sample_bsdf, offset_origin, oriented = api.sample_bsdf, api.offset_origin, api.oriented
+    scatter, offset_origin, oriented = api.scatter, api.offset_origin, api.oriented
 
     @wp.func(inline=True)
     def trace(sd: SceneData, seed: wp.uint32, pix: wp.uint32, idx: wp.uint32, spp: wp.uint32,
@@ -88,15 +87,9 @@ def make(api):
                     L += direct / float(n)
                 if wp.static(DELTA_LIGHTS):
                     L += wp.cw_mul(beta, direct_delta_lights(sd, mat, h.p, h.n, ns, wo, dt))
-            u_lobe = float(0.0)
-            if wp.static(LOBE_CHOICE):
-                u_lobe = get1d(seed, pix, idx, LOBE(depth), spp)
-            s = sample_bsdf(mat, ns, wo, u_lobe, get2d(seed, pix, idx, DIRECTION(depth), spp))
+            s = scatter(mat, h, wo, ns, seed, pix, idx, spp, depth)    # the BSDF sample continues
             if s.valid == 0:
                 break
-            if wp.static(MESHES):
-                if shading_consistent(h.n, ns, wo, s.wi) == 0.0:
-                    break
             beta = wp.cw_mul(beta, s.weight)
             prev_delta = s.delta
             prev_pdf = s.pdf

@@ -22,6 +22,9 @@ camera sample. docs/plugins.md states each function's contract; in short:
     roulette   roulette(beta, u) -> the survivor's throughput beta / q, or 0 (killed)
     numbers    get1d(seed, pix, idx, dim, spp), get2d(...); dim(name)(depth) -> the uint32
                dimension of a named decision at a bounce (the built-in ones and the integrator's own DIMENSIONS)
+    vertex     direct_light(sd, L, beta, mat, h, wo, ns, seed, pix, idx, spp, depth, dt) -> L plus
+               the vertex's light sample and delta lights; scatter(mat, h, wo, ns, seed, pix, idx,
+               spp, depth) -> Scatter, valid = 0 where the path ends (kernels/integrators/vertex.py)
 
 The suite's negative controls (features.FAULTS) and the profiler's probes (features.REPEATS) are
 applied here, to the functions handed out (kernels/integrators/probes.py), so that no integrator's
@@ -44,6 +47,7 @@ from drtlab.kernels.environment_lighting import make_environment_lighting, orien
 from drtlab.kernels.features import Features
 from drtlab.kernels.filter_sampling import make_pixel_filter
 from drtlab.kernels.integrators.probes import with_probes
+from drtlab.kernels.integrators.vertex import with_vertex_steps
 from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import make_intersect
@@ -117,6 +121,9 @@ class EstimatorApi(NamedTuple):
     interface: wp.Function          # (ns, wo, ior) -> a smooth interface's eta and Fresnel F
     refract_dir: wp.Function        # (wo, nf, cos_o, eta) -> the refracted direction
     pixel_filter: object            # kernels/filter_sampling.PixelFilter, or None (the box)
+    # One vertex's steps, composed from the functions above once the probes wrap them (vertex.py)
+    direct_light: wp.Function = None
+    scatter: wp.Function = None
 
 
 def make_dims(own=()) -> object:
@@ -228,4 +235,4 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         light_centres=whitted.light_centres, ends_path=whitted.ends_path,
         specular_reflect=whitted.specular_reflect, splits=whitted.splits,
         interface=interface, refract_dir=refract_dir, pixel_filter=pixel_filter)
-    return with_probes(api, f)
+    return with_vertex_steps(with_probes(api, f))

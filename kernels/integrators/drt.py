@@ -23,20 +23,14 @@ def black(c: wp.vec3) -> int:
 
 def make(api):
     f = api.features
-    AREA, ENV, MESHES = f.area_lights, f.environment, f.meshes
-    NEE, CHOICE_FROM, DELTA_LIGHTS = api.next_events, api.choice_from, f.delta_lights
-    LOBE_CHOICE = api.lobe_choice
+    AREA, ENV = f.area_lights, f.environment
     DEPTH_CAP, EMITTER, DIFFUSE = api.depth_cap, api.emitter, api.diffuse
     # After a diffuse scatter only the emission hit counts; nothing to find there when emitters
     # count only through light samples and the background is black.
     COUNTS_HITS = api.strategy.counts_hits
-    get1d, get2d = api.get1d, api.get2d
-    LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
-    LOBE, DIRECTION = api.dim("lobe_choice"), api.dim("direction")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
     kind_of, material_at, is_delta, shading_normal = api.kind, api.material_at, api.is_delta, api.shading_normal
-    next_event, direct_delta_lights, sample_bsdf = api.next_event, api.direct_delta_lights, api.sample_bsdf
-    shading_consistent, offset_origin, oriented = api.shading_consistent, api.offset_origin, api.oriented
+    direct_light, scatter, offset_origin, oriented = api.direct_light, api.scatter, api.offset_origin, api.oriented
 
     # Called once per sample: inlined, so SceneData is not copied per call.
     @wp.func(inline=True)
@@ -74,23 +68,10 @@ def make(api):
             mat = material_at(sd, h.material, h.uv)
             ns = shading_normal(h)
             if not is_delta(kind):
-                if wp.static(NEE):
-                    ul = float(0.0)
-                    if sd.lights.n_area >= wp.static(CHOICE_FROM):  # else one light is picked
-                        ul = get1d(seed, pix, idx, LIGHT_CHOICE(depth), spp)
-                    up = get2d(seed, pix, idx, LIGHT_POSITION(depth), spp)
-                    L += next_event(sd, beta, mat, h, wo, ul, up, depth, dt)
-                if wp.static(DELTA_LIGHTS):
-                    L += wp.cw_mul(beta, direct_delta_lights(sd, mat, h.p, h.n, ns, wo, dt))
-            u_lobe = float(0.0)
-            if wp.static(LOBE_CHOICE):
-                u_lobe = get1d(seed, pix, idx, LOBE(depth), spp)
-            s = sample_bsdf(mat, ns, wo, u_lobe, get2d(seed, pix, idx, DIRECTION(depth), spp))
+                L = direct_light(sd, L, beta, mat, h, wo, ns, seed, pix, idx, spp, depth, dt)
+            s = scatter(mat, h, wo, ns, seed, pix, idx, spp, depth)
             if s.valid == 0:
                 break
-            if wp.static(MESHES):
-                if shading_consistent(h.n, ns, wo, s.wi) == 0.0:
-                    break
             beta = wp.cw_mul(beta, s.weight)
             if kind == wp.static(DIFFUSE):
                 last_segment = 1

@@ -16,20 +16,12 @@ DIMENSIONS = ()     # only the built-in decisions: light_choice, light_position,
 
 def make(api):
     f = api.features
-    AREA, ENV, MESHES, RR = f.area_lights, f.environment, f.meshes, f.roulette
-    NEE, CHOICE_FROM, DELTA_LIGHTS = api.next_events, api.choice_from, f.delta_lights
-    # Draws whose value the variant never reads are skipped (each dimension is keyed on its own, so
-    # skipping one leaves every other value as it was): the lobe choice of one-lobe materials.
-    LOBE_CHOICE = api.lobe_choice
+    AREA, ENV, RR = f.area_lights, f.environment, f.roulette
     DEPTH_CAP, EMITTER = api.depth_cap, api.emitter
-    get1d, get2d = api.get1d, api.get2d
-    LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
-    LOBE, DIRECTION, ROULETTE = api.dim("lobe_choice"), api.dim("direction"), api.dim("roulette")
+    get1d, roulette, ROULETTE = api.get1d, api.roulette, api.dim("roulette")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
     kind_of, material_at, is_delta, shading_normal = api.kind, api.material_at, api.is_delta, api.shading_normal
-    next_event, direct_delta_lights = api.next_event, api.direct_delta_lights
-    sample_bsdf, roulette = api.sample_bsdf, api.roulette
-    shading_consistent, offset_origin, oriented = api.shading_consistent, api.offset_origin, api.oriented
+    direct_light, scatter, offset_origin, oriented = api.direct_light, api.scatter, api.offset_origin, api.oriented
 
     # Called once per sample: inlined, so SceneData is not copied per call.
     @wp.func(inline=True)
@@ -69,23 +61,10 @@ def make(api):
             mat = material_at(sd, h.material, h.uv)
             ns = shading_normal(h)
             if not is_delta(kind):
-                if wp.static(NEE):
-                    ul = float(0.0)
-                    if sd.lights.n_area >= wp.static(CHOICE_FROM):  # else one light is picked
-                        ul = get1d(seed, pix, idx, LIGHT_CHOICE(depth), spp)
-                    up = get2d(seed, pix, idx, LIGHT_POSITION(depth), spp)
-                    L += next_event(sd, beta, mat, h, wo, ul, up, depth, dt)
-                if wp.static(DELTA_LIGHTS):
-                    L += wp.cw_mul(beta, direct_delta_lights(sd, mat, h.p, h.n, ns, wo, dt))
-            u_lobe = float(0.0)
-            if wp.static(LOBE_CHOICE):
-                u_lobe = get1d(seed, pix, idx, LOBE(depth), spp)
-            s = sample_bsdf(mat, ns, wo, u_lobe, get2d(seed, pix, idx, DIRECTION(depth), spp))
+                L = direct_light(sd, L, beta, mat, h, wo, ns, seed, pix, idx, spp, depth, dt)
+            s = scatter(mat, h, wo, ns, seed, pix, idx, spp, depth)
             if s.valid == 0:
                 break
-            if wp.static(MESHES):
-                if shading_consistent(h.n, ns, wo, s.wi) == 0.0:
-                    break
             beta = wp.cw_mul(beta, s.weight)
             prev_delta = s.delta
             prev_pdf = s.pdf
