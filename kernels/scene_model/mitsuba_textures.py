@@ -1,0 +1,62 @@
+"""Mitsuba 3 XML `bitmap` and `checkerboard` textures -> a drtlab material's `albedo_texture` table
+(kernels/scene_model/texture.py). A mixin of the importer (kernels/scene_model/mitsuba_import.py),
+which gives it the property access (`get`, `string`, `colour`, `done`, `deref`).
+
+Only a rectangle's uv is Mitsuba's in drtlab ((x + 1) / 2, (y + 1) / 2 of its local square, the
+quad's parameters along edge_u and edge_v); a sphere's and a mesh's are not, so a texture on any
+other shape is refused.
+"""
+from __future__ import annotations
+
+from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
+from drtlab.kernels.scene_model.texture import FILTERS, WRAPS
+
+TEXTURES = ("bitmap", "checkerboard")
+TEXTURED_SHAPES = ("rectangle",)
+
+
+class TextureMapping:
+    def texture_of(self, o: Obj, name: str) -> Obj | None:
+        """The bitmap or checkerboard texture property `name` of `o` (through a <ref>), else None."""
+        p = o.props.get(name)
+        if p is not None and p.tag == "ref":
+            p = Prop("texture", self.deref(Ref(p.value, p.path)), p.path)
+        if p is not None and p.tag == "texture" and p.value.type in TEXTURES:
+            o.used.add(name)
+            return p.value
+        return None
+
+    def albedo_texture(self, t: Obj) -> dict:
+        """A bitmap or checkerboard <texture> as drtlab's albedo_texture table."""
+        chain = self.get(t, "to_uv", ("transform",), None)
+        table = {"kind": t.type}
+        if chain is not None:       # uv is the point (u, v, 0): the rows x, y of columns x, y, w
+            table["to_uv"] = chain_matrix(chain)[:2, [0, 1, 3]].tolist()
+        if t.type == "checkerboard":
+            table["color0"] = self.colour(t, "color0", 0.4)
+            table["color1"] = self.colour(t, "color1", 0.2)
+        else:
+            name = self.string(t, "filename", None)
+            if name is None:
+                self.r.fail(t.path, "a bitmap needs a filename")
+            path = self.r.resolve(name)
+            if not path.is_file():
+                self.r.fail(t.props["filename"].path, f"texture file '{name}' does not exist")
+            table["file"] = str(path)
+            table["filter"] = self.string(t, "filter_type", "bilinear", FILTERS)
+            table["wrap"] = self.string(t, "wrap_mode", "repeat", WRAPS)
+            table["raw"] = bool(self.get(t, "raw", ("boolean",), False))
+        self.done(t)
+        return table
+
+    def check_textured_shape(self, shape: Obj, spec: dict) -> None:
+        """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
+        if "albedo_texture" not in spec:
+            return
+        if shape.type not in TEXTURED_SHAPES:
+            self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
+                                    "Mitsuba's on a rectangle only)")
+        flip = shape.props.get("flip_normals")
+        if flip is not None and flip.value:
+            self.r.fail(flip.path, "true is not supported on a textured rectangle (its uv would be "
+                                   "transposed)")
