@@ -93,6 +93,7 @@ class MeshData:
     tri_mesh: wp.array(dtype=int)              # per face: its mesh
     points: wp.array(dtype=wp.vec3)            # every mesh's vertices
     vert_normal: wp.array(dtype=wp.vec3)       # per vertex (zeros in flat meshes)
+    vert_uv: wp.array(dtype=wp.vec2)           # per vertex texture coordinates (read by textures)
 
 
 @wp.struct

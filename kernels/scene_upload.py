@@ -310,6 +310,7 @@ def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device
     m.tri_cdf = arr(tables.cdf, float, (1,))
     m.tri_mesh = arr(tables.tri_mesh, int, (1,))
     m.vert_normal = arr(tables.vert_normal, wp.vec3, (1, 3))
+    m.vert_uv = arr(tables.vert_uv, wp.vec2, (1, 2))
     return built
 
 

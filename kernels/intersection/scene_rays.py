@@ -183,6 +183,11 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                 h.material = sd.meshes.material[mh.mesh]
                 h.light = sd.meshes.light[mh.mesh]
                 h.uv = wp.vec2(mh.u, mh.v)      # a checker on a mesh: by barycentric coordinates
+                if wp.static(TEXTURES):
+                    if sd.materials.tex[h.material] >= 0:   # a texture: the file's coordinates
+                        idx = sd.meshes.tri_index[h.index]
+                        h.uv = (sd.meshes.vert_uv[idx[0]] * mh.u + sd.meshes.vert_uv[idx[1]] * mh.v
+                                + sd.meshes.vert_uv[idx[2]] * (1.0 - mh.u - mh.v))
         if h.index >= 0:
             p = o + d * h.t
             h.p = p

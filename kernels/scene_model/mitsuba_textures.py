@@ -2,9 +2,9 @@
 (kernels/scene_model/texture.py). A mixin of the importer (kernels/scene_model/mitsuba_import.py),
 which gives it the property access (`get`, `string`, `colour`, `done`, `deref`).
 
-Only a rectangle's uv is Mitsuba's in drtlab ((x + 1) / 2, (y + 1) / 2 of its local square, the
-quad's parameters along edge_u and edge_v); a sphere's and a mesh's are not, so a texture on any
-other shape is refused.
+Only a rectangle's uv ((x + 1) / 2, (y + 1) / 2 of its local square, the quad's parameters along
+edge_u and edge_v) and an OBJ file's texture coordinates (v flipped, Mitsuba's flip_tex_coords) are
+Mitsuba's in drtlab; a texture on any other shape is refused.
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
 from drtlab.kernels.scene_model.texture import FILTERS, WRAPS
 
 TEXTURES = ("bitmap", "checkerboard")
-TEXTURED_SHAPES = ("rectangle",)
+TEXTURED_SHAPES = ("rectangle", "obj")
 
 
 class TextureMapping:
@@ -55,7 +55,11 @@ class TextureMapping:
             return
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
-                                    "Mitsuba's on a rectangle only)")
+                                    "Mitsuba's on a rectangle and an obj only)")
+        flip_uv = shape.props.get("flip_tex_coords")
+        if flip_uv is not None and not flip_uv.value:
+            self.r.fail(flip_uv.path, "false is not supported on a textured obj (drtlab reads an "
+                                      "OBJ's v flipped, Mitsuba's default)")
         flip = shape.props.get("flip_normals")
         if flip is not None and flip.value:
             self.r.fail(flip.path, "true is not supported on a textured rectangle (its uv would be "

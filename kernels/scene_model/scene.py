@@ -79,6 +79,8 @@ class TriangleMesh:
     vertices: np.ndarray                        # (V, 3) float64
     faces: np.ndarray                           # (F, 3) int32 vertex indices
     normals: np.ndarray | None = None           # (V, 3) unit vertex normals (smooth shading), or None
+    # (V, 2) texture coordinates as Mitsuba reads an OBJ's (u, 1 - v: flip_tex_coords), or None
+    uvs: np.ndarray | None = None
     source: str = ""                            # the file or generator it came from
 
     def triangle_areas(self) -> np.ndarray:
@@ -91,6 +93,8 @@ class TriangleMesh:
         h.update(np.ascontiguousarray(self.faces).tobytes())
         if self.normals is not None:
             h.update(np.ascontiguousarray(self.normals).tobytes())
+        if self.uvs is not None:
+            h.update(np.ascontiguousarray(self.uvs).tobytes())
         return h.hexdigest()
 
 

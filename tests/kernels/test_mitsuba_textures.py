@@ -97,3 +97,14 @@ def test_export_refuses_textures(folder):
     with pytest.raises(InputError) as e:
         check_exportable(scene)
     assert e.value.field.endswith("albedo_texture")
+
+
+def test_obj_texture_coordinates_are_read_v_flipped(folder):
+    tmp, _ = folder
+    (tmp / "m.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.25 0.75\nvt 1 0.5\nvt 0 0\n"
+                               "f 1/1 2/2 3/3\n")
+    body = BITMAP.format(more="") + '<string name="filename" value="m.obj"/>'
+    mesh = load(tmp, body, "obj").shapes[0].mesh
+    assert np.allclose(mesh.uvs, [[0.25, 0.25], [1.0, 0.5], [0.0, 1.0]])
+    no_flip = body + '<boolean name="flip_tex_coords" value="false"/>'
+    assert "flip_tex_coords" in refused(tmp, no_flip, "obj")

@@ -269,3 +269,27 @@ def test_scenes_without_textures_compile_none():
     d = quad_scene({"kind": "checkerboard"})
     d["shapes"][0]["material"] = "plain"
     assert not features_of(scene_from_dict(d), "path").textures
+
+
+# ---- an OBJ mesh's texture coordinates (v flipped, as Mitsuba reads OBJ files) ----
+
+def obj_square(path) -> None:
+    """The quad of quad_scene as an OBJ file facing +y, whose (vt.x, 1 - vt.y) are the quad's uv."""
+    corners = [(-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0), (1.0, -1.0)]          # (x, z)
+    lines = [f"v {x} 0 {z}" for x, z in corners]
+    lines += [f"vt {(z + 1) / 2} {1 - (x + 1) / 2}" for x, z in corners]
+    lines += ["f 1/1 2/2 3/3", "f 1/1 3/3 4/4"]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_textured_obj_matches_the_closed_form(png_texture, tmp_path):
+    import colour
+    path, codes = png_texture
+    obj_square(tmp_path / "square.obj")
+    d = quad_scene({"file": path}, resolution=N, spp=SPP)
+    d["shapes"] = [{"kind": "mesh", "material": "tex", "file": str(tmp_path / "square.obj")}]
+    img = render(scene_from_dict(d), spp=SPP, seed=3, sampler="independent")
+    z_crit = norm.isf(1e-3 / (2 * img.size))
+    decoded = colour.cctf_decoding(codes / 255.0, function="sRGB")
+    assert z_max(img, *pixel_moments(decoded)) < z_crit
+    assert z_max(img, *pixel_moments(decoded, flip_v=True)) > z_crit    # the file's v unflipped
