@@ -8,6 +8,8 @@ Mitsuba's in drtlab; a texture on any other shape is refused.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
 from drtlab.kernels.scene_model.texture import FILTERS, WRAPS
 
@@ -60,7 +62,11 @@ class TextureMapping:
         if flip_uv is not None and not flip_uv.value:
             self.r.fail(flip_uv.path, "false is not supported on a textured obj (drtlab reads an "
                                       "OBJ's v flipped, Mitsuba's default)")
-        flip = shape.props.get("flip_normals")
-        if flip is not None and flip.value:
-            self.r.fail(flip.path, "true is not supported on a textured rectangle (its uv would be "
-                                   "transposed)")
+        if shape.type == "rectangle":
+            # drtlab's normal is edge_u x edge_v: a flip or a mirror swaps the edges, and u with v
+            flip = shape.props.get("flip_normals")
+            chain = self.get(shape, "to_world", ("transform",), [])
+            mirrored = np.linalg.det(chain_matrix(chain)[:3, :3]) < 0
+            if (flip is not None and bool(flip.value)) != bool(mirrored):
+                self.r.fail(shape.path, "a flipped or mirrored textured rectangle is not supported "
+                                        "(its u and v would swap)")

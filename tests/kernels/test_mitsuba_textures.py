@@ -64,6 +64,12 @@ def test_bitmap_reflectance_on_a_rectangle(folder):
     assert np.all(d.pixels <= t.pixels + 1e-7) and np.any(d.pixels < t.pixels - 0.05)   # decoded
 
 
+def test_a_flipped_and_mirrored_rectangle_keeps_its_uv(folder):
+    both = ('<boolean name="flip_normals" value="true"/>'
+            '<transform name="to_world"><scale x="-1"/></transform>')
+    assert load(folder[0], BITMAP.format(more="") + both).materials[0].albedo_texture is not None
+
+
 def test_checkerboard_through_a_ref(folder):
     tmp, _ = folder
     bsdf = ('<bsdf type="diffuse" id="b"><texture name="reflectance" type="checkerboard">'
@@ -77,6 +83,7 @@ def test_checkerboard_through_a_ref(folder):
 @pytest.mark.parametrize("shape,more,flip,words", [
     ("sphere", "", "", "a texture on a sphere is not supported"),
     ("rectangle", "", '<boolean name="flip_normals" value="true"/>', "textured rectangle"),
+    ("rectangle", "", '<transform name="to_world"><scale x="-1"/></transform>', "textured rectangle"),
     ("rectangle", '<string name="wrap_mode" value="border"/>', "", "wrap_mode"),
     ("rectangle", '<string name="filter_type" value="cubic"/>', "", "filter_type"),
 ])
