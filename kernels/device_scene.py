@@ -93,6 +93,7 @@ class MeshData:
     tri_mesh: wp.array(dtype=int)              # per face: its mesh
     points: wp.array(dtype=wp.vec3)            # every mesh's vertices
     vert_normal: wp.array(dtype=wp.vec3)       # per vertex (zeros in flat meshes)
+    vert_uv: wp.array(dtype=wp.vec2)           # per vertex texture coordinates (read by textures)
 
 
 @wp.struct
@@ -110,6 +111,15 @@ class MaterialData:
     # material's row offset (0 for the others).
     table: wp.array(dtype=float)
     row: wp.array(dtype=int)
+    # Albedo textures (kernels/materials/texture.py), read only by a variant with textures: each
+    # material's texture (-1: none); per texture its (kind, filter, wrap, first texel), its width
+    # and height, its to_uv rows; every texture's texels, row by row from the image's top.
+    tex: wp.array(dtype=int)
+    tex_mode: wp.array(dtype=wp.vec4i)
+    tex_size: wp.array(dtype=wp.vec2i)
+    tex_u: wp.array(dtype=wp.vec3)
+    tex_v: wp.array(dtype=wp.vec3)
+    texels: wp.array(dtype=wp.vec3)
 
 
 @wp.struct

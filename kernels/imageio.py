@@ -185,6 +185,13 @@ def read_linear(path) -> tuple[np.ndarray, dict, str]:
     return out, meta, f"{fmt}, sRGB-encoded (read as linear)"
 
 
+def read_stored(path) -> tuple[np.ndarray, dict]:
+    """(float32 pixels (H, W, C) as the file stores them, integer codes scaled to [0, 1] and not
+    decoded, drtlab metadata): what a texture marked raw reads."""
+    pixels, meta, _ = _read(path)
+    return pixels, meta
+
+
 def _read(path) -> tuple[np.ndarray, dict, tuple[str, str]]:
     import OpenImageIO as oiio
     path = _path_argument(path)

@@ -26,6 +26,7 @@ from drtlab.kernels.environment import environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_quad_simd, uses_sphere_bvh
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.filters import BOX, clip_table, filter_cdf, get_filter
+from drtlab.kernels.materials.texture import texture_tables
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
 from drtlab.kernels.scene_model.scene import Camera, Scene
@@ -103,7 +104,8 @@ def uses_vector_quads(scene: Scene, device: str) -> bool:
 
 def _device_array(values, dtype, empty_shape, device: str):
     """`values` as a Warp array on `device`; an empty list becomes zeros of `empty_shape`."""
-    a = np.asarray(values, dtype=np.int32 if dtype in (int, wp.vec3i) else np.float32)
+    a = np.asarray(values, dtype=np.int32 if dtype in (int, wp.vec2i, wp.vec3i, wp.vec4i)
+                   else np.float32)
     if a.size == 0:
         a = np.zeros(empty_shape, dtype=a.dtype)
     a = np.ascontiguousarray(a)
@@ -186,6 +188,13 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
             table.append(model_module(spec).table_row(x.kind, x.albedo, x.roughness, x.ior))
     m.table = arr(np.concatenate(table), float, (1,))
     m.row = arr(rows, int, (1,))
+    t = texture_tables(materials)
+    m.tex = arr(t["tex"], int, (1,))
+    m.tex_mode = arr(t["tex_mode"], wp.vec4i, (1, 4))
+    m.tex_size = arr(t["tex_size"], wp.vec2i, (1, 2))
+    m.tex_u = arr(t["tex_u"], wp.vec3, (1, 3))
+    m.tex_v = arr(t["tex_v"], wp.vec3, (1, 3))
+    m.texels = arr(t["texels"], wp.vec3, (1, 3))
 
 
 def emitter_powers(scene: Scene) -> list[float]:
@@ -301,6 +310,7 @@ def _put_meshes(sd: SceneData, scene: Scene, meshes: list, arr: Callable, device
     m.tri_cdf = arr(tables.cdf, float, (1,))
     m.tri_mesh = arr(tables.tri_mesh, int, (1,))
     m.vert_normal = arr(tables.vert_normal, wp.vec3, (1, 3))
+    m.vert_uv = arr(tables.vert_uv, wp.vec2, (1, 2))
     return built
 
 

@@ -45,6 +45,7 @@ class MeshTables:
     cdf: np.ndarray          # (F,) per face: cumulative area fraction within its mesh
     tri_mesh: np.ndarray     # (F,) per face: its mesh
     vert_normal: np.ndarray  # (V, 3) unit vertex normals (zeros for flat meshes)
+    vert_uv: np.ndarray      # (V, 2) texture coordinates (zeros for meshes without)
     boxes: list              # per mesh: (lowers, uppers) float32 (F_k, 3) padded triangle boxes
 
 
@@ -66,6 +67,7 @@ def mesh_tables(meshes: list, t_open: float, extent: float) -> MeshTables:
     """The SceneData tables of `meshes` (Shapes of kind "mesh", in scene order)."""
     points, tri_index, areas, smooth, centroid, normal_area, cdf, tri_mesh, normals, boxes = \
         [], [], [], [], [], [], [], [], [], []
+    uvs = []
     face0, base = [0], 0
     for k, shape in enumerate(meshes):
         m = shape.mesh
@@ -83,6 +85,7 @@ def mesh_tables(meshes: list, t_open: float, extent: float) -> MeshTables:
         tri_mesh.append(np.full(len(m.faces), k, dtype=np.int32))
         smooth.append(int(m.normals is not None))
         normals.append(m.normals if m.normals is not None else np.zeros((len(v), 3)))
+        uvs.append(m.uvs if m.uvs is not None else np.zeros((len(v), 2)))
         boxes.append(padded(tri.min(axis=1), tri.max(axis=1), extent))
         face0.append(face0[-1] + len(m.faces))
         base += len(v)
@@ -92,7 +95,8 @@ def mesh_tables(meshes: list, t_open: float, extent: float) -> MeshTables:
                       area=np.array(areas), smooth=np.array(smooth, dtype=np.int32),
                       centroid=np.array(centroid).reshape(-1, 3),
                       normal_area=np.array(normal_area).reshape(-1, 3), cdf=cat(cdf, (0,)),
-                      tri_mesh=cat(tri_mesh, (0,)), vert_normal=cat(normals, (0, 3)), boxes=boxes)
+                      tri_mesh=cat(tri_mesh, (0,)), vert_normal=cat(normals, (0, 3)), boxes=boxes,
+                      vert_uv=cat(uvs, (0, 2)))
 
 
 def sphere_boxes(spheres: list, t_open: float, t_close: float,

@@ -124,6 +124,7 @@ def make_intersect(f: Features, *, motion: Motion) -> SceneRays:
 def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: SphereBvh):
     HAS_SPH, HAS_QUAD, HAS_MESH, SPH_BVH = f.spheres, f.quads, f.meshes, f.sphere_bvh
     QUAD_SIMD = f.quad_simd
+    TEXTURES = f.textures
     scanned_groups, scanned_group = _make_group_scan(QUAD_SIMD)
     sphere_center, quad_origin = motion.sphere_center, motion.quad_origin
     nearest_mesh, bvh_nearest_sphere = mesh_rays.nearest_mesh, sphere_bvh.bvh_nearest_sphere
@@ -182,6 +183,11 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                 h.material = sd.meshes.material[mh.mesh]
                 h.light = sd.meshes.light[mh.mesh]
                 h.uv = wp.vec2(mh.u, mh.v)      # a checker on a mesh: by barycentric coordinates
+                if wp.static(TEXTURES):
+                    if sd.materials.tex[h.material] >= 0:   # a texture: the file's coordinates
+                        idx = sd.meshes.tri_index[h.index]
+                        h.uv = (sd.meshes.vert_uv[idx[0]] * mh.u + sd.meshes.vert_uv[idx[1]] * mh.v
+                                + sd.meshes.vert_uv[idx[2]] * (1.0 - mh.u - mh.v))
         if h.index >= 0:
             p = o + d * h.t
             h.p = p
@@ -193,7 +199,11 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     h.material = sd.spheres.material[h.index]
                     h.light = sd.spheres.light[h.index]
                     # texture coordinates only where a material reads them
-                    if checkered(sd, h.material) == 1:
+                    reads_uv = checkered(sd, h.material)
+                    if wp.static(TEXTURES):
+                        if sd.materials.tex[h.material] >= 0:
+                            reads_uv = 1
+                    if reads_uv == 1:
                         h.uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
                                        wp.acos(wp.clamp(n[1], -1.0, 1.0)) * INV_PI)
             if wp.static(HAS_QUAD):
@@ -201,7 +211,11 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     h.n = sd.quads.normal[h.index]
                     h.material = sd.quads.material[h.index]
                     h.light = sd.quads.light[h.index]
-                    if checkered(sd, h.material) == 1:
+                    reads_uv = checkered(sd, h.material)
+                    if wp.static(TEXTURES):
+                        if sd.materials.tex[h.material] >= 0:
+                            reads_uv = 1
+                    if reads_uv == 1:
                         q = sd.quads.geom[h.index]
                         h.uv = quad_params_w(p - quad_origin(sd, h.index, dt), q.edge_u, q.edge_v,
                                              q.basis)

@@ -6,6 +6,7 @@ import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.materials.surface import surface_albedo
+from drtlab.kernels.materials.texture import texture_value
 
 
 @wp.struct
@@ -34,3 +35,20 @@ def material_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     r.table = sd.materials.table
     r.row = sd.materials.row[m]
     return r
+
+
+@wp.func
+def material_at_textured(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+    """material_at where the scene has textures: a textured material's albedo is its texture at uv,
+    looked up once here for every BSDF call at the hit."""
+    r = material_at(sd, m, uv)
+    t = sd.materials.tex[m]
+    if t >= 0:
+        r.albedo = texture_value(sd, t, uv)
+    return r
+
+
+def material_at_for(textures: bool):
+    """The material_at of a variant: the textured one only where the scene has textures (so that
+    other scenes compile no texture code)."""
+    return material_at_textured if textures else material_at

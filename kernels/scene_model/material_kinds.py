@@ -66,7 +66,7 @@ class MaterialKind:
         """The keys its scene-file table may have: a key the kind ignores is an error, not a silent
         no-op."""
         return (("kind",) + (() if self.emitter else ("albedo",))
-                + (("albedo2", "checker") if self.checker else ())
+                + (("albedo2", "checker", "albedo_texture") if self.checker else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
                 + ("emission",))

@@ -66,8 +66,9 @@ def parse_mesh_shape(t: Table, name: str, material: int, velocity: np.ndarray) -
     if normals == "smooth" and mesh.normals is None:
         # After the transform, as Mitsuba computes them from the world-space positions.
         mesh = TriangleMesh(vertices=mesh.vertices, faces=mesh.faces,
-                            normals=smooth_normals(mesh.vertices, mesh.faces), source=mesh.source)
-    mesh = checked_mesh(mesh.vertices, mesh.faces, mesh.normals, t.path, mesh.source)
+                            normals=smooth_normals(mesh.vertices, mesh.faces), source=mesh.source,
+                            uvs=mesh.uvs)
+    mesh = checked_mesh(mesh.vertices, mesh.faces, mesh.normals, t.path, mesh.source, mesh.uvs)
     return Shape(kind="mesh", name=name, material=material, velocity=velocity, mesh=mesh)
 
 
@@ -130,7 +131,8 @@ def _transformed(mesh: TriangleMesh, value: Any, field: str) -> TriangleMesh:
     else:
         vertices, normals = apply_transform(m, mesh.vertices, mesh.normals)
     faces = mesh.faces[:, [0, 2, 1]] if mirrors(m) else mesh.faces
-    return TriangleMesh(vertices=vertices, faces=faces, normals=normals, source=mesh.source)
+    return TriangleMesh(vertices=vertices, faces=faces, normals=normals, source=mesh.source,
+                        uvs=mesh.uvs)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -218,7 +220,12 @@ def _concatenated(parts: list, source: str) -> TriangleMesh:
     access only when the file provided them, and computed ones must not pass as the file's."""
     offsets = np.cumsum([0] + [len(m.vertices) for m in parts])
     with_normals = all("vertex_normals" in m._cache for m in parts)
+    uvs = [getattr(m.visual, "uv", None) for m in parts]
+    with_uvs = source.lower().endswith(".obj") and all(
+        u is not None and len(u) == len(m.vertices) for u, m in zip(uvs, parts))
     return TriangleMesh(
+        uvs=(np.concatenate([np.asarray(u, dtype=np.float64) for u in uvs]) * [1.0, -1.0] + [0.0, 1.0]
+             if with_uvs else None),
         vertices=np.concatenate([np.asarray(m.vertices, dtype=np.float64) for m in parts]),
         faces=np.concatenate([np.asarray(m.faces) + o for m, o in zip(parts, offsets)]),
         normals=np.concatenate([np.asarray(m.vertex_normals) for m in parts]) if with_normals else None,
@@ -229,7 +236,7 @@ def _concatenated(parts: list, source: str) -> TriangleMesh:
 # Validation
 # ---------------------------------------------------------------------------------------------------
 
-def checked_mesh(vertices, faces, normals, field: str, source: str) -> TriangleMesh:
+def checked_mesh(vertices, faces, normals, field: str, source: str, uvs=None) -> TriangleMesh:
     """The validated mesh (float64 vertices, int32 faces, unit normals or None), or one InputError."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces)
@@ -248,8 +255,10 @@ def checked_mesh(vertices, faces, normals, field: str, source: str) -> TriangleM
                                 f"but there are {len(v)} vertices")
     f = f.astype(np.int32)
     _check_areas(v, f, field, what)
+    if uvs is not None and (np.shape(uvs) != (len(v), 2) or not np.all(np.isfinite(uvs))):
+        uvs = None                  # no usable texture coordinates: a texture reads (0, 0)
     return TriangleMesh(vertices=v, faces=f, normals=_checked_normals(normals, len(v), field, what),
-                        source=source)
+                        source=source, uvs=uvs)
 
 
 def _check_areas(v: np.ndarray, f: np.ndarray, field: str, what: str) -> None:

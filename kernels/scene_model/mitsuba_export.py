@@ -90,6 +90,8 @@ def check_exportable(scene: Scene) -> None:
                                                          f"{', '.join(BSDF_OF_KIND)})")
         if m.checker is not None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
+        if m.albedo_texture is not None:
+            raise InputError(f"materials.{m.name}.albedo_texture", "textures are not exported")
     for i, s in enumerate(scene.shapes):
         if np.any(s.velocity != 0.0):
             raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "

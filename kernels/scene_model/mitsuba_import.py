@@ -17,6 +17,7 @@ from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
 from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
 from drtlab.kernels.filters import MITSUBA_GAUSSIAN, MITSUBA_STDDEV, STDDEV_MAX, STDDEV_MIN
 from drtlab.kernels.scene_model.mitsuba_spectrum import spectrum_to_rgb
+from drtlab.kernels.scene_model.mitsuba_textures import TEXTURES
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Reader, Ref, Spectrum, chain_matrix
 
 # `moment` wraps the integrator whose image it renders (its second moments are extra channels);
@@ -141,7 +142,7 @@ class _Importer(ShapeMapping, MaterialMapping):
                 self.instance(child)
             elif child.tag == "shape":
                 self.shape(child)
-            elif child.tag == "texture" and child.id is not None:
+            elif child.tag == "texture" and child.id is not None and child.type not in TEXTURES:
                 self.constant_texture(child, False, True)     # checked here, read where referred to
             elif child.tag == "emitter":
                 self.emitter(child)

@@ -6,13 +6,14 @@ A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it 
 from __future__ import annotations
 
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
+from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
          "roughplastic")
 
 
-class MaterialMapping:
+class MaterialMapping(TextureMapping):
     def material(self, shape: Obj, bsdf: Obj | None, emitter: Obj | None) -> str:
         """The drtlab material of a (BSDF, area emitter) pair: one per distinct pair, named after the
         BSDF's id (or the shape's path)."""
@@ -31,6 +32,7 @@ class MaterialMapping:
             name = "default"
         else:
             spec, name = self.bsdf(bsdf), bsdf.id or shape.path.rsplit("/", 1)[-1].split("(")[0]
+            self.check_textured_shape(shape, spec)
         if radiance is not None and any(radiance):
             if spec["kind"] == "diffuse" and not any(spec["albedo"]):
                 spec = {"kind": "emitter"}       # black: it only emits
@@ -67,7 +69,10 @@ class MaterialMapping:
             self.r.fail(child.path, f"{what} not supported in a {kind} bsdf (drtlab's colours are "
                                     "constant)")
         if kind == "diffuse":
-            spec = {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)}
+            texture = self.texture_of(o, "reflectance")
+            spec = ({"kind": "diffuse", "albedo": [0.5] * 3, "albedo_texture": self.albedo_texture(texture)}
+                    if texture is not None else
+                    {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)})
         elif kind in ("conductor", "roughconductor"):
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
             if kind == "roughconductor":

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drtlab.kernels.scene_model.environment_map import EnvironmentMap
+from drtlab.kernels.scene_model.texture import Texture
 
 INTEGRATORS = ("whitted", "drt", "path", "direct")
 
@@ -52,6 +53,8 @@ class Material:
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
     albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy/plastic)
     checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters
+    # The albedo read from a texture at the hit's uv (kernels/scene_model/texture.py: Texture)
+    albedo_texture: Texture | None = None
     exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric,
                                                 # plastic's coat)
     roughness: float = 0.1                      # GGX alpha (ggx, ggx_dielectric), in
@@ -76,6 +79,8 @@ class TriangleMesh:
     vertices: np.ndarray                        # (V, 3) float64
     faces: np.ndarray                           # (F, 3) int32 vertex indices
     normals: np.ndarray | None = None           # (V, 3) unit vertex normals (smooth shading), or None
+    # (V, 2) texture coordinates as Mitsuba reads an OBJ's (u, 1 - v: flip_tex_coords), or None
+    uvs: np.ndarray | None = None
     source: str = ""                            # the file or generator it came from
 
     def triangle_areas(self) -> np.ndarray:
@@ -88,6 +93,8 @@ class TriangleMesh:
         h.update(np.ascontiguousarray(self.faces).tobytes())
         if self.normals is not None:
             h.update(np.ascontiguousarray(self.normals).tobytes())
+        if self.uvs is not None:
+            h.update(np.ascontiguousarray(self.uvs).tobytes())
         return h.hexdigest()
 
 
@@ -172,6 +179,9 @@ class Scene:
         for s in self.shapes:           # a mesh file may change under an unchanged TOML text
             if s.mesh is not None:
                 h.update(s.mesh.digest().encode())
+        for m in self.materials:        # and a texture's image file
+            if m.albedo_texture is not None:
+                h.update(m.albedo_texture.digest().encode())
         if self.environment is not None:        # so may an environment's image file
             h.update(self.environment.digest().encode())
         return h.hexdigest()[:16]

@@ -68,6 +68,7 @@ def load_scene(name_or_path: str | Path, overrides: dict | None = None) -> Scene
     _apply_overrides(data, overrides or {})
     _anchor_mesh_files(data, path.parent)
     _anchor_environment_file(data, path.parent)
+    _anchor_texture_files(data, path.parent)
     return build_scene(data, name=name, source=source, text=text + _overrides_suffix(overrides))
 
 
@@ -174,6 +175,17 @@ def _anchor_mesh_files(data: dict, folder: Path) -> None:
             file = Path(shape["file"]).expanduser()
             if not file.is_absolute():
                 shape["file"] = str(folder / file)
+
+
+def _anchor_texture_files(data: dict, folder: Path) -> None:
+    """A texture's relative `file` names a file next to the scene file (as meshes')."""
+    materials = data.get("materials")
+    for body in materials.values() if isinstance(materials, dict) else ():
+        tex = body.get("albedo_texture") if isinstance(body, dict) else None
+        if isinstance(tex, dict) and isinstance(tex.get("file"), str):
+            file = Path(tex["file"]).expanduser()
+            if not file.is_absolute():
+                tex["file"] = str(folder / file)
 
 
 def _anchor_environment_file(data: dict, folder: Path) -> None:

@@ -242,7 +242,7 @@ def test_direct_takes_its_sample_counts(tmp_path):
     ('<shape type="sphere"><bsdf type="roughplastic"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughplastic)", "anisotropic"),
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
-     "bsdf(diffuse)/texture(checkerboard)", "is not supported here"),
+     "shape[2](sphere)", "a texture on a sphere is not supported"),
     ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Xx"/></bsdf></shape>',
      "string[@name=material]", "'Xx' is not supported (supported: none, Ag, Al,"),
     ('<shape type="sphere"><bsdf type="diffuse"/><bsdf type="diffuse"/></shape>', "bsdf[2](diffuse)", "one bsdf"),

@@ -20,7 +20,8 @@ JOBS = suite.scenes(ROOT) if HAVE_SUITE else []
 # What this version of drtlab loads of the suite: a scene dropping out of it is a regression.
 LOADS = {"test_roughdielectric_path", "test_roughplastic_linear_path",
          "test_roughplastic_nonlinear_path", "test_directional_direct", "scene_path",
-         "test_instancing_path"}
+         "test_instancing_path", "test_texture_interp_direct", "test_textured_diffuse_path",
+         "test_orthographic_path"}
 
 
 def synthetic(seed: int, spp: int = SPP):

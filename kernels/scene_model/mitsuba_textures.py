@@ -1,0 +1,72 @@
+"""Mitsuba 3 XML `bitmap` and `checkerboard` textures -> a drtlab material's `albedo_texture` table
+(kernels/scene_model/texture.py). A mixin of the importer (kernels/scene_model/mitsuba_import.py),
+which gives it the property access (`get`, `string`, `colour`, `done`, `deref`).
+
+Only a rectangle's uv ((x + 1) / 2, (y + 1) / 2 of its local square, the quad's parameters along
+edge_u and edge_v) and an OBJ file's texture coordinates (v flipped, Mitsuba's flip_tex_coords) are
+Mitsuba's in drtlab; a texture on any other shape is refused.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
+from drtlab.kernels.scene_model.texture import FILTERS, WRAPS
+
+TEXTURES = ("bitmap", "checkerboard")
+TEXTURED_SHAPES = ("rectangle", "obj")
+
+
+class TextureMapping:
+    def texture_of(self, o: Obj, name: str) -> Obj | None:
+        """The bitmap or checkerboard texture property `name` of `o` (through a <ref>), else None."""
+        p = o.props.get(name)
+        if p is not None and p.tag == "ref":
+            p = Prop("texture", self.deref(Ref(p.value, p.path)), p.path)
+        if p is not None and p.tag == "texture" and p.value.type in TEXTURES:
+            o.used.add(name)
+            return p.value
+        return None
+
+    def albedo_texture(self, t: Obj) -> dict:
+        """A bitmap or checkerboard <texture> as drtlab's albedo_texture table."""
+        chain = self.get(t, "to_uv", ("transform",), None)
+        table = {"kind": t.type}
+        if chain is not None:       # uv is the point (u, v, 0): the rows x, y of columns x, y, w
+            table["to_uv"] = chain_matrix(chain)[:2, [0, 1, 3]].tolist()
+        if t.type == "checkerboard":
+            table["color0"] = self.colour(t, "color0", 0.4)
+            table["color1"] = self.colour(t, "color1", 0.2)
+        else:
+            name = self.string(t, "filename", None)
+            if name is None:
+                self.r.fail(t.path, "a bitmap needs a filename")
+            path = self.r.resolve(name)
+            if not path.is_file():
+                self.r.fail(t.props["filename"].path, f"texture file '{name}' does not exist")
+            table["file"] = str(path)
+            table["filter"] = self.string(t, "filter_type", "bilinear", FILTERS)
+            table["wrap"] = self.string(t, "wrap_mode", "repeat", WRAPS)
+            table["raw"] = bool(self.get(t, "raw", ("boolean",), False))
+        self.done(t)
+        return table
+
+    def check_textured_shape(self, shape: Obj, spec: dict) -> None:
+        """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
+        if "albedo_texture" not in spec:
+            return
+        if shape.type not in TEXTURED_SHAPES:
+            self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
+                                    "Mitsuba's on a rectangle and an obj only)")
+        flip_uv = shape.props.get("flip_tex_coords")
+        if flip_uv is not None and not flip_uv.value:
+            self.r.fail(flip_uv.path, "false is not supported on a textured obj (drtlab reads an "
+                                      "OBJ's v flipped, Mitsuba's default)")
+        if shape.type == "rectangle":
+            # drtlab's normal is edge_u x edge_v: a flip or a mirror swaps the edges, and u with v
+            flip = shape.props.get("flip_normals")
+            chain = self.get(shape, "to_world", ("transform",), [])
+            mirrored = np.linalg.det(chain_matrix(chain)[:3, :3]) < 0
+            if (flip is not None and bool(flip.value)) != bool(mirrored):
+                self.r.fail(shape.path, "a flipped or mirrored textured rectangle is not supported "
+                                        "(its u and v would swap)")

@@ -1,0 +1,121 @@
+"""Textures of a material's albedo, as Mitsuba 3 defines them: `bitmap` (src/textures/bitmap.cpp,
+a Dr.Jit texture: bilinear or nearest, repeat / mirror / clamp) and `checkerboard`
+(src/textures/checkerboard.cpp). The scene-file table (`albedo_texture`, SCENE_FORMAT.md) and the
+model the device upload reads (kernels/materials/texture.py evaluates it once per hit).
+
+Texel (x, y) is column x, row y of the image as stored (row 0 the top row): Mitsuba's uv (0, 0)
+addresses the first stored texel, so a shape's v grows down the image.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drtlab.errors import InputError
+from drtlab.fields import existing_file, show
+
+TEXTURE_KINDS = ("bitmap", "checkerboard")
+FILTERS = ("bilinear", "nearest")        # bitmap.cpp's filter_type (bilinear its default)
+WRAPS = ("repeat", "mirror", "clamp")     # bitmap.cpp's wrap_mode (repeat its default)
+KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
+        "checkerboard": ("kind", "color0", "color1", "to_uv")}
+MAX_TEXELS = 1 << 24
+
+
+@dataclass(eq=False)
+class Texture:
+    kind: str                          # one of TEXTURE_KINDS
+    # (H, W, 3) float32 linear texels; a checkerboard's are (1, 2, 3): color0, color1
+    pixels: np.ndarray
+    filter: str = "bilinear"
+    wrap: str = "repeat"
+    # uv' = to_uv[:, :2] @ uv + to_uv[:, 2]: Mitsuba's to_uv (a 2D affine map, 2 x 3)
+    to_uv: np.ndarray = field(default_factory=lambda: np.eye(2, 3))
+    source: str = ""
+
+    def digest(self) -> str:
+        """Hash of the texels and the lookup: what the TOML text cannot show of an image file."""
+        h = hashlib.sha256(np.ascontiguousarray(self.pixels, dtype=np.float32).tobytes())
+        h.update(repr((self.kind, self.filter, self.wrap, self.to_uv.tolist())).encode())
+        return h.hexdigest()
+
+
+def parse_texture(value: Any, where: str) -> Texture:
+    """A material's `albedo_texture` table -> Texture (InputError naming the field)."""
+    if not isinstance(value, dict):
+        raise InputError(where, f"must be a table (kind = {' | '.join(TEXTURE_KINDS)}), got {show(value)}")
+    kind = value.get("kind", "bitmap")
+    if kind not in TEXTURE_KINDS:
+        raise InputError(f"{where}.kind", f"must be one of {', '.join(TEXTURE_KINDS)}, got {show(kind)}")
+    extra = sorted(set(value) - set(KEYS[kind]))
+    if extra:
+        raise InputError(f"{where}.{extra[0]}", f"is not a key of a {kind} texture (keys: "
+                                                f"{', '.join(KEYS[kind])})")
+    to_uv = _to_uv(value.get("to_uv"), f"{where}.to_uv")
+    if kind == "checkerboard":
+        colours = [_colour(value.get(k, d), f"{where}.{k}") for k, d in (("color0", 0.4), ("color1", 0.2))]
+        return Texture("checkerboard", np.array([colours], dtype=np.float32), to_uv=to_uv)
+    filt = _choice(value.get("filter", "bilinear"), f"{where}.filter", FILTERS)
+    wrap = _choice(value.get("wrap", "repeat"), f"{where}.wrap", WRAPS)
+    raw = value.get("raw", False)
+    if not isinstance(raw, bool):
+        raise InputError(f"{where}.raw", f"must be true or false (true: no sRGB decoding), got {show(raw)}")
+    if "file" not in value or not isinstance(value["file"], str):
+        raise InputError(f"{where}.file", f"needs a path to an image (PNG, JPEG, EXR), got "
+                                          f"{show(value.get('file'))}")
+    return Texture("bitmap", read_bitmap(value["file"], raw, f"{where}.file"), filt, wrap, to_uv,
+                   source=value["file"])
+
+
+def read_bitmap(path: str, raw: bool, where: str) -> np.ndarray:
+    """The linear RGB texels (H, W, 3) float32 of an image file as Mitsuba's bitmap reads it: 8- and
+    16-bit files sRGB-decoded unless `raw`, float files as stored; grey as three equal channels;
+    alpha dropped."""
+    from drtlab.kernels.imageio import read_linear, read_stored
+    existing_file(path, where, "an image file (PNG, JPEG, EXR or any format OpenImageIO reads)")
+    try:
+        pixels = (read_stored if raw else read_linear)(Path(path).expanduser())[0]
+    except OSError as exc:
+        raise InputError(where, f"cannot read a texture from {path}: {exc}") from None
+    px = np.asarray(pixels, dtype=np.float32)
+    px = px[..., None] if px.ndim == 2 else px
+    channels = px.shape[2]
+    if channels not in (1, 2, 3, 4):
+        raise InputError(where, f"{path}: {channels} channels; a texture has 1 (grey), 3 (RGB) or "
+                                "either with alpha")
+    px = np.repeat(px[..., :1], 3, axis=2) if channels <= 2 else px[..., :3]
+    if px.shape[0] * px.shape[1] > MAX_TEXELS:
+        raise InputError(where, f"{path}: {px.shape[1]} x {px.shape[0]} texels, at most {MAX_TEXELS}")
+    if not np.all(np.isfinite(px)):
+        raise InputError(where, f"{path}: every texel must be finite")
+    return np.ascontiguousarray(px)
+
+
+def _choice(v: Any, where: str, choices: tuple[str, ...]) -> str:
+    if v not in choices:
+        raise InputError(where, f"must be one of {', '.join(choices)}, got {show(v)}")
+    return v
+
+
+def _colour(v: Any, where: str) -> list[float]:
+    v = [v] * 3 if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+    if (not isinstance(v, list) or len(v) != 3
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x)
+                       for x in v)):
+        raise InputError(where, f"must be a number or a list of 3 finite numbers, got {show(v)}")
+    return [float(x) for x in v]
+
+
+def _to_uv(v: Any, where: str) -> np.ndarray:
+    if v is None:
+        return np.eye(2, 3)
+    m = np.asarray(v, dtype=object)
+    if (m.shape != (2, 3) or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                     and np.isfinite(x) for x in m.ravel())):
+        raise InputError(where, "must be 2 rows of 3 finite numbers [[a, b, c], [d, e, f]] "
+                                f"(u' = a u + b v + c, v' = d u + e v + f), got {show(v)}")
+    return m.astype(np.float64)
