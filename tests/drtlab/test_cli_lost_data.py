@@ -41,7 +41,9 @@ def test_compare_of_one_image_twice_against_a_reference_is_refused(tmp_path, cap
 @pytest.mark.parametrize("flag", ["--spp", "--batch-spp"])
 def test_a_reference_for_days_is_estimated_and_refused_before_it_renders(flag, tmp_path, capsys):
     gt = tmp_path / "gt"
-    rc = main(["ground-truth", "aa-edges", flag, "2147483647", "--res", "16", "--gt-dir", str(gt)])
+    # 2^31 - 1 spp of 64x48 pixels: months at any speed this code reaches (16x12 was 22 h on a fast
+    # run, under the 24 h limit)
+    rc = main(["ground-truth", "aa-edges", flag, "2147483647", "--res", "64", "--gt-dir", str(gt)])
     err = capsys.readouterr().err.splitlines()
     assert rc == 2
     assert err[-1].startswith("drtlab: --yes: this reference would render for about ") and "h" in err[-1]
