@@ -128,6 +128,9 @@ class Features:
     spot_lights: bool = False  # some point light is a spot (kernels/spot.py; absent: compiled out)
     textures: bool = False  # some material reads a texture (kernels/materials/texture.py; absent:
                             # compiled out)
+    masks: bool = False     # some material has opacity < 1 (kernels/materials/mask.py; absent:
+                            # compiled out)
+    one_sided: bool = False  # some material is black from behind (mask.py; absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
     bsdf_samples: int = 1
 
@@ -178,7 +181,7 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
-                             "textures")
+                             "textures", "masks", "one_sided")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -195,6 +198,9 @@ def features_of(scene: Scene, integrator: str) -> Features:
     if scene.camera.orthographic and integrator == "whitted":
         raise InputError("integrator", "whitted traces a pinhole's sub-pixel grid; an orthographic "
                                        "camera renders with drt or path")
+    if integrator == "whitted" and any(scene.materials[s.material].opacity < 1.0 for s in scene.shapes):
+        raise InputError("integrator", "whitted does not sample a mask's pass-through (a material's "
+                                       "opacity < 1); render with path, drt or direct")
     return Features(
         integrator=integrator,
         lens=scene.camera.has_lens and integrator != "whitted",
@@ -217,6 +223,8 @@ def features_of(scene: Scene, integrator: str) -> Features:
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
         textures=any(scene.materials[s.material].albedo_texture is not None for s in scene.shapes),
+        masks=any(scene.materials[s.material].opacity < 1.0 for s in scene.shapes),
+        one_sided=any(scene.materials[s.material].one_sided for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
         bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,

@@ -92,6 +92,9 @@ def check_exportable(scene: Scene) -> None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
         if m.albedo_texture is not None:
             raise InputError(f"materials.{m.name}.albedo_texture", "textures are not exported")
+        if m.opacity < 1.0 or m.one_sided:
+            key = "opacity" if m.opacity < 1.0 else "one_sided"
+            raise InputError(f"materials.{m.name}.{key}", "masks and one-sided materials are not exported")
     for i, s in enumerate(scene.shapes):
         if np.any(s.velocity != 0.0):
             raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "
