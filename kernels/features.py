@@ -38,6 +38,10 @@ SPHERICAL_MIS_AREA = "spherical_mis_area"    # light_pdf claims the area density
 # vertex sampled: solid angle where a later vertex used area
 SPHERICAL_MIS_FIRST_VERTEX = "spherical_mis_first_vertex"
 SPHERICAL_FAULTS = (SPHERICAL_LINEAR, SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX)
+# A fault of the mask (kernels/materials/mask.py), controlled in tests/kernels/test_mask.py: its
+# pass-through weighted 1 / (1 - opacity), as if it were a lobe divided by its choice probability.
+MASK_DIVIDES_BY_CHOICE = "mask_divides_by_choice"
+MASK_FAULTS = (MASK_DIVIDES_BY_CHOICE,)
 # Faults that leave an estimator unbiased and only waste its samples: no unbiasedness test can see
 # them; tests/kernels/test_mis_variance.py controls them by the pixel variance.
 MIS_SWAPPED = "mis_swapped"         # each MIS technique weighted by the other's weight (b/(a+b) for a)

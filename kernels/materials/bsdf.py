@@ -40,7 +40,7 @@ def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
     sample_bsdf = _make_sampler(kinds, eval_bsdf, pdf_bsdf)
     if f.masks or f.one_sided:          # mask.py: opacity and one-sidedness around every kind
         eval_bsdf, pdf_bsdf, sample_bsdf = mask.wrap(eval_bsdf, pdf_bsdf, sample_bsdf, f.masks,
-                                                     f.one_sided, kinds)
+                                                     f.one_sided, kinds, f.faults)
     return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
 
 

@@ -18,16 +18,20 @@ share 1 - opacity still passes through.
 """
 import warp as wp
 
+from drtlab.kernels.features import MASK_DIVIDES_BY_CHOICE
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter, delta_scatter
 from drtlab.kernels.static_tag import variant_tag
 
 
-def wrap(eval_bsdf, pdf_bsdf, sample_bsdf, masks: bool, one_sided: bool, tag) -> tuple:
+def wrap(eval_bsdf, pdf_bsdf, sample_bsdf, masks: bool, one_sided: bool, tag,
+         faults: frozenset = frozenset()) -> tuple:
     """(eval, pdf, sample) of the kinds' composed BSDF with the wrappers the variant has; `tag`
-    names the composed functions for the kernel cache (static_tag.py)."""
+    names the composed functions for the kernel cache (static_tag.py); `faults` a test's negative
+    control (features.MASK_FAULTS)."""
     MASKS, ONE_SIDED = masks, one_sided
-    TAG = (tag, MASKS, ONE_SIDED)
+    DIVIDES = MASK_DIVIDES_BY_CHOICE in faults
+    TAG = (tag, MASKS, ONE_SIDED, DIVIDES)
 
     @wp.func
     def front(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, wi: wp.vec3) -> float:
@@ -61,6 +65,8 @@ def wrap(eval_bsdf, pdf_bsdf, sample_bsdf, masks: bool, one_sided: bool, tag) ->
         ul = u_lobe
         if wp.static(MASKS):
             if u_lobe >= a:
+                if wp.static(DIVIDES):
+                    return delta_scatter(-wo, wp.vec3(1.0 / (1.0 - a)))
                 return delta_scatter(-wo, wp.vec3(1.0))
             ul = u_lobe / a
         s = Scatter()
