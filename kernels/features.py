@@ -226,7 +226,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         filter_clip=scene.camera.filter_clip,
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
-        textures=any(scene.materials[s.material].albedo_texture is not None for s in scene.shapes),
+        textures=any(scene.materials[s.material].textures for s in scene.shapes),
         masks=any(scene.materials[s.material].opacity < 1.0 for s in scene.shapes),
         one_sided=any(scene.materials[s.material].one_sided for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
