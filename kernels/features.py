@@ -202,7 +202,8 @@ def features_of(scene: Scene, integrator: str) -> Features:
     if scene.camera.orthographic and integrator == "whitted":
         raise InputError("integrator", "whitted traces a pinhole's sub-pixel grid; an orthographic "
                                        "camera renders with drt or path")
-    if integrator == "whitted" and any(scene.materials[s.material].opacity < 1.0 for s in scene.shapes):
+    if integrator == "whitted" and any(scene.materials[s.material].opacity < 1.0
+                                       or "opacity" in scene.materials[s.material].textures for s in scene.shapes):
         raise InputError("integrator", "whitted does not sample a mask's pass-through (a material's "
                                        "opacity < 1); render with path, drt or direct")
     return Features(
@@ -227,7 +228,8 @@ def features_of(scene: Scene, integrator: str) -> Features:
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
         textures=any(scene.materials[s.material].textures for s in scene.shapes),
-        masks=any(scene.materials[s.material].opacity < 1.0 for s in scene.shapes),
+        masks=any(scene.materials[s.material].opacity < 1.0 or "opacity" in scene.materials[s.material].textures
+                  for s in scene.shapes),
         one_sided=any(scene.materials[s.material].one_sided for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,

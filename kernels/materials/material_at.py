@@ -6,7 +6,7 @@ import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.materials.surface import surface_albedo
-from drtlab.kernels.materials.texture import SLOT, material_texture, texture_value
+from drtlab.kernels.materials.texture import SLOT, material_texture, texture_luminance, texture_value
 
 
 @wp.struct
@@ -62,9 +62,13 @@ def material_at_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
 
 @wp.func
 def material_at_textured_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+    """... and textures: an opacity texture's luminance at uv, clipped to [0, 1] (Mitsuba's mask)."""
     r = material_at_textured(sd, m, uv)
     r.opacity = sd.materials.opacity[m]
     r.one_sided = sd.materials.one_sided[m]
+    t = material_texture(sd, m, wp.static(SLOT["opacity"]))
+    if t >= 0:
+        r.opacity = wp.clamp(texture_luminance(sd, t, uv), 0.0, 1.0)
     return r
 
 

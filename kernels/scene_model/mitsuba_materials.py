@@ -102,15 +102,19 @@ class MaterialMapping(TextureMapping):
 
     def mask(self, o: Obj, masked: bool) -> dict:
         """Mitsuba's `mask` (src/bsdfs/mask.cpp): its one nested BSDF with the material's
-        `opacity` (a float in [0, 1], default 0.5)."""
+        `opacity` (a float in [0, 1], default 0.5) or `opacity_texture` (a bitmap or checkerboard,
+        read as its luminance)."""
         if masked:
             self.r.fail(o.path, "a mask inside a mask is not supported")
+        texture = self.texture_of(o, "opacity")
         bsdfs = [c for c in self.nested(o) if c.tag == "bsdf"]
         if len(bsdfs) != 1:
             self.r.fail(o.path, f"a mask needs exactly one nested bsdf, got {len(bsdfs)}")
-        opacity = self.number(o, "opacity", 0.5, lambda x: 0.0 <= x <= 1.0, "in [0, 1]")
         spec = self.bsdf(bsdfs[0], masked=True)
-        spec["opacity"] = float(opacity)
+        if texture is not None:
+            spec["opacity_texture"] = self.albedo_texture(texture)
+        else:
+            spec["opacity"] = float(self.number(o, "opacity", 0.5, lambda x: 0.0 <= x <= 1.0, "in [0, 1]"))
         self.done(o)
         return spec
 
