@@ -269,3 +269,46 @@ def test_refused_masks_in_one_line(tmp_path, bsdf, what):
     with pytest.raises(InputError) as e:
         one_bsdf(tmp_path, bsdf)
     assert "\n" not in str(e.value) and what in str(e.value), str(e.value)
+
+
+# ---- an opacity texture --------------------------------------------------------------------------
+
+RGB = (0.1, 0.5, 0.9)
+
+
+def test_an_opacity_texture_is_read_as_its_luminance(tmp_path):
+    """A black plane whose opacity texture is one RGB colour: it transmits 1 - its luminance."""
+    from drtlab.kernels.colour import luminance
+    from drtlab.kernels.imageio import write_exr
+    write_exr(tmp_path / "op.exr", np.broadcast_to(np.array(RGB, np.float32), (4, 4, 3)).copy())
+    d = plane_scene(0.5)
+    del d["materials"]["leaf"]["opacity"]
+    d["materials"]["leaf"]["opacity_texture"] = {"file": str(tmp_path / "op.exr")}
+    scene = scene_from_dict(d)
+    assert features_of(scene, "path").masks and features_of(scene, "path").textures
+    spp = 64
+    img = render(scene, spp=spp, sampler="independent+importance", seed=seed_for("mask-texture"),
+                 progress=False)
+    a = float(luminance(RGB))
+    n = img.shape[0] * img.shape[1] * spp
+    z = (img[..., 0].mean() - (1 - a)) / math.sqrt(a * (1 - a) / n)
+    assert abs(z) < Z, (img.mean(), 1 - a, z)
+    # the mean of the channels (0.5) would be another opacity, far outside the interval
+    assert abs(0.5 - a) / math.sqrt(a * (1 - a) / n) > 5 * Z
+    d["materials"]["leaf"]["opacity"] = 0.5
+    with pytest.raises(InputError) as e:
+        scene_from_dict(d)
+    assert str(e.value).startswith("materials.leaf.opacity") and "not both" in str(e.value)
+
+
+def test_a_mask_with_a_bitmap_opacity_loads_as_a_texture(tmp_path):
+    """Mitsuba's leaf mask is a grey + alpha PNG: its grey (sRGB-decoded) is the opacity, alpha dropped."""
+    from drtlab.kernels.imageio import write_png
+    grey = np.linspace(0.0, 1.0, 16, dtype=np.float32).reshape(4, 4)
+    write_png(tmp_path / "mask.png", np.repeat(grey[..., None], 3, axis=2))
+    m = one_bsdf(tmp_path, f'<bsdf type="mask"><texture name="opacity" type="bitmap"><string name="filename" '
+                           f'value="mask.png"/></texture>{DIFFUSE}</bsdf>').materials[0]
+    t = m.textures["opacity"]
+    assert m.one_sided and t.kind == "bitmap" and t.pixels.shape == (4, 4, 3)
+    assert np.all(t.pixels[..., 0] == t.pixels[..., 1]) and np.all(t.pixels[..., 0] == t.pixels[..., 2])
+    np.testing.assert_allclose(t.pixels[..., 0], grey, atol=2.5e-3)      # 8 bits, sRGB round trip
