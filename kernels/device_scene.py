@@ -111,6 +111,10 @@ class MaterialData:
     # material's row offset (0 for the others).
     table: wp.array(dtype=float)
     row: wp.array(dtype=int)
+    # A mask's opacity and 1 for a one-sided material (kernels/materials/mask.py), read only by a
+    # variant with masks or one-sided materials.
+    opacity: wp.array(dtype=float)
+    one_sided: wp.array(dtype=int)
     # Textures (kernels/materials/texture.py), read only by a variant with textures: each material's
     # pool index per slot (material-major, -1: none; material_texture reads it) and whether it has
     # any; per pool texture its (kind, filter, wrap, first texel), its width and height, its to_uv

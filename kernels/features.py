@@ -38,6 +38,10 @@ SPHERICAL_MIS_AREA = "spherical_mis_area"    # light_pdf claims the area density
 # vertex sampled: solid angle where a later vertex used area
 SPHERICAL_MIS_FIRST_VERTEX = "spherical_mis_first_vertex"
 SPHERICAL_FAULTS = (SPHERICAL_LINEAR, SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX)
+# A fault of the mask (kernels/materials/mask.py), controlled in tests/kernels/test_mask.py: its
+# pass-through weighted 1 / (1 - opacity), as if it were a lobe divided by its choice probability.
+MASK_DIVIDES_BY_CHOICE = "mask_divides_by_choice"
+MASK_FAULTS = (MASK_DIVIDES_BY_CHOICE,)
 # Faults that leave an estimator unbiased and only waste its samples: no unbiasedness test can see
 # them; tests/kernels/test_mis_variance.py controls them by the pixel variance.
 MIS_SWAPPED = "mis_swapped"         # each MIS technique weighted by the other's weight (b/(a+b) for a)
@@ -128,6 +132,9 @@ class Features:
     spot_lights: bool = False  # some point light is a spot (kernels/spot.py; absent: compiled out)
     textures: bool = False  # some material reads a texture (kernels/materials/texture.py; absent:
                             # compiled out)
+    masks: bool = False     # some material has opacity < 1 (kernels/materials/mask.py; absent:
+                            # compiled out)
+    one_sided: bool = False  # some material is black from behind (mask.py; absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
     bsdf_samples: int = 1
 
@@ -178,7 +185,7 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
-                             "textures")
+                             "textures", "masks", "one_sided")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -195,6 +202,10 @@ def features_of(scene: Scene, integrator: str) -> Features:
     if scene.camera.orthographic and integrator == "whitted":
         raise InputError("integrator", "whitted traces a pinhole's sub-pixel grid; an orthographic "
                                        "camera renders with drt or path")
+    if integrator == "whitted" and any(scene.materials[s.material].opacity < 1.0
+                                       or "opacity" in scene.materials[s.material].textures for s in scene.shapes):
+        raise InputError("integrator", "whitted does not sample a mask's pass-through (a material's "
+                                       "opacity < 1); render with path, drt or direct")
     return Features(
         integrator=integrator,
         lens=scene.camera.has_lens and integrator != "whitted",
@@ -217,6 +228,9 @@ def features_of(scene: Scene, integrator: str) -> Features:
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
         textures=any(scene.materials[s.material].textures for s in scene.shapes),
+        masks=any(scene.materials[s.material].opacity < 1.0 or "opacity" in scene.materials[s.material].textures
+                  for s in scene.shapes),
+        one_sided=any(scene.materials[s.material].one_sided for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
         bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,

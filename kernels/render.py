@@ -18,8 +18,8 @@ from drtlab import fields
 from drtlab.errors import InputError
 from drtlab.kernels.scene_upload import upload, uses_vector_quads
 from drtlab.kernels.variants import get_gather, get_kernel, variant_key
-from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MESH_FAULTS, REPEATS, SPHERICAL_FAULTS,
-                                     VARIANCE_FAULTS, Features, features_of, grown_margin)
+from drtlab.kernels.features import (FAULTS, FILTER_FAULTS, MASK_FAULTS, MESH_FAULTS, REPEATS,
+                                     SPHERICAL_FAULTS, VARIANCE_FAULTS, Features, features_of, grown_margin)
 from drtlab.kernels.filters import BOX
 from drtlab.kernels.launch_pool import launch_pool
 from drtlab.kernels.scene_model.scene import Scene
@@ -178,7 +178,7 @@ def render_with_stats(scene, spp=None, sampler=DEFAULT_SAMPLER, integrator=None,
                       faults=(), variance=False, watch=None) -> RenderStats:
     """Render `scene` (a Scene, a built-in name or a .toml path); see `render`.
 
-    `faults` (names from features.FAULTS, MESH_FAULTS, SPHERICAL_FAULTS or VARIANCE_FAULTS) compiles a
+    `faults` (names from features.FAULTS, MESH_FAULTS, SPHERICAL_FAULTS, VARIANCE_FAULTS or MASK_FAULTS) compiles a
     deliberately wrong estimator: tests use it as the negative control that a statistical test must
     reject; names from features.REPEATS compile
     the profile's probes (`profile_kernels components`). Never set it for real renders.
@@ -225,7 +225,7 @@ def render_batch_with_stats(scene, seeds, spp=None, sampler=DEFAULT_SAMPLER, int
 
     wp = _wp()
     if faults:
-        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS + SPHERICAL_FAULTS + VARIANCE_FAULTS + REPEATS
+        allowed = FAULTS + MESH_FAULTS + FILTER_FAULTS + SPHERICAL_FAULTS + VARIANCE_FAULTS + MASK_FAULTS + REPEATS
         unknown = sorted(set(faults) - set(allowed))
         if unknown:
             raise InputError("faults", f"unknown {unknown}; allowed: {', '.join(allowed)}")

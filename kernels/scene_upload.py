@@ -179,6 +179,8 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
     m.eta = arr([x.eta for x in materials], wp.vec3, (1, 3))
     m.k = arr([x.k for x in materials], wp.vec3, (1, 3))
+    m.opacity = arr([x.opacity for x in materials], float, (1,))
+    m.one_sided = arr([int(x.one_sided) for x in materials], int, (1,))
     rows, table = [], [np.zeros(1, dtype=np.float32)]
     for x in materials:
         spec = KIND_BY_NAME[x.kind]

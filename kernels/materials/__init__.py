@@ -22,6 +22,9 @@ mean. A kind whose row sets `strategy_sampling` also has `sampling(strategy)` ->
 strategy says (GGX normals by `microfacet`; a delta lobe chosen with probability 1/2 under the
 uniform strategy); a `table` kind has `table_row` (its row, built on the host).
 
+`mat.opacity` and `mat.one_sided` are not the kind's to read: mask.py wraps every kind's eval, pdf
+and sample in them (Mitsuba's `mask` and one-sided BSDFs) where the variant has them.
+
 `make_bsdf(features, strategy)` composes the features' kinds (bsdf.py) into Bsdf, Warp functions
 that can be called on their own (the tracer, MIS and the chi-square tests use the same ones):
     eval_bsdf(mat, n, wo, wi)          -> the kind's eval

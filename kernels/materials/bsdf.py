@@ -10,7 +10,7 @@ from drtlab.kernels.features import Features
 from drtlab.kernels.lobe_samplers import samplers_of
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
-from drtlab.kernels.materials import uniform
+from drtlab.kernels.materials import mask, uniform
 from drtlab.kernels.materials.kinds import model_module
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
@@ -37,7 +37,11 @@ def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
     kinds = kind_functions(f.kinds, strategy)
     eval_bsdf = _make_eval(kinds)
     pdf_bsdf = _make_pdf(kinds)
-    return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=_make_sampler(kinds, eval_bsdf, pdf_bsdf))
+    sample_bsdf = _make_sampler(kinds, eval_bsdf, pdf_bsdf)
+    if f.masks or f.one_sided:          # mask.py: opacity and one-sidedness around every kind
+        eval_bsdf, pdf_bsdf, sample_bsdf = mask.wrap(eval_bsdf, pdf_bsdf, sample_bsdf, f.masks,
+                                                     f.one_sided, kinds, f.faults)
+    return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
 
 
 def kind_functions(kinds: frozenset, strategy: Strategy) -> tuple:

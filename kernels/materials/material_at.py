@@ -6,7 +6,7 @@ import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.materials.surface import surface_albedo
-from drtlab.kernels.materials.texture import SLOT, material_texture, texture_value
+from drtlab.kernels.materials.texture import SLOT, material_texture, texture_luminance, texture_value
 
 
 @wp.struct
@@ -20,6 +20,8 @@ class MaterialAt:
     k: wp.vec3
     table: wp.array(dtype=float)    # the flat per-material table (MaterialKind.table kinds) ...
     row: int                        # ... and this material's row offset in it
+    opacity: float                  # a mask's share of hits that scatter (mask.py) ...
+    one_sided: int                  # ... and 1: black from behind; both read in their variants only
 
 
 @wp.func
@@ -34,6 +36,7 @@ def material_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     r.k = sd.materials.k[m]
     r.table = sd.materials.table
     r.row = sd.materials.row[m]
+    r.opacity = 1.0
     return r
 
 
@@ -48,7 +51,31 @@ def material_at_textured(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     return r
 
 
-def material_at_for(textures: bool):
-    """The material_at of a variant: the textured one only where the scene has textures (so that
-    other scenes compile no texture code)."""
+@wp.func
+def material_at_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+    """material_at where the scene has masks or one-sided materials (mask.py)."""
+    r = material_at(sd, m, uv)
+    r.opacity = sd.materials.opacity[m]
+    r.one_sided = sd.materials.one_sided[m]
+    return r
+
+
+@wp.func
+def material_at_textured_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+    """... and textures: an opacity texture's luminance at uv, clipped to [0, 1] (Mitsuba's mask)."""
+    r = material_at_textured(sd, m, uv)
+    r.opacity = sd.materials.opacity[m]
+    r.one_sided = sd.materials.one_sided[m]
+    t = material_texture(sd, m, wp.static(SLOT["opacity"]))
+    if t >= 0:
+        r.opacity = wp.clamp(texture_luminance(sd, t, uv), 0.0, 1.0)
+    return r
+
+
+def material_at_for(textures: bool, masks: bool = False):
+    """The material_at of a variant: the textured one only where the scene has textures, the one
+    reading opacity and sides only where it has masks or one-sided materials (so that other scenes
+    compile none of it)."""
+    if masks:
+        return material_at_textured_masked if textures else material_at_masked
     return material_at_textured if textures else material_at

@@ -7,6 +7,7 @@ of scenes with textures (Features.textures)."""
 import numpy as np
 import warp as wp
 
+from drtlab.kernels.colour import REC709_Y
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS, texture_pool
 
@@ -64,6 +65,16 @@ def wrap_texel(i: int, n: int, wrap: int) -> int:
 @wp.func
 def texel(sd: SceneData, first: int, w: int, h: int, wrap: int, x: int, y: int) -> wp.vec3:
     return sd.materials.texels[first + wrap_texel(y, h, wrap) * w + wrap_texel(x, w, wrap)]
+
+
+@wp.func
+def texture_luminance(sd: SceneData, t: int, uv: wp.vec2) -> float:
+    """A float parameter from texture t at uv: the luminance of its RGB, as Mitsuba's bitmap eval_1
+    (a grey image's one channel: drtlab holds it as three equal ones, whose luminance it is to
+    float32 rounding; Mitsuba weighs RGB by 0.212671, 0.715160, 0.072169, within 1e-4 of these)."""
+    c = texture_value(sd, t, uv)
+    return (wp.static(REC709_Y[0]) * c[0] + wp.static(REC709_Y[1]) * c[1]
+            + wp.static(REC709_Y[2]) * c[2])
 
 
 @wp.func

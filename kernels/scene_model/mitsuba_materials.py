@@ -10,7 +10,9 @@ from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic")
+         "roughplastic", "mask")
+# Mitsuba's BSDFs that are black from behind unless wrapped in `twosided`
+ONE_SIDED = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
 
 
 class MaterialMapping(TextureMapping):
@@ -28,7 +30,7 @@ class MaterialMapping(TextureMapping):
                                    "not emit")
             self.done(emitter)
         if bsdf is None:                 # Mitsuba's default: diffuse 0.5, black on an emitter
-            spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3}
+            spec = {"kind": "diffuse", "albedo": [0.0 if emitter is not None else 0.5] * 3, "one_sided": True}
             name = "default"
         else:
             spec, name = self.bsdf(bsdf), bsdf.id or shape.path.rsplit("/", 1)[-1].split("(")[0]
@@ -47,19 +49,20 @@ class MaterialMapping(TextureMapping):
             self.materials[unique] = spec
         return self.material_of[key]
 
-    def bsdf(self, o: Obj) -> dict:
+    def bsdf(self, o: Obj, two_sided: bool = False, masked: bool = False) -> dict:
         kind = self.kind(o, BSDFS)
         if kind == "twosided":
             nested = self.nested(o)
             if len(nested) != 1:
                 self.r.fail(o.path, "twosided with one nested bsdf only (drtlab's surfaces are the "
                                     "same on both sides)")
-            one_sided = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
-            if nested[0].type not in one_sided:
+            if nested[0].type not in ONE_SIDED:
                 self.r.fail(nested[0].path, f"twosided around '{nested[0].type}' is not supported "
-                                            f"({', '.join(one_sided)})")
+                                            f"({', '.join(ONE_SIDED)})")
             self.done(o)
-            return self.bsdf(nested[0])
+            return self.bsdf(nested[0], two_sided=True, masked=masked)
+        if kind == "mask":
+            return self.mask(o, masked)
         named = {p.path for p in o.props.values()}       # read through `colour` where a value is meant
         for child in o.children:
             if child.path in named:
@@ -92,6 +95,26 @@ class MaterialMapping(TextureMapping):
                 rough, alpha = self.roughness(o)
                 glass = {"beckmann": "beckmann_dielectric", "ggx_separable": "ggx_dielectric_separable"}
                 spec.update(kind=glass[rough], roughness=alpha)
+        if kind in ONE_SIDED and not two_sided:
+            spec["one_sided"] = True
+        self.done(o)
+        return spec
+
+    def mask(self, o: Obj, masked: bool) -> dict:
+        """Mitsuba's `mask` (src/bsdfs/mask.cpp): its one nested BSDF with the material's
+        `opacity` (a float in [0, 1], default 0.5) or `opacity_texture` (a bitmap or checkerboard,
+        read as its luminance)."""
+        if masked:
+            self.r.fail(o.path, "a mask inside a mask is not supported")
+        texture = self.texture_of(o, "opacity")
+        bsdfs = [c for c in self.nested(o) if c.tag == "bsdf"]
+        if len(bsdfs) != 1:
+            self.r.fail(o.path, f"a mask needs exactly one nested bsdf, got {len(bsdfs)}")
+        spec = self.bsdf(bsdfs[0], masked=True)
+        if texture is not None:
+            spec["opacity_texture"] = self.albedo_texture(texture)
+        else:
+            spec["opacity"] = float(self.number(o, "opacity", 0.5, lambda x: 0.0 <= x <= 1.0, "in [0, 1]"))
         self.done(o)
         return spec
 

@@ -67,6 +67,12 @@ class Material:
     # default, 0 + 1i, reflects everything at every angle (Mitsuba's material "none").
     eta: np.ndarray = field(default_factory=lambda: np.zeros(3))
     k: np.ndarray = field(default_factory=lambda: np.ones(3))
+    # Mitsuba 3's `mask` around the material (kernels/materials/mask.py): the share of hits that
+    # scatter by the kind, the rest passing straight through; 1 is an ordinary surface.
+    opacity: float = 1.0
+    # Black from behind (Mitsuba's diffuse, conductors and plastics unless `twosided`); a kind
+    # that does not transmit only
+    one_sided: bool = False
 
     @property
     def emissive(self) -> bool:

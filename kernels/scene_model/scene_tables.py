@@ -192,6 +192,13 @@ def _parse_material(name: str, value: Any) -> Material:
             raise InputError(t.field("k"), f"eta^2 + k^2 must be at most {fields.CONDUCTOR_NORM_MAX:.3g} "
                                            "in every channel (the Fresnel squares it in float32), got "
                                            f"{float(norm.max()):.3g}")
+    if t.has("opacity") and t.has("opacity_texture"):
+        raise InputError(t.field("opacity"), "give opacity or opacity_texture, not both")
+    m.opacity = number(t.get("opacity", 1.0, ""), t.field("opacity"),
+                       "in [0, 1] (the share of hits the surface scatters; the rest pass through)",
+                       lambda x: 0.0 <= x <= 1.0)
+    if t.has("one_sided"):
+        m.one_sided = boolean(t.data["one_sided"], t.field("one_sided"))
     if t.has("albedo2"):
         m.albedo2 = _albedo(t.data["albedo2"], t.field("albedo2"))
         m.checker = _checker(t.get("checker", [8, 8], ""), t.field("checker"))

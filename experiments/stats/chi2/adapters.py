@@ -170,14 +170,14 @@ ALL_KINDS = frozenset(MATERIAL_KINDS)
 
 def routine_variant(lobe: bool = True, solid_angle: bool = False, power_pick=False,
                     meshes: bool = False, faults: frozenset = frozenset(),
-                    microfacet: str = "vndf", lobes: tuple = ()) -> tuple:
+                    microfacet: str = "vndf", lobes: tuple = (), masks: bool = False) -> tuple:
     """(features, strategy) to build one sampling routine from, as the kernel factories take them:
     every material kind, spheres and quads (and meshes), the given strategy (with registered lobe
-    samplers `lobes`) and faults."""
+    samplers `lobes`) and faults; `masks`: with opacity and one-sidedness (kernels/materials/mask.py)."""
     features = Features(integrator="path", lens=False, motion=False, spheres=True, quads=True,
                         kinds=ALL_KINDS, checker=False, area_lights=True, point_lights=False,
                         dir_lights=False, roulette=False, background=False,
-                        faults=frozenset(faults), meshes=meshes)
+                        faults=frozenset(faults), meshes=meshes, masks=masks, one_sided=masks)
     pick = power_pick if isinstance(power_pick, str) else ("power" if power_pick else "uniform")
     light = LightSampling("solid_angle" if solid_angle else "area", pick)
     return features, Strategy("chi2", "a chi-square adapter's routine",
@@ -202,17 +202,22 @@ class BSDFAdapter:
     rough plastic kind's table row is built from the case (rough_plastic_table.py); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
     (Strategy.microfacet); `lobes`: registered lobe samplers replacing the built-in lobe sampling of
-    their kinds (Strategy.lobes)."""
+    their kinds (Strategy.lobes). `opacity` / `one_sided`: the material's mask and sides
+    (kernels/materials/mask.py), compiled in only where either is given."""
 
     _kernels: dict = {}
 
-    def __init__(self, lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
+    def __init__(self, lobe: bool, microfacet: str = "vndf", lobes: tuple = (),
+                 opacity: float | None = None, one_sided: bool = False):
         from drtlab.kernels.lobe_samplers import LOBE_SAMPLERS
         self.lobe = bool(lobe)
+        self.masks = opacity is not None or bool(one_sided)
+        self.opacity, self.one_sided = 1.0 if opacity is None else float(opacity), int(bool(one_sided))
         # An edited plugin re-registers under its name: its fingerprint keys a new kernel.
-        key = (self.lobe, microfacet, tuple(lobes), tuple(LOBE_SAMPLERS[n].fingerprint for n in lobes))
+        key = (self.lobe, microfacet, tuple(lobes), tuple(LOBE_SAMPLERS[n].fingerprint for n in lobes),
+               self.masks)
         if key not in BSDFAdapter._kernels:
-            BSDFAdapter._kernels[key] = _make_bsdf_kernel(self.lobe, microfacet, tuple(lobes))
+            BSDFAdapter._kernels[key] = _make_bsdf_kernel(self.lobe, microfacet, tuple(lobes), self.masks)
         self.kernel = BSDFAdapter._kernels[key]
 
     def _launch(self, mode, case, n, seed, pts=None):
@@ -227,6 +232,7 @@ class BSDFAdapter:
         mat.albedo, mat.shape, mat.ior = as_vec3(albedo), float(shape), float(ior)
         mat.eta, mat.k = as_vec3(eta), as_vec3(k)
         mat.table, mat.row = _table(mat.kind, albedo, shape, ior), 0
+        mat.opacity, mat.one_sided = self.opacity, self.one_sided
         wp.launch(self.kernel, dim=n, device="cpu",
                   inputs=[int(mode), mat, as_vec3(nrm), as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
@@ -271,12 +277,12 @@ def _table(kind: int, albedo, shape: float, ior: float):
     return _wp().array(row, dtype=float, device="cpu")
 
 
-def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = ()):
+def _make_bsdf_kernel(lobe: bool, microfacet: str = "vndf", lobes: tuple = (), masks: bool = False):
     wp = _wp()
     from drtlab.kernels.materials import make_bsdf
     from drtlab.kernels.materials.material_at import MaterialAt
 
-    b = make_bsdf(*routine_variant(lobe=lobe, microfacet=microfacet, lobes=lobes))
+    b = make_bsdf(*routine_variant(lobe=lobe, microfacet=microfacet, lobes=lobes, masks=masks))
     sample_bsdf, pdf_bsdf, eval_bsdf = b.sample_bsdf, b.pdf_bsdf, b.eval_bsdf
 
     @wp.kernel(enable_backward=False, module="unique")
