@@ -34,6 +34,7 @@ class SphereData:
     velocity: wp.array(dtype=wp.vec3)
     material: wp.array(dtype=int)
     light: wp.array(dtype=int)                 # its area light, -1 none
+    to_local: wp.array(dtype=wp.mat33)         # world -> its own frame (Shape.to_local): a texture's uv
     count: int
     bvh: wp.uint64                             # wp.Bvh over the spheres' swept boxes; 0: none
 

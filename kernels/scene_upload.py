@@ -125,6 +125,8 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     sp.velocity = arr([s.velocity for s in spheres], wp.vec3, (1, 3))
     sp.material = arr([s.material for s in spheres], int, (1,))
     sp.light = arr([light_of.get(id(s), -1) for s in spheres], int, (1,))
+    sp.to_local = arr([np.eye(3) if s.to_local is None else s.to_local for s in spheres], wp.mat33,
+                      (1, 3, 3))
     sp.count = len(spheres)
     q = sd.quads
     q.origin = arr([_at_time(s.origin, s.velocity, t_open) for s in quads], wp.vec3, (1, 3))

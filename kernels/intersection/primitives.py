@@ -66,6 +66,17 @@ def hit_sphere(o: wp.vec3, d: wp.vec3, c: wp.vec3, r: float, tmax: float) -> flo
 
 
 @wp.func
+def sphere_uv(local: wp.vec3) -> wp.vec2:
+    """Mitsuba 3's uv of a sphere (src/shapes/sphere.cpp) at the unit direction `local` in its own
+    frame: u = atan2(y, x) / 2 pi in [0, 1) (u = 0 towards +x, turning towards +y), v = acos(z) / pi
+    (v = 0 at the +z pole)."""
+    phi = wp.atan2(local[1], local[0])
+    if phi < 0.0:
+        phi += 2.0 * wp.pi
+    return wp.vec2(phi * (0.5 / wp.pi), wp.acos(wp.clamp(local[2], -1.0, 1.0)) * (1.0 / wp.pi))
+
+
+@wp.func
 def quad_basis(n: wp.vec3) -> wp.vec3:
     """w = n / |n|^2 for n = edge_u x edge_v: (s, t) = (w . (rel x edge_v), w . (edge_u x rel))."""
     return n / wp.dot(n, n)

@@ -29,7 +29,7 @@ from drtlab.estimators.domain_maps import INV_PI
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
 from drtlab.kernels.features import Features
 from drtlab.kernels.intersection.primitives import (Hit, hit_quad_nw, hit_sphere, may_hit_ball, quad_params_w,
-                                    slab_hit)
+                                    slab_hit, sphere_uv)
 from drtlab.kernels.materials import checkered
 from drtlab.kernels.intersection.bvh_traversal import (MeshRays, SphereBvh, make_mesh_rays,
                                                       make_sphere_bvh, mesh_shading_normal,
@@ -198,14 +198,14 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     h.n = n
                     h.material = sd.spheres.material[h.index]
                     h.light = sd.spheres.light[h.index]
-                    # texture coordinates only where a material reads them
-                    reads_uv = checkered(sd, h.material)
-                    if wp.static(TEXTURES):
-                        if sd.materials.textured[h.material] == 1:
-                            reads_uv = 1
-                    if reads_uv == 1:
+                    # texture coordinates only where a material reads them: a texture Mitsuba's
+                    # (in the sphere's own frame), a checker drtlab's y-up angles
+                    if checkered(sd, h.material) == 1:
                         h.uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
                                        wp.acos(wp.clamp(n[1], -1.0, 1.0)) * INV_PI)
+                    if wp.static(TEXTURES):
+                        if sd.materials.textured[h.material] == 1:
+                            h.uv = sphere_uv(sd.spheres.to_local[h.index] * n)
             if wp.static(HAS_QUAD):
                 if h.kind == QUAD:
                     h.n = sd.quads.normal[h.index]

@@ -3,8 +3,9 @@
 which gives it the property access (`get`, `string`, `colour`, `done`, `deref`).
 
 Only a rectangle's uv ((x + 1) / 2, (y + 1) / 2 of its local square, the quad's parameters along
-edge_u and edge_v) and an OBJ file's texture coordinates (v flipped, Mitsuba's flip_tex_coords) are
-Mitsuba's in drtlab; a texture on any other shape is refused.
+edge_u and edge_v), a sphere's (its angles in the frame of its to_world, kernels/intersection/
+primitives.py: sphere_uv) and an OBJ file's texture coordinates (v flipped, Mitsuba's
+flip_tex_coords) are Mitsuba's in drtlab; a texture on any other shape is refused.
 """
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
 from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_SLOTS, WRAPS, slot_key
 
 TEXTURES = ("bitmap", "checkerboard")
-TEXTURED_SHAPES = ("rectangle", "obj")
+TEXTURED_SHAPES = ("rectangle", "sphere", "obj")
 
 
 class TextureMapping:
@@ -52,12 +53,13 @@ class TextureMapping:
         return table
 
     def check_textured_shape(self, shape: Obj, spec: dict) -> None:
-        """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
+        """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z, a sphere and
+        an obj only."""
         if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS):
             return
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
-                                    "Mitsuba's on a rectangle and an obj only)")
+                                    "Mitsuba's on a rectangle, a sphere and an obj only)")
         flip_uv = shape.props.get("flip_tex_coords")
         if flip_uv is not None and not flip_uv.value:
             self.r.fail(flip_uv.path, "false is not supported on a textured obj (drtlab reads an "

@@ -112,6 +112,9 @@ class Shape:
     name: str = ""
     center: np.ndarray | None = None            # sphere
     radius: float = 0.0                         # sphere
+    # sphere: world directions -> its own frame (its transform's rotation, transposed), which only a
+    # texture reads (Mitsuba's uv); None: the world's axes.
+    to_local: np.ndarray | None = None
     origin: np.ndarray | None = None            # quad: corner
     edge_u: np.ndarray | None = None            # quad: first edge; normal = normalize(edge_u x edge_v)
     edge_v: np.ndarray | None = None            # quad: second edge

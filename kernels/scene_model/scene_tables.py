@@ -245,7 +245,9 @@ def _transformed(i: int, value: dict, shapes: list[Shape], materials: list[Mater
     emissive = materials[shapes[0].material].emissive
     for s in shapes:
         if s.kind == "sphere":
-            s.center, s.radius = transform_sphere(m, s.center, s.radius, field, spelled)
+            s.center, s.radius, to_local = transform_sphere(m, s.center, s.radius, field, spelled)
+            if materials[s.material].textures:     # only a texture reads the sphere's frame
+                s.to_local = to_local
         elif s.kind == "quad":
             s.origin, s.edge_u, s.edge_v = transform_quad(m, s.origin, s.edge_u, s.edge_v)
         else:

@@ -110,14 +110,16 @@ def transform_quad(m: np.ndarray, origin, edge_u, edge_v) -> tuple:
 
 
 def transform_sphere(m: np.ndarray, center, radius: float, field: str, spelled: str) -> tuple:
-    """(center, radius) of the transformed sphere; `spelled` is the transform key that made m (for
-    the error when m is not a similarity: a sphere would become an ellipsoid)."""
+    """(center, radius, to_local) of the transformed sphere, to_local the orthogonal matrix taking
+    world directions into the sphere's own frame (the inverse of m's rotation, a mirror included);
+    `spelled` is the transform key that made m (for the error when m is not a similarity: a sphere
+    would become an ellipsoid)."""
     s = similarity_scale(m)
     if s is None:
         raise InputError(f"{field}.{spelled}", "a sphere accepts only translate, rotate and a uniform "
                                                "scale (a similarity); this transform would make it an "
                                                "ellipsoid, which drtlab does not model")
-    return apply_transform(m, center), radius * s
+    return apply_transform(m, center), radius * s, (np.asarray(m, np.float64)[:3, :3] / s).T
 
 
 # ---------------------------------------------------------------------------------------------------

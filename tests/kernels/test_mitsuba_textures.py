@@ -81,7 +81,7 @@ def test_checkerboard_through_a_ref(folder):
 
 
 @pytest.mark.parametrize("shape,more,flip,words", [
-    ("sphere", "", "", "a texture on a sphere is not supported"),
+    ("cube", "", "", "a texture on a cube is not supported"),
     ("rectangle", "", '<boolean name="flip_normals" value="true"/>', "textured rectangle"),
     ("rectangle", "", '<transform name="to_world"><scale x="-1"/></transform>', "textured rectangle"),
     ("rectangle", '<string name="wrap_mode" value="border"/>', "", "wrap_mode"),

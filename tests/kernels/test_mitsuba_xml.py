@@ -241,8 +241,8 @@ def test_direct_takes_its_sample_counts(tmp_path):
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughconductor)", "anisotropic"),
     ('<shape type="sphere"><bsdf type="roughplastic"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughplastic)", "anisotropic"),
-    ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
-     "shape[2](sphere)", "a texture on a sphere is not supported"),
+    ('<shape type="cube"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
+     "shape[2](cube)", "a texture on a cube is not supported"),
     ('<shape type="sphere"><bsdf type="conductor"><string name="material" value="Xx"/></bsdf></shape>',
      "string[@name=material]", "'Xx' is not supported (supported: none, Ag, Al,"),
     ('<shape type="sphere"><bsdf type="diffuse"/><bsdf type="diffuse"/></shape>', "bsdf[2](diffuse)", "one bsdf"),

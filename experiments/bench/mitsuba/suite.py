@@ -16,7 +16,10 @@ resolution (independent samples, as its sampler) and judged by two rules:
   suite_baseline.json) where the baseline has that spp; otherwise predicted from the reference's
   variance image (each block mean of an spp-sample render is Gaussian with variance sum(var) /
   (16^2 spp), its expected |error| that sd times sqrt(2 / pi)), which leaves the reference's own
-  noise out and so is a lower bound.
+  noise out and so is a lower bound. It leaves out the reference's float32 rounding too: a pixel
+  whose samples are all equal (a constant background seen directly) is its film's float32 sum of
+  32000 equal XYZ samples, up to 1e-3 off the exact value, an offset Mitsuba's own renders carry
+  into their measured L1 as drtlab's do.
 
 A scene whose film filter is not the box is rendered as Mitsuba renders it: every sample splatted
 into each pixel its filter reaches (drtlab's `+splat` pixel estimator), in SPLAT_BATCHES independent
