@@ -30,6 +30,7 @@ from drtlab.kernels.materials.texture import texture_tables
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
 from drtlab.kernels.scene_model.scene import Camera, Scene
+from drtlab.kernels.projection import projection_row
 from drtlab.kernels.spot import spot_axis, spot_cone
 from drtlab.warp_runtime import warp as initialised_warp
 
@@ -235,6 +236,10 @@ def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes:
     lights.point_intensity = arr([pl.intensity for pl in points], wp.vec3, (1, 3))
     lights.point_axis = arr([spot_axis(pl) for pl in points], wp.vec3, (1, 3))
     lights.point_cone = arr([spot_cone(pl) for pl in points], wp.vec4, (1, 4))
+    rows = [projection_row(pl, -1) for pl in points]
+    lights.point_right = arr([r[0] for r in rows], wp.vec3, (1, 3))
+    lights.point_up = arr([r[1] for r in rows], wp.vec3, (1, 3))
+    lights.point_proj = arr([r[2] for r in rows], wp.vec4, (1, 4))
     lights.n_point = len(points)
     lights.dir_direction = arr([dl.direction for dl in dirs], wp.vec3, (1, 3))
     lights.dir_irradiance = arr([dl.irradiance for dl in dirs], wp.vec3, (1, 3))
