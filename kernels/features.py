@@ -128,6 +128,8 @@ class Features:
     spot_lights: bool = False  # some point light is a spot (kernels/spot.py; absent: compiled out)
     textures: bool = False  # some material reads a texture (kernels/materials/texture.py; absent:
                             # compiled out)
+    emission_textures: bool = False  # some emitter's emission is textured (kernels/emission.py;
+                                     # absent: compiled out)
     projections: bool = False  # some point light projects: a projector or a textured spot
                                # (kernels/projection.py; absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
@@ -180,7 +182,7 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
-                             "textures", "projections")
+                             "textures", "projections", "emission_textures")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -219,6 +221,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
         projections=any(pl.projects for pl in scene.point_lights),
+        emission_textures=any("emission" in scene.materials[s.material].textures for s in scene.shapes),
         textures=any(scene.materials[s.material].textures for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,

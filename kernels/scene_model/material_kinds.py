@@ -69,7 +69,7 @@ class MaterialKind:
                 + (("albedo2", "checker", "albedo_texture") if self.checker else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
-                + ("emission",))
+                + ("emission", "emission_texture"))
 
     @property
     def shape_key(self) -> str | None:

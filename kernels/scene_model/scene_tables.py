@@ -166,7 +166,11 @@ def _parse_material(name: str, value: Any) -> Material:
     spec = KIND_BY_NAME[kind]
     t.check_keys(spec.keys)
     m = Material(name=name, kind=kind)
-    m.emission = _color(t.get("emission", [0, 0, 0], ""), t.field("emission"))
+    # An emission texture multiplies the emission (default then 1: the texture is the radiance).
+    m.emission = _color(t.get("emission", [1, 1, 1] if t.has("emission_texture") else [0, 0, 0], ""),
+                        t.field("emission"))
+    if t.has("emission_texture"):
+        m.textures["emission"] = parse_texture(t.data["emission_texture"], t.field("emission_texture"))
     if spec.emitter:
         m.albedo = np.zeros(3)          # an emitter is black apart from what it emits
         if not m.emissive:
@@ -204,7 +208,7 @@ def _parse_material(name: str, value: Any) -> Material:
                                              "in [0, 1])")
     for slot in TEXTURE_SLOTS:
         key = slot_key(slot)
-        if not t.has(key):
+        if not t.has(key) or slot in m.textures:
             continue
         if slot == "albedo" and m.checker is not None:
             raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
