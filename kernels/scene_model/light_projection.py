@@ -103,9 +103,5 @@ def parse_projector(t: Table, light: PointLight) -> None:
                                               "view is a 50 mm lens's, along the diagonal)")
     else:
         fov, axis = focal_length_fov(FOCAL_LENGTH_MM), "diagonal"
-    x = fov_x(fov, axis, texture_aspect(light))
-    if not 0.0 < x < 180.0:
-        raise InputError(t.field("fov"), f"gives a horizontal field of view of {x:g} degrees; it must "
-                                         "be in (0, 180)")
-    light.fov_x = x
+    light.fov_x = fov_x(fov, axis, texture_aspect(light))     # in (0, 180) for any fov in (0, 180)
     parse_up(t, light)

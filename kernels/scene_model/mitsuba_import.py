@@ -293,6 +293,7 @@ class _Importer(ShapeMapping, MaterialMapping):
             fov = self.number(o, "fov", None, lambda x: 0 < x < 180, "in (0, 180) degrees")
             return fov, self.string(o, "fov_axis", "x", FOV_AXES)
         text = self.string(o, "focal_length", "50mm")
+        self.ignore(o, "fov_axis")          # parse_fov reads it with a fov only
         try:
             f = float(text[:-2] if text.endswith("mm") else text)
         except ValueError:
