@@ -93,6 +93,9 @@ def check_exportable(scene: Scene) -> None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
         for slot in m.textures:
             raise InputError(f"materials.{m.name}.{slot_key(slot)}", "textures are not exported")
+    for i, light in enumerate(scene.point_lights):
+        if light.projects:
+            raise InputError(f"lights[{i}]", "projectors and spots' textures are not exported")
     for i, s in enumerate(scene.shapes):
         if np.any(s.velocity != 0.0):
             raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "

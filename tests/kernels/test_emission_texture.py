@@ -93,3 +93,26 @@ def test_the_emission_multiplies_the_texture_and_features_compile_it_only_where_
     s = scene_from_dict(scene(QUAD, {"emission_texture": textures["left"]}))
     assert s.materials[1].emission.tolist() == [1.0, 1.0, 1.0]     # default 1: the texture's radiance
     assert not features_of(scene_from_dict(scene(QUAD, {"emission": EMISSION})), "path").emission_textures
+
+
+def mitsuba_emitter(shape: str, texture_file: str) -> str:
+    return ('<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/>'
+            '<transform name="to_world"><lookat origin="0, 3, 1" target="0, 0, 0" up="0, 1, 0"/></transform>'
+            '<film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="6"/>'
+            f'</film></sensor><integrator type="path"/><shape type="{shape}">'
+            '<bsdf type="diffuse"><rgb name="reflectance" value="1"/></bsdf><emitter type="area">'
+            f'<texture type="bitmap" name="radiance"><string name="filename" value="{texture_file}"/>'
+            '</texture></emitter></shape></scene>')
+
+
+def test_mitsuba_area_emitter_with_a_bitmap_radiance(tmp_path, textures):
+    from drtlab.errors import InputError
+    from drtlab.kernels.scene_model.scene_file import load_scene
+    (tmp_path / "a.xml").write_text(mitsuba_emitter("rectangle", textures["left"]["file"]))
+    m = load_scene(tmp_path / "a.xml").materials[0]
+    assert m.kind == "diffuse" and m.albedo.tolist() == [1.0] * 3 and m.emission.tolist() == [1.0] * 3
+    assert np.array_equal(m.textures["emission"].pixels[0, 0], np.float32(EMISSION))
+    (tmp_path / "b.xml").write_text(mitsuba_emitter("sphere", textures["left"]["file"]))
+    with pytest.raises(InputError) as e:
+        load_scene(tmp_path / "b.xml")
+    assert "a texture on a sphere is not supported" in str(e.value) and "\n" not in str(e.value)

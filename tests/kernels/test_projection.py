@@ -291,3 +291,13 @@ def test_mitsuba_projection_refusals_are_one_line(tmp_path, texture_file, emitte
     with pytest.raises(InputError) as e:
         load_scene(tmp_path / "s.xml")
     assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_projections_are_not_exported(tmp_path):
+    from drtlab.kernels.scene_model.mitsuba_export import export_mitsuba
+    data = plane_scene({"kind": "projector"})
+    data["camera"].pop("ortho_height")
+    with pytest.raises(InputError) as e:
+        export_mitsuba(scene_from_dict(data), tmp_path / "s.xml")
+    assert "lights[0]" in str(e.value) and "not exported" in str(e.value)
+    assert not (tmp_path / "s.xml").exists()
