@@ -203,8 +203,13 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable, lights: list =
 
 
 def emitter_powers(scene: Scene) -> list[float]:
-    """The power of each area light (emitter_shapes order), what the power pick weighs."""
-    return [max(luminance(scene.materials[s.material].emission), 1e-12) * s.area() * math.pi
+    """The power of each area light (emitter_shapes order), what the power pick weighs: an emission
+    texture counts by its texels' mean (only the pick's odds: any positive weights are unbiased)."""
+    def radiance(m) -> float:
+        t = m.textures.get("emission")
+        mean = 1.0 if t is None else float(np.mean(luminance(t.pixels.reshape(-1, 3))))
+        return luminance(m.emission) * mean
+    return [max(radiance(scene.materials[s.material]), 1e-12) * s.area() * math.pi
             for s in (scene.shapes[i] for i in scene.emitter_shapes())]
 
 
