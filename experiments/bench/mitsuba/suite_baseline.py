@@ -17,7 +17,7 @@ import numpy as np
 
 from drtlab.cli_args import Help, Parser, run_main
 from drtlab.experiments.bench.mitsuba.crosscheck_stats import block_l1
-from drtlab.experiments.bench.mitsuba.suite import BASELINE, scenes, suite_dir
+from drtlab.experiments.bench.mitsuba.suite import BASELINE, BLOCK, scenes, suite_dir
 from drtlab.experiments.files import atomic_write_text
 
 SPPS = (32, 256)
@@ -29,7 +29,7 @@ def mitsuba_l1(mi, job: dict, spp: int, seeds=SEEDS) -> list[float]:
     """The block L1 (over the reference's mean) of Mitsuba's spp-sample render of `job`, per seed."""
     ref = np.array(mi.Bitmap(str(job["ref"])))[..., :3].astype(np.float64)
     scene = mi.load_file(str(job["file"]), spp=spp)
-    return [block_l1(np.array(mi.render(scene, spp=spp, seed=s))[..., :3].astype(np.float64), ref)
+    return [block_l1(np.array(mi.render(scene, spp=spp, seed=s))[..., :3].astype(np.float64), ref, BLOCK)
             / float(ref.mean()) for s in seeds]
 
 

@@ -38,15 +38,16 @@ def test_predicted_l1_is_the_l1_of_gaussian_noise():
     ratios = []
     for seed in range(20):
         noise = np.random.default_rng(seed).standard_normal(ref.shape) * np.sqrt(var / SPP)
-        ratios.append(suite.judge(ref + noise, var, SPP, ref, var)["l1_ratio"])
+        ratios.append(suite.judge(ref + noise, suite.channel_se(var, SPP), SPP, ref, var)["l1_ratio"])
     # 20 independent renders: the mean ratio is 1 within its Monte Carlo error (about 0.005 here).
     assert abs(np.mean(ratios) - 1.0) < 0.03
 
 
 def test_a_measured_baseline_replaces_the_prediction():
     image, var, ref = synthetic(3)
-    predicted = suite.judge(image, var, SPP, ref, var)
-    measured = suite.judge(image, var, SPP, ref, var, measured=2 * predicted["mitsuba_l1_predicted"])
+    se = suite.channel_se(var, SPP)
+    predicted = suite.judge(image, se, SPP, ref, var)
+    measured = suite.judge(image, se, SPP, ref, var, measured=2 * predicted["mitsuba_l1_predicted"])
     assert measured["mitsuba_l1_source"] == "measured" and predicted["mitsuba_l1_source"] == "predicted"
     assert measured["l1_ratio"] == pytest.approx(predicted["l1_ratio"] / 2, rel=1e-12)
 
@@ -65,12 +66,13 @@ def test_the_baseline_has_every_scene_and_falls_with_spp():
 
 def test_unbiased_render_agrees_and_biased_ones_do_not():
     image, var, ref = synthetic(2)
-    assert suite.judge(image, var, SPP, ref, var)["agrees"]
-    biased = suite.judge(image * 1.03, var, SPP, ref, var)          # 3% too bright everywhere
+    se = suite.channel_se(var, SPP)
+    assert suite.judge(image, se, SPP, ref, var)["agrees"]
+    biased = suite.judge(image * 1.03, se, SPP, ref, var)          # 3% too bright everywhere
     assert not biased["agrees"] and "mean" in biased["why_not"]
     block = image.copy()
     block[:16, :16] += 0.5                                           # one wrong region
-    wrong = suite.judge(block, var, SPP, ref, var)
+    wrong = suite.judge(block, se, SPP, ref, var)
     assert not wrong["agrees"] and "block L1" in wrong["why_not"]
 
 
@@ -103,5 +105,5 @@ def test_an_environment_five_percent_too_bright_is_rejected():
     scene.environment.image = scene.environment.image * 1.05
     stats = render_with_stats(scene, spp=SPP, sampler=suite.SAMPLER, seed=0, progress=False, variance=True)
     ref, var = (read_linear(job[k])[0][..., :3].astype(np.float64) for k in ("ref", "var"))
-    verdict = suite.judge(stats.image, stats.variance, SPP, ref, var)
+    verdict = suite.judge(stats.image, suite.channel_se(stats.variance, SPP), SPP, ref, var)
     assert not verdict["agrees"] and "mean" in verdict["why_not"]
