@@ -142,6 +142,9 @@ class LightData:
     point_intensity: wp.array(dtype=wp.vec3)
     point_axis: wp.array(dtype=wp.vec3)        # a spot's unit axis, and its cone (kernels/spot.py:
     point_cone: wp.array(dtype=wp.vec4)        # spot_cone); read only by a variant with spots
+    point_right: wp.array(dtype=wp.vec3)       # a projection's frame x, y and its factors and texture
+    point_up: wp.array(dtype=wp.vec3)          # (kernels/projection.py: projection_row); read only by
+    point_proj: wp.array(dtype=wp.vec4)        # a variant with projections
     n_point: int
     dir_direction: wp.array(dtype=wp.vec3)     # the way the light travels
     dir_irradiance: wp.array(dtype=wp.vec3)

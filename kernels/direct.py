@@ -3,7 +3,7 @@
 `make_direct(features, strategy, rays=rays, bsdf=bsdf, lights=lights)` (from make_intersect,
 make_bsdf and make_lights) returns DirectLighting, Warp functions:
     direct_delta_lights(sd, mat, p, n, ns, wo, dt) -> point (spot: times its falloff,
-        kernels/spot.py) and directional light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
+        kernels/spot.py; a projection's factor, kernels/projection.py) and directional light (n: geometric normal, which offsets shadow rays; ns: shading normal, which the BSDF
         sees; equal but on meshes, where geometry.shading_consistent guards against leaks)
     next_event(sd, beta, mat, h, wo, u_light, u_point, bounce, dt) -> beta
         times one area-light sample's estimate (MIS-weighted when the strategy combines by MIS) at
@@ -31,6 +31,7 @@ from drtlab.kernels.lights import AreaLights, LightSample
 from drtlab.kernels.materials import Bsdf
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.mis import heuristic_of
+from drtlab.kernels.projection import projected
 from drtlab.kernels.spot import spot_falloff
 
 
@@ -48,6 +49,7 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
     env_next_event = environment.env_next_event if ENV else None
     POINTS = f.point_lights
     SPOTS = f.spot_lights
+    PROJECTIONS = f.projections
     DIRS = f.dir_lights
     MIS = strategy.mis
     mis_weight = heuristic_of(strategy, f.faults)
@@ -79,6 +81,8 @@ def make_direct(f: Features, strategy: Strategy, *, rays: SceneRays, bsdf: Bsdf,
                     fc = fc * shading_consistent(n, ns, wo, wi)
                 if wp.static(SPOTS):    # a point light's cone gives exactly 1
                     fc = fc * spot_falloff(-wp.dot(wi, sd.lights.point_axis[i]), sd.lights.point_cone[i])
+                if wp.static(PROJECTIONS):
+                    fc = wp.cw_mul(fc, projected(sd, i, -wi))
                 if fc[0] > 0.0 or fc[1] > 0.0 or fc[2] > 0.0:
                     o = offset_origin(p, n, wi, sd.eps)
                     if visible(sd, o, wi, wp.length(sd.lights.point_position[i] - o), dt, -1, -1) == 1:

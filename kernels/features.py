@@ -135,6 +135,10 @@ class Features:
     masks: bool = False     # some material has opacity < 1 (kernels/materials/mask.py; absent:
                             # compiled out)
     one_sided: bool = False  # some material is black from behind (mask.py; absent: compiled out)
+    emission_textures: bool = False  # some emitter's emission is textured (kernels/emission.py;
+                                     # absent: compiled out)
+    projections: bool = False  # some point light projects: a projector or a textured spot
+                               # (kernels/projection.py; absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
     bsdf_samples: int = 1
 
@@ -185,7 +189,7 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
-                             "textures", "masks", "one_sided")
+                             "textures", "masks", "one_sided", "projections", "emission_textures")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -227,6 +231,8 @@ def features_of(scene: Scene, integrator: str) -> Features:
         filter_clip=scene.camera.filter_clip,
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
+        projections=any(pl.projects for pl in scene.point_lights),
+        emission_textures=any("emission" in scene.materials[s.material].textures for s in scene.shapes),
         textures=any(scene.materials[s.material].textures for s in scene.shapes),
         masks=any(scene.materials[s.material].opacity < 1.0 or "opacity" in scene.materials[s.material].textures
                   for s in scene.shapes),

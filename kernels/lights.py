@@ -19,6 +19,7 @@ camera ray's hit); area sampling elsewhere, and for quads that are not rectangle
 flat light is area-sampled. The strategy's light selection (`kernels/light_selection.py`: `uniform`,
 `power`, or a plugin's) picks the light from the shading point.
 The fault features.LIGHT_JACOBIAN in `features.faults` drops the cosine at the light.
+`features.emission_textures` compiles in the emission texture at a sample's point (kernels/emission.py).
 `features.meshes` compiles in emitting triangle meshes (mesh_light.py); the fault
 features.MESH_PDF_HIGH_10PCT claims a density 10% too high. features.SPHERICAL_LINEAR compiles the
 spherical maps' wrong variant, features.SPHERICAL_MIS_AREA a light_pdf that ignores them,
@@ -32,6 +33,7 @@ from drtlab.estimators.spherical_maps import make_spherical_maps
 from drtlab.estimators.strategies import Strategy
 from drtlab.kernels import mesh_light, quad_light, sphere_light
 from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.emission import make_sample_emission
 from drtlab.kernels.features import (SPHERICAL_LINEAR, SPHERICAL_MIS_AREA, SPHERICAL_MIS_FIRST_VERTEX,
                                      Features)
 from drtlab.kernels.intersection.motion import Motion
@@ -100,6 +102,8 @@ def light_kinds(f: Features, strategy: Strategy, *, motion: Motion) -> tuple:
 
 def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLights:
     KINDS = light_kinds(f, strategy, motion=motion)
+    EMISSION_TEXTURES = f.emission_textures
+    sample_emission = make_sample_emission(motion)
     selection = selection_of(strategy)
     pick_light, light_pick_pmf = selection.pick, selection.pmf
 
@@ -130,6 +134,8 @@ def make_lights(f: Features, strategy: Strategy, *, motion: Motion) -> AreaLight
                 ls = wp.static(KINDS[i].sample)(sd, s, x, u, bounce, dt)
         if ls.valid == 1:
             ls.pdf = ls.pdf * light_pick_pmf(sd, x, li)
+            if wp.static(EMISSION_TEXTURES):
+                ls.radiance = sample_emission(sd, k, s, ls.prim, x + ls.wi * ls.dist, dt, ls.radiance)
         return ls
 
     return AreaLights(pick_light=pick_light, light_pick_pmf=light_pick_pmf,

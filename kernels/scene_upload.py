@@ -30,6 +30,7 @@ from drtlab.kernels.materials.texture import texture_tables
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
 from drtlab.kernels.scene_model.scene import Camera, Scene
+from drtlab.kernels.projection import projection_row
 from drtlab.kernels.spot import spot_axis, spot_cone
 from drtlab.warp_runtime import warp as initialised_warp
 
@@ -168,7 +169,9 @@ def _put_shapes(sd: SceneData, scene: Scene, spheres: list, quads: list, arr: Ca
     q.group = arr(groups.group_of, int, (1,))
 
 
-def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
+def _put_materials(sd: SceneData, materials: list, arr: Callable, lights: list = ()) -> dict:
+    """The materials and the texture pool (the lights' textures too); returns each pool texture's
+    index by id."""
     m = sd.materials
     m.kind = arr([MATERIAL_CODE[x.kind] for x in materials], int, (1,))
     m.albedo = arr([x.albedo for x in materials], wp.vec3, (1, 3))
@@ -192,7 +195,7 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
             table.append(model_module(spec).table_row(x.kind, x.albedo, x.roughness, x.ior))
     m.table = arr(np.concatenate(table), float, (1,))
     m.row = arr(rows, int, (1,))
-    t = texture_tables(materials)
+    t = texture_tables(materials, lights)
     m.tex = arr(t["tex"], int, (1,))
     m.textured = arr(t["textured"], int, (1,))
     m.tex_mode = arr(t["tex_mode"], wp.vec4i, (1, 4))
@@ -200,11 +203,17 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.tex_u = arr(t["tex_u"], wp.vec3, (1, 3))
     m.tex_v = arr(t["tex_v"], wp.vec3, (1, 3))
     m.texels = arr(t["texels"], wp.vec3, (1, 3))
+    return t["index"]
 
 
 def emitter_powers(scene: Scene) -> list[float]:
-    """The power of each area light (emitter_shapes order), what the power pick weighs."""
-    return [max(luminance(scene.materials[s.material].emission), 1e-12) * s.area() * math.pi
+    """The power of each area light (emitter_shapes order), what the power pick weighs: an emission
+    texture counts by its texels' mean (only the pick's odds: any positive weights are unbiased)."""
+    def radiance(m) -> float:
+        t = m.textures.get("emission")
+        mean = 1.0 if t is None else float(np.mean(luminance(t.pixels.reshape(-1, 3))))
+        return luminance(m.emission) * mean
+    return [max(radiance(scene.materials[s.material]), 1e-12) * s.area() * math.pi
             for s in (scene.shapes[i] for i in scene.emitter_shapes())]
 
 
@@ -221,7 +230,7 @@ def light_center(s) -> np.ndarray:
 
 
 def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes: list,
-                power: list, arr: Callable) -> None:
+                power: list, arr: Callable, tex_index: dict) -> None:
     """Area lights (emitting shapes, picked by power or uniformly), point (and spot) and directional lights."""
     index = {id(s): i for group in (spheres, quads, meshes) for i, s in enumerate(group)}
     code = {"sphere": SPHERE, "quad": QUAD, "mesh": MESH}
@@ -240,6 +249,10 @@ def _put_lights(sd: SceneData, scene: Scene, spheres: list, quads: list, meshes:
     lights.point_intensity = arr([pl.intensity for pl in points], wp.vec3, (1, 3))
     lights.point_axis = arr([spot_axis(pl) for pl in points], wp.vec3, (1, 3))
     lights.point_cone = arr([spot_cone(pl) for pl in points], wp.vec4, (1, 4))
+    rows = [projection_row(pl, tex_index.get(id(pl.texture), -1)) for pl in points]
+    lights.point_right = arr([r[0] for r in rows], wp.vec3, (1, 3))
+    lights.point_up = arr([r[1] for r in rows], wp.vec3, (1, 3))
+    lights.point_proj = arr([r[2] for r in rows], wp.vec4, (1, 4))
     lights.n_point = len(points)
     lights.dir_direction = arr([dl.direction for dl in dirs], wp.vec3, (1, 3))
     lights.dir_irradiance = arr([dl.irradiance for dl in dirs], wp.vec3, (1, 3))
@@ -360,9 +373,9 @@ def _upload(scene: Scene, device: str) -> SceneData:
     extent = scene_extent(scene)
     sd.__dict__["_accel"] = (_put_meshes(sd, scene, meshes, arr, device, extent)
                              + _put_sphere_bvh(sd, scene, spheres, device, extent))
-    _put_materials(sd, scene.materials, arr)
+    tex_index = _put_materials(sd, scene.materials, arr, scene.point_lights)
     power = emitter_powers(scene)              # the area lights' pick and the environment's share
-    _put_lights(sd, scene, spheres, quads, meshes, power, arr)
+    _put_lights(sd, scene, spheres, quads, meshes, power, arr, tex_index)
     sd.environment = environment_data(scene.environment, np.asarray(power),
                                       0.5 * extent, arr)
     _put_camera(sd, scene)

@@ -6,8 +6,8 @@ the cutoff (theta >= cutoff_angle: none), both angles given in degrees:
                        = 1                                              cos theta >= cos(beam)
                        = (cutoff - acos(cos theta)) / (cutoff - beam)   between (radians)
 
-Its radiant intensity towards theta is `intensity` x falloff (Mitsuba scales nothing else; its
-`texture` projection is not supported). A point light is a spot with the cone POINT_CONE, whose
+Its radiant intensity towards theta is `intensity` x falloff, times its projected `texture` where
+it has one (kernels/projection.py). A point light is a spot with the cone POINT_CONE, whose
 falloff is exactly 1 for every direction, so that a scene with both loops over one list.
 """
 import numpy as np
@@ -31,8 +31,8 @@ def spot_cone(light) -> tuple[float, float, float, float]:
 
 
 def spot_axis(light) -> np.ndarray:
-    """A spot's unit axis (a point light's is unused: +z)."""
-    if not light.spot:
+    """A spot's or projector's unit axis (a point light's is unused: +z)."""
+    if light.direction is None:
         return np.array([0.0, 0.0, 1.0])
     d = np.asarray(light.direction, dtype=np.float64)
     return d / np.linalg.norm(d)

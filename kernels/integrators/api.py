@@ -52,7 +52,8 @@ from drtlab.kernels.intersection.motion import make_motion
 from drtlab.kernels.intersection.primitives import Hit, offset_origin, shading_consistent
 from drtlab.kernels.intersection.scene_rays import make_intersect
 from drtlab.kernels.lights import make_lights
-from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, emitted, make_bsdf
+from drtlab.kernels.emission import emitted_for
+from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, make_bsdf
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.materials.material_at import material_at_for
 from drtlab.kernels.mis import balance_heuristic, heuristic_of, power_heuristic
@@ -222,7 +223,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         shading_consistent=shading_consistent,
         material_at=material_at_for(f.textures, f.masks or f.one_sided), kind=kind, is_delta=is_delta,
         eval_bsdf=bsdf.eval_bsdf,
-        pdf_bsdf=bsdf.pdf_bsdf, sample_bsdf=bsdf.sample_bsdf, emitted=emitted,
+        pdf_bsdf=bsdf.pdf_bsdf, sample_bsdf=bsdf.sample_bsdf, emitted=emitted_for(f),
         pick_light=lights.pick_light, light_pick_pmf=lights.light_pick_pmf,
         sample_light=lights.sample_light, light_pdf=lights.light_pdf,
         next_event=lighting.next_event, hit_weight=lighting.hit_weight,

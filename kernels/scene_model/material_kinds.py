@@ -70,7 +70,8 @@ class MaterialKind:
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
                 + (() if self.emitter else ("opacity", "opacity_texture"))
-                + (() if self.emitter or self.transmits else ("one_sided",)) + ("emission",))
+                + (() if self.emitter or self.transmits else ("one_sided",))
+                + ("emission", "emission_texture"))
 
     @property
     def shape_key(self) -> str | None:

@@ -96,6 +96,9 @@ def check_exportable(scene: Scene) -> None:
         if m.opacity < 1.0 or m.one_sided:     # (an opacity texture is refused above)
             key = "opacity" if m.opacity < 1.0 else "one_sided"
             raise InputError(f"materials.{m.name}.{key}", "masks and one-sided materials are not exported")
+    for i, light in enumerate(scene.point_lights):
+        if light.projects:
+            raise InputError(f"lights[{i}]", "projectors and spots' textures are not exported")
     for i, s in enumerate(scene.shapes):
         if np.any(s.velocity != 0.0):
             raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drtlab.kernels.scene_model.light_projection import FOV_AXES, focal_length_fov, fov_x
 from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
 from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
 from drtlab.kernels.filters import MITSUBA_GAUSSIAN, MITSUBA_STDDEV, STDDEV_MAX, STDDEV_MIN
@@ -274,30 +275,32 @@ class _Importer(ShapeMapping, MaterialMapping):
 
     def vertical_fov(self, o: Obj, aspect: float) -> float:
         """parse_fov of src/render/sensor.cpp, turned into drtlab's full vertical fov."""
+        fov, axis = self.fov_along(o)
+        if axis == "smaller":
+            axis = "y" if aspect > 1 else "x"
+        elif axis == "larger":
+            axis = "x" if aspect > 1 else "y"
+        if axis == "y":
+            return fov
+        return math.degrees(2.0 * math.atan(math.tan(0.5 * math.radians(fov_x(fov, axis, aspect))) / aspect))
+
+    def fov_along(self, o: Obj) -> tuple[float, str]:
+        """(fov in degrees, the axis it spans) of a sensor or projector: `fov` and `fov_axis`, else
+        its `focal_length` (50mm by default) along the diagonal (parse_fov)."""
         if "fov" in o.props and "focal_length" in o.props:
             self.r.fail(o.path, "give either fov or focal_length, not both")
         if "fov" in o.props:
             fov = self.number(o, "fov", None, lambda x: 0 < x < 180, "in (0, 180) degrees")
-            axis = self.string(o, "fov_axis", "x", ("x", "y", "diagonal", "smaller", "larger"))
-            if axis == "smaller":
-                axis = "y" if aspect > 1 else "x"
-            elif axis == "larger":
-                axis = "x" if aspect > 1 else "y"
-        else:
-            text = self.string(o, "focal_length", "50mm")
-            try:
-                f = float(text[:-2] if text.endswith("mm") else text)
-            except ValueError:
-                self.r.fail(o.props["focal_length"].path, f"must be like 50mm, got {text!r}")
-            if not (math.isfinite(f) and f > 0):
-                self.r.fail(o.props["focal_length"].path, f"must be a positive length, got {text!r}")
-            fov, axis = 2.0 * math.degrees(math.atan(math.sqrt(36 * 36 + 24 * 24) / (2.0 * f))), "diagonal"
-        if axis == "y":
-            return fov
-        if axis == "diagonal":
-            diagonal = 2.0 * math.tan(0.5 * math.radians(fov))
-            fov = math.degrees(2.0 * math.atan(diagonal / math.sqrt(1.0 + 1.0 / (aspect * aspect)) * 0.5))
-        return math.degrees(2.0 * math.atan(math.tan(0.5 * math.radians(fov)) / aspect))
+            return fov, self.string(o, "fov_axis", "x", FOV_AXES)
+        text = self.string(o, "focal_length", "50mm")
+        self.ignore(o, "fov_axis")          # parse_fov reads it with a fov only
+        try:
+            f = float(text[:-2] if text.endswith("mm") else text)
+        except ValueError:
+            self.r.fail(o.props["focal_length"].path, f"must be like 50mm, got {text!r}")
+        if not (math.isfinite(f) and f > 0):
+            self.r.fail(o.props["focal_length"].path, f"must be a positive length, got {text!r}")
+        return focal_length_fov(f), "diagonal"
 
     def film(self, o: Obj) -> tuple[int, int, dict]:
         """(width, height, the camera's filter keys) of an hdrfilm."""

@@ -19,9 +19,12 @@ class MaterialMapping(TextureMapping):
     def material(self, shape: Obj, bsdf: Obj | None, emitter: Obj | None) -> str:
         """The drtlab material of a (BSDF, area emitter) pair: one per distinct pair, named after the
         BSDF's id (or the shape's path)."""
-        radiance = None
+        radiance = texture = None
         if emitter is not None:
-            radiance = self.colour(emitter, "radiance", 1.0, emitter=True)
+            # A bitmap or checkerboard radiance: the emission texture, times an emission of 1.
+            texture = self.texture_of(emitter, "radiance")
+            radiance = [1.0] * 3 if texture is not None else self.colour(emitter, "radiance", 1.0, emitter=True)
+            texture = self.albedo_texture(texture) if texture is not None else None
             if not any(x > 0 for x in radiance):
                 # An emitter of nothing is a mistake in drtlab's files too (materials.*.emission).
                 where = emitter.props["radiance"].path if "radiance" in emitter.props else emitter.path
@@ -39,6 +42,9 @@ class MaterialMapping(TextureMapping):
             if spec["kind"] == "diffuse" and not any(spec["albedo"]):
                 spec = {"kind": "emitter"}       # black: it only emits
             spec["emission"] = radiance
+            if texture is not None:
+                spec["emission_texture"] = texture
+                self.check_textured_shape(shape, spec)
         key = repr(sorted(spec.items()))
         if key not in self.material_of:
             unique, k = name, 1

@@ -22,7 +22,7 @@ from drtlab.kernels.scene_model.procedural import DISK_SEGMENTS
 from drtlab.kernels.scene_model.scene import SPOT_CUTOFF_DEFAULT
 
 SHAPES = ("rectangle", "cube", "sphere", "obj", "ply", "serialized", "disk", "cylinder")
-EMITTERS = ("area", "point", "directional", "spot", "constant", "envmap")
+EMITTERS = ("area", "point", "directional", "spot", "projector", "constant", "envmap")
 MITSUBA_TO_DRTLAB = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
 ENVMAP_FORMATS = (".exr", ".hdr")
 # Mitsuba's disk flips its normal by to_world @ scale(1, 1, -1) (src/shapes/disk.cpp).
@@ -155,6 +155,8 @@ class ShapeMapping:
             self.data["environment"] = self.envmap(o)
         elif kind == "spot":
             self.data.setdefault("lights", []).append(self.spot(o))
+        elif kind == "projector":
+            self.data.setdefault("lights", []).append(self.projector(o))
         else:
             chain = self.get(o, "to_world", ("transform",), None)
             key, value = ("position", "intensity") if kind == "point" else ("direction", "irradiance")
@@ -171,9 +173,6 @@ class ShapeMapping:
     def spot(self, o: Obj) -> dict:
         """Mitsuba's spot: at to_world's origin, its axis to_world's +z (kept at its length: the
         loader normalises), the angles in degrees; absent ones keep the loader's (Mitsuba's) defaults."""
-        if "texture" in o.props:
-            self.r.fail(o.props["texture"].path, "a spot's projected texture is not supported (drtlab's "
-                                                 "spot emits its intensity times its falloff)")
         chain = self.get(o, "to_world", ("transform",), [])
         lin = chain_matrix(chain)[:3, :3]
         gram = lin.T @ lin
@@ -189,6 +188,39 @@ class ShapeMapping:
         beam = self.number(o, "beam_width", None, lambda x: 0.0 <= x <= limit,
                            f"in [0, cutoff_angle = {limit:g}] (degrees)")
         light.update({k: v for k, v in (("cutoff_angle", cutoff), ("beam_width", beam)) if v is not None})
+        if "texture" in o.props:
+            texture = self.texture_of(o, "texture")
+            if texture is None:
+                self.r.fail(o.props["texture"].path, "a spot's texture must be a bitmap or checkerboard "
+                                                     "(Mitsuba: spatially varying)")
+            light.update(texture=self.albedo_texture(texture), up=self.projection_up(o, lin))
+        return light
+
+    def projection_up(self, o: Obj, lin: np.ndarray) -> list:
+        """The up of a projecting emitter's frame (to_world's y): its x must be to_world's x, which
+        a mirroring transform reverses."""
+        if np.linalg.det(lin) <= 0.0:
+            self.r.fail(o.props["to_world"].path, "must not mirror (a projection's image would flip)")
+        return (lin[:, 1] / np.linalg.norm(lin[:, 1])).tolist()
+
+    def projector(self, o: Obj) -> dict:
+        """Mitsuba's projector: at to_world's origin (a rotation and translation: its irradiance is
+        measured at unit distance in its own frame), along +z, up +y; the irradiance a texture or a
+        constant; the field of view as a camera's (parse_fov)."""
+        chain = self.get(o, "to_world", ("transform",), [])
+        lin = chain_matrix(chain)[:3, :3]
+        if not np.allclose(lin.T @ lin, np.eye(3), rtol=0.0, atol=1e-9):
+            self.r.fail(o.props["to_world"].path, "must be a rotation and a translation for a projector, "
+                                                  f"got the linear part {np.round(lin, 6).tolist()}")
+        light = {"kind": "projector", "position": chain_point(chain, [0.0] * 3).tolist(),
+                 "direction": lin[:, 2].tolist(), "up": self.projection_up(o, lin),
+                 "scale": self.number(o, "scale", 1.0, lambda x: x >= 0, ">= 0")}
+        texture = self.texture_of(o, "irradiance")
+        if texture is not None:
+            light["irradiance_texture"] = self.albedo_texture(texture)
+        else:
+            light["irradiance"] = self.colour(o, "irradiance", 1.0, emitter=True)
+        light["fov"], light["fov_axis"] = self.fov_along(o)
         return light
 
     def envmap(self, o: Obj) -> dict:

@@ -143,10 +143,26 @@ class PointLight:
     direction: np.ndarray | None = None
     cutoff_angle: float = 0.0
     beam_width: float = 0.0
+    # A projection (kernels/scene_model/light_projection.py): the frame's up (a spot's with a texture,
+    # a projector's), a spot's projected texture or a projector's irradiance texture, and a
+    # projector's horizontal field of view in degrees (0: not a projector; then `direction` is its
+    # axis and `intensity` its scale x irradiance).
+    up: np.ndarray | None = None
+    texture: Texture | None = None
+    fov_x: float = 0.0
+
+    @property
+    def projector(self) -> bool:
+        return self.fov_x > 0.0
 
     @property
     def spot(self) -> bool:
-        return self.direction is not None
+        return self.direction is not None and not self.projector
+
+    @property
+    def projects(self) -> bool:
+        """A projector or a spot with a texture: the kernels' projection (kernels/projection.py)."""
+        return self.projector or self.texture is not None
 
 
 @dataclass
@@ -192,6 +208,9 @@ class Scene:
         for m in self.materials:        # and a texture's image file
             for slot in sorted(m.textures):
                 h.update(m.textures[slot].digest().encode())
+        for pl in self.point_lights:
+            if pl.texture is not None:
+                h.update(pl.texture.digest().encode())
         if self.environment is not None:        # so may an environment's image file
             h.update(self.environment.digest().encode())
         return h.hexdigest()[:16]

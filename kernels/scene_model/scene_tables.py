@@ -22,6 +22,8 @@ from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KIN
 from drtlab.kernels.scene_model.scene import (INTEGRATORS, SPOT_BEAM_SHARE, SPOT_CUTOFF_DEFAULT,
                                              DirectionalLight, Material, PointLight, Scene, Shape)
 from drtlab.kernels.scene_model.camera_table import parse_camera
+from drtlab.kernels.scene_model.light_projection import (PROJECTOR_KEYS, SPOT_PROJECTION_KEYS, parse_projector,
+                                                        parse_spot_texture)
 from drtlab.kernels.scene_model.texture import TEXTURE_SLOTS, parse_texture, slot_key
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
@@ -42,7 +44,9 @@ SHAPE_KEYS = {
 LIGHT_KEYS = {
     "point": ("kind", "position", "intensity"),
     "directional": ("kind", "direction", "irradiance"),
-    "spot": ("kind", "position", "intensity", "direction", "look_at", "cutoff_angle", "beam_width"),
+    "spot": ("kind", "position", "intensity", "direction", "look_at", "cutoff_angle", "beam_width")
+    + SPOT_PROJECTION_KEYS,
+    "projector": PROJECTOR_KEYS,
 }
 
 # ---------------------------------------------------------------------------------------------------
@@ -162,7 +166,11 @@ def _parse_material(name: str, value: Any) -> Material:
     spec = KIND_BY_NAME[kind]
     t.check_keys(spec.keys)
     m = Material(name=name, kind=kind)
-    m.emission = _color(t.get("emission", [0, 0, 0], ""), t.field("emission"))
+    # An emission texture multiplies the emission (default then 1: the texture is the radiance).
+    m.emission = _color(t.get("emission", [1, 1, 1] if t.has("emission_texture") else [0, 0, 0], ""),
+                        t.field("emission"))
+    if t.has("emission_texture"):
+        m.textures["emission"] = parse_texture(t.data["emission_texture"], t.field("emission_texture"))
     if spec.emitter:
         m.albedo = np.zeros(3)          # an emitter is black apart from what it emits
         if not m.emissive:
@@ -207,7 +215,7 @@ def _parse_material(name: str, value: Any) -> Material:
                                              "in [0, 1])")
     for slot in TEXTURE_SLOTS:
         key = slot_key(slot)
-        if not t.has(key):
+        if not t.has(key) or slot in m.textures:
             continue
         if slot == "albedo" and m.checker is not None:
             raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
@@ -355,13 +363,19 @@ def _parse_lights(value: Any) -> tuple[list[PointLight], list[DirectionalLight]]
         t = Table(body, f"lights[{i}]", f"light {i}")
         kind = string(t.get("kind", REQUIRED, " | ".join(LIGHT_KEYS)), t.field("kind"), tuple(LIGHT_KEYS))
         t.check_keys(LIGHT_KEYS[kind])
-        if kind in ("point", "spot"):
+        if kind == "projector":
+            position = _vec3(t.get("position", REQUIRED, "a list of 3 finite numbers"), t.field("position"))
+            points.append(PointLight(position=position, intensity=np.ones(3)))
+            points[-1].direction = _axis(t, position)
+            parse_projector(t, points[-1])
+        elif kind in ("point", "spot"):
             position = _vec3(t.get("position", REQUIRED, "a list of 3 finite numbers"), t.field("position"))
             intensity = _color(t.get("intensity", REQUIRED, "a list of 3 finite numbers >= 0 (W/sr)"),
                                t.field("intensity"))
             points.append(PointLight(position=position, intensity=intensity))
             if kind == "spot":
                 _spot_cone(t, points[-1])
+                parse_spot_texture(t, points[-1])
         else:
             direction = _vec3(t.get("direction", REQUIRED, "a non-zero list of 3 finite numbers"),
                               t.field("direction"))
@@ -375,19 +389,25 @@ def _parse_lights(value: Any) -> tuple[list[PointLight], list[DirectionalLight]]
     return points, directionals
 
 
-def _spot_cone(t: Table, light: PointLight) -> None:
-    """A spot's axis (direction, or look_at from its position) and cone, Mitsuba 3's angles in degrees."""
+def _axis(t: Table, position: np.ndarray) -> np.ndarray:
+    """A spot's or projector's axis: direction, or look_at from its position."""
     if t.has("direction") == t.has("look_at"):
-        raise InputError(t.field("direction"), "a spot needs either direction or look_at (a point "
-                                               "its axis passes through), not both or neither")
+        raise InputError(t.field("direction"), f"a {t.data['kind']} needs either direction or look_at "
+                                               "(a point its axis passes through), not both or neither")
     key = "direction" if t.has("direction") else "look_at"
     axis = _vec3(t.data[key], t.field(key))
     if key == "look_at":
-        axis = axis - light.position
+        axis = axis - position
     norm = float(np.linalg.norm(axis))
     if not (math.isfinite(norm) and norm > 0.0):
         raise InputError(t.field(key), "must give a non-zero axis (a direction, or a look_at away "
                                        f"from the position), got {show(t.data[key])}")
+    return axis
+
+
+def _spot_cone(t: Table, light: PointLight) -> None:
+    """A spot's axis (direction, or look_at from its position) and cone, Mitsuba 3's angles in degrees."""
+    axis = _axis(t, light.position)
     cutoff = number(t.get("cutoff_angle", SPOT_CUTOFF_DEFAULT, ""), t.field("cutoff_angle"),
                     "in (0, 180] (degrees, where the light ends)", lambda x: 0.0 < x <= 180.0)
     beam = number(t.get("beam_width", SPOT_BEAM_SHARE * cutoff, ""), t.field("beam_width"),

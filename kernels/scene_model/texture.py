@@ -28,8 +28,11 @@ KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
 MAX_TEXELS = 1 << 24
 # A material's textured parameters, in the order of the device's per-material slot table
 # (MaterialData.tex): a new slot is one name here, then its lookup where the parameter is read.
-TEXTURE_SLOTS = ("albedo",
-                 "opacity")      # a mask's (kernels/materials/mask.py): the texture's luminance
+TEXTURE_SLOTS = (
+    "albedo",
+    "opacity",      # a mask's (kernels/materials/mask.py): the texture's luminance
+    "emission",     # an area light's radiance (kernels/emission.py)
+)
 
 
 def slot_key(slot: str) -> str:

@@ -2,7 +2,8 @@
 formula transcribed here from src/emitters/spot.cpp at many angles (to float32 rounding), an image of
 a spot above a diffuse plane (path, direct, drt) against the closed form ρ I falloff(θ) h / (π r³) per pixel (a z-test,
 Bonferroni over the pixels), the negative controls both must reject (no transition band, linear in
-cos θ instead of θ, the angles read as radians), the loader's refusals, Mitsuba's XML in and out."""
+cos θ instead of θ, the angles read as radians), the loader's refusals, Mitsuba's XML in and out.
+A spot's projected texture: tests/kernels/test_projection.py."""
 from __future__ import annotations
 
 import math
@@ -226,8 +227,10 @@ def test_mitsuba_spot_imports_its_frame_angles_and_defaults(tmp_path):
 
 
 @pytest.mark.parametrize("body,transform,words", [
+    ('<texture name="texture" type="srgb"><rgb name="color" value="0.5"/></texture>', None,
+     "texture(srgb): a spot's texture must be a bitmap or checkerboard"),
     ('<texture name="texture" type="bitmap"><string name="filename" value="t.png"/></texture>', None,
-     "texture(bitmap): a spot's projected texture is not supported"),
+     "texture file 't.png' does not exist"),
     ('', '<scale x="2" y="1" z="1"/>', "uniform scale"),
     ('<float name="cutoff_angle" value="0"/>', None, "cutoff_angle"),
     ('<float name="beam_width" value="21"/>', None, "cutoff_angle = 20"),
@@ -257,15 +260,15 @@ def test_a_spot_exports_and_imports_back_exactly(tmp_path):
     assert np.array_equal(render(a, spp=2, seed=4, res=(8, 6)), render(b, spp=2, seed=4, res=(8, 6)))
 
 
-def test_the_suite_scene_with_its_texture_is_refused_in_one_line():
+def test_the_suite_scene_loads_with_its_texture_and_frame():
     from drtlab.experiments.bench.mitsuba.suite import suite_dir
     suite = suite_dir()
     xml = suite / "tests" / "scenes" / "spot_light" / "test_spot_direct.xml"
     if not xml.is_file():
         pytest.skip(f"Mitsuba's test scenes are not at {suite} (set DRTLAB_MITSUBA_TESTS)")
-    with pytest.raises(InputError) as e:
-        load_scene(xml)
-    assert "emitter[2](spot)/texture(bitmap)" in str(e.value) and "\n" not in str(e.value)
+    light = load_scene(xml).point_lights[0]
+    assert light.spot and light.texture.pixels.shape == (1080, 1920, 3)
+    assert light.direction.tolist() == [0.0, 0.0, 1.0] and np.allclose(light.up, [0.0, 1.0, 0.0])
 
 
 def test_whitted_lights_a_spot_as_path_does():
