@@ -220,7 +220,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         intersect=rays.intersect, visible=rays.visible, visible_mesh=rays.visible_mesh,
         offset_origin=offset_origin, shading_normal=shading_normal,
         shading_consistent=shading_consistent,
-        material_at=material_at_for(f.textures), kind=kind, is_delta=is_delta,
+        material_at=material_at_for(f.textures, f.kinds), kind=kind, is_delta=is_delta,
         eval_bsdf=bsdf.eval_bsdf,
         pdf_bsdf=bsdf.pdf_bsdf, sample_bsdf=bsdf.sample_bsdf, emitted=emitted,
         pick_light=lights.pick_light, light_pick_pmf=lights.light_pick_pmf,

@@ -2,11 +2,17 @@
 per property, so a per-material property a new kind needs is a field here and in MaterialData
 (device_scene.py), not an argument threaded through every caller (tracers, direct and environment
 lighting, whitted, the chi-square adapter)."""
+import functools
+
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.materials.surface import surface_albedo
-from drtlab.kernels.materials.texture import SLOT, material_texture, texture_value
+from drtlab.kernels.materials.texture import SLOT, material_texture, texture_scalar, texture_value
+from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
+from drtlab.kernels.scene_model.principled_params import PARAM_COUNT, PARAMS
+
+ParamVector = wp.types.vector(length=PARAM_COUNT, dtype=float)
 
 
 @wp.struct
@@ -20,6 +26,8 @@ class MaterialAt:
     k: wp.vec3
     table: wp.array(dtype=float)    # the flat per-material table (MaterialKind.table kinds) ...
     row: int                        # ... and this material's row offset in it
+    param: ParamVector              # a `params` kind's parameters at the hit (principled_params.py):
+                                    # its row, textured ones looked up at uv (material_at_for)
 
 
 @wp.func
@@ -48,7 +56,38 @@ def material_at_textured(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     return r
 
 
-def material_at_for(textures: bool):
+def material_at_for(textures: bool, kinds: frozenset = frozenset()):
     """The material_at of a variant: the textured one only where the scene has textures (so that
-    other scenes compile no texture code)."""
-    return material_at_textured if textures else material_at
+    other scenes compile no texture code), and one that fills MaterialAt.param only where a kind
+    with parameters (MaterialKind.params) is present."""
+    codes = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.params and k.name in kinds)
+    if not codes:
+        return material_at_textured if textures else material_at
+    return _make_parameterised(bool(textures), codes)
+
+
+# (slot column, place in the vector) of every texturable parameter
+_TEXTURED = tuple((SLOT[p.name], i) for i, p in enumerate(PARAMS) if p.texturable and p.name in SLOT)
+
+
+@functools.lru_cache(maxsize=None)
+def _make_parameterised(textures: bool, codes: tuple):
+    base = material_at_textured if textures else material_at
+    CODES = codes
+    TEXTURES = textures
+
+    @wp.func
+    def material_at_params(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+        r = base(sd, m, uv)
+        for c in range(wp.static(len(CODES))):
+            if r.kind == wp.static(CODES[c]):
+                for i in range(wp.static(PARAM_COUNT)):
+                    r.param[i] = r.table[r.row + i]
+                if wp.static(TEXTURES):
+                    for j in range(wp.static(len(_TEXTURED))):
+                        t = material_texture(sd, m, wp.static(_TEXTURED[j][0]))
+                        if t >= 0:
+                            r.param[wp.static(_TEXTURED[j][1])] = texture_scalar(sd, t, uv)
+        return r
+
+    return material_at_params

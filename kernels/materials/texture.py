@@ -67,6 +67,28 @@ def texel(sd: SceneData, first: int, w: int, h: int, wrap: int, x: int, y: int) 
 
 
 @wp.func
+def texture_scalar(sd: SceneData, t: int, uv: wp.vec2) -> float:
+    """Texture t as a float parameter at uv, as Mitsuba's eval_1: a bitmap's luminance (its RGB
+    luminance weights), and a checkerboard's colours swapped against its RGB eval (checkerboard.cpp:
+    eval_1 gives color0 where exactly one fraction of uv' is > 1/2)."""
+    c = texture_value(sd, t, uv)
+    mode = sd.materials.tex_mode[t]
+    if mode[0] == wp.static(CHECKERBOARD):
+        first = mode[3]
+        if c == sd.materials.texels[first]:
+            c = sd.materials.texels[first + 1]
+        else:
+            c = sd.materials.texels[first]
+    return luminance(c)
+
+
+@wp.func
+def luminance(c: wp.vec3) -> float:
+    """Mitsuba 3's luminance of an RGB value (core/spectrum.h; its bitmap's eval_1 too)."""
+    return c[0] * 0.212671 + c[1] * 0.715160 + c[2] * 0.072169
+
+
+@wp.func
 def texture_value(sd: SceneData, t: int, uv: wp.vec2) -> wp.vec3:
     """Texture t at surface coordinates uv (linear RGB)."""
     mode = sd.materials.tex_mode[t]

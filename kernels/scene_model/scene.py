@@ -67,6 +67,8 @@ class Material:
     # default, 0 + 1i, reflects everything at every angle (Mitsuba's material "none").
     eta: np.ndarray = field(default_factory=lambda: np.zeros(3))
     k: np.ndarray = field(default_factory=lambda: np.ones(3))
+    # A `params` kind's parameters by name (principled_params.py; the kind's defaults where absent)
+    params: dict[str, float] = field(default_factory=dict)
 
     @property
     def emissive(self) -> bool:
