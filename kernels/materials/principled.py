@@ -200,12 +200,16 @@ def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) 
     dot_im = wp.dot(vi, m)
     F = fresnel_signed(dot_im, eta)
     p = lobe_probabilities(mat, front, F)
+    # Mitsuba drops a direction its lobe cannot give (the wrong side of the surface or of the
+    # facet): there another lobe's density would count it.
     vo = wp.vec3(0.0)
     if u_lobe < p[0]:
         vo = square_to_cosine_hemisphere(u)
     elif u_lobe < p[0] + p[1]:
         gloss = mat.param[CLEARCOAT_GLOSS]
         mc = gtr1_sample(0.1 * (1.0 - gloss) + 0.001 * gloss, u)
+        if wp.dot(vi, mc) <= 0.0:
+            return proposal(wp.vec3(0.0))
         vo = 2.0 * wp.dot(vi, mc) * mc - vi
     elif u_lobe < p[0] + p[1] + p[2]:
         # Refraction through m from vi's side (Mitsuba's refract with its fresnel's cos_theta_t).
@@ -219,7 +223,11 @@ def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) 
         if dot_im >= 0.0:
             ct = -ct
         vo = m * (dot_im * eta_ti + ct) - vi * eta_ti
+        if vo[2] * ci >= 0.0:
+            return proposal(wp.vec3(0.0))
+        return proposal(to_world(f, vo))
     else:
         vo = 2.0 * dot_im * m - vi
-    # A direction on the side its lobe does not reach has pdf 0 there: the composed BSDF drops it.
+    if vo[2] * ci <= 0.0:
+        return proposal(wp.vec3(0.0))
     return proposal(to_world(f, vo))

@@ -135,6 +135,9 @@ def sample(mat: MaterialAt, n: wp.vec3, wo: wp.vec3, u_lobe: float, u: wp.vec2) 
             rough = scaled_roughness(mat)
         m = ggx_vndf_sample(alphas(mat.param[ANISOTROPIC], rough), vi, u)
         vo = 2.0 * wp.dot(vi, m) * m - vi
+        if vo[2] <= 0.0:
+            # below the sheet: Mitsuba drops it (the other lobe's density would count it)
+            return proposal(wp.vec3(0.0))
         if u_lobe >= p[0]:
             vo = wp.vec3(vo[0], vo[1], -vo[2])      # to the other side, unbent
     else:
