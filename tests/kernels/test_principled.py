@@ -20,13 +20,21 @@ import numpy as np
 import pytest
 from scipy import stats
 
+import warp as wp
+
 from drtlab.errors import InputError
+from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.materials.material_at import material_at, material_at_for
+from drtlab.kernels.materials.principled_common import METALLIC, SHEEN
+from drtlab.kernels.scene_model.scene_file import scene_from_dict
+from drtlab.kernels.scene_upload import upload
 from drtlab.experiments.stats import chi2 as C
 from drtlab.kernels.scene_model.principled_params import PARAMS, eta_of_specular
 
 from bsdf_checks import albedo_estimate, assert_consistent
 from stats_util import ALPHA, seed_for
 from test_mitsuba_xml import load, one_bsdf
+from test_textures import TO_UV, mapped, mitsuba_checkerboard, off_edges, quad_scene, uv_points
 
 N = 200_000
 Z = np.array([0.0, 0.0, 1.0])
@@ -330,6 +338,39 @@ def test_a_thin_lambertian_transmitter_weighs_every_sample_by_its_colour():
     s = C.BSDFAdapter(True).sample(case("principled_thin", {"diff_trans": 2.0}, 1.5, (0.3, 0.1, 0.948683)), 5000, 1)
     assert s.valid.all() and np.all(s.wi[:, 2] < 0)
     np.testing.assert_allclose(s.weight, np.tile(BASE, (5000, 1)), rtol=1e-5)
+
+
+# ---- textured parameters ---------------------------------------------------------------------------
+
+def test_textured_parameters_are_looked_up_as_mitsubas_eval_1():
+    """A principled material's metallic (checkerboard) and sheen (constant row value) at the hit:
+    MaterialAt.param from the variant's material_at, the checkerboard's colours swapped against its
+    RGB lookup (Mitsuba's eval_1), a grey colour's luminance the grey itself; a scene without a
+    principled kind gets the plain material_at."""
+    assert material_at_for(False, frozenset({"diffuse"})) is material_at
+    at = material_at_for(True, frozenset({"principled"}))
+    c0, c1 = 0.7, 0.1
+    d = quad_scene({"kind": "checkerboard", "color0": c0, "color1": c1, "to_uv": TO_UV.tolist()})
+    d["materials"]["tex"] = {"kind": "principled", "sheen": 0.25, "metallic_texture": d["materials"]["tex"]["albedo_texture"]}
+    scene = scene_from_dict(d)
+    sd = upload(scene, "cpu")
+    m = [x.name for x in scene.materials].index("tex")
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def lookups(sd: SceneData, m: int, uv: wp.array(dtype=wp.vec2), out: wp.array(dtype=wp.vec2)):
+        i = wp.tid()
+        r = at(sd, m, uv[i])
+        out[i] = wp.vec2(r.param[METALLIC], r.param[SHEEN])
+
+    uv = uv_points()
+    out = wp.zeros(len(uv), dtype=wp.vec2, device="cpu")
+    wp.launch(lookups, dim=len(uv), inputs=[sd, m, wp.array(uv, dtype=wp.vec2, device="cpu"), out], device="cpu")
+    got = out.numpy().astype(np.float64)
+    uvp = mapped(uv)
+    keep = off_edges(uvp, (2, 2))
+    want = mitsuba_checkerboard(np.full(3, c1, np.float32), np.full(3, c0, np.float32), uvp.astype(np.float64))[:, 0]
+    np.testing.assert_allclose(got[keep, 0], want[keep], rtol=1e-6)
+    assert np.all(got[:, 1] == np.float32(0.25))
 
 
 # ---- Mitsuba XML import ------------------------------------------------------------------------------
