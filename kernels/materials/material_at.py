@@ -11,6 +11,7 @@ from drtlab.kernels.materials.surface import surface_albedo
 from drtlab.kernels.materials.texture import SLOT, material_texture, texture_scalar, texture_value
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.scene_model.principled_params import PARAM_COUNT, PARAMS
+from drtlab.kernels.static_tag import variant_tag
 
 ParamVector = wp.types.vector(length=PARAM_COUNT, dtype=float)
 
@@ -79,6 +80,7 @@ def _make_parameterised(textures: bool, codes: tuple):
     @wp.func
     def material_at_params(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
         r = base(sd, m, uv)
+        _variant = wp.static(variant_tag((CODES, _TEXTURED)))  # noqa: F841 (static_tag.py)
         for c in range(wp.static(len(CODES))):
             if r.kind == wp.static(CODES[c]):
                 for i in range(wp.static(PARAM_COUNT)):
