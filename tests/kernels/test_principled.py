@@ -29,7 +29,8 @@ from drtlab.kernels.materials.principled_common import METALLIC, SHEEN
 from drtlab.kernels.scene_model.scene_file import scene_from_dict
 from drtlab.kernels.scene_upload import upload
 from drtlab.experiments.stats import chi2 as C
-from drtlab.kernels.scene_model.principled_params import PARAMS, eta_of_specular
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME
+from drtlab.kernels.scene_model.principled_params import PARAM_BY_NAME, PARAMS, eta_of_specular
 
 from bsdf_checks import albedo_estimate, assert_consistent
 from stats_util import ALPHA, seed_for
@@ -443,3 +444,23 @@ def test_scene_file_keys_and_their_errors(tmp_path):
         with pytest.raises(InputError) as e:
             _scene_with(tmp_path, bad)
         assert field in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def test_export_writes_them_back(tmp_path):
+    import dataclasses
+
+    from drtlab import load_scene
+    from drtlab.kernels.scene_model.mitsuba_export import export_mitsuba
+    a = one_bsdf(tmp_path, "")
+    specs = (("principled", 1.7, {"roughness": 0.3, "metallic": 0.2, "spec_trans": 0.6, "clearcoat": 0.4,
+                                   "clearcoat_sampling_rate": 2.0}),
+             ("principled_thin", 1.33, {"diff_trans": 1.4, "sheen": 0.8, "anisotropic": 0.5}))
+    a.materials = [dataclasses.replace(a.materials[0], name=k, kind=k, albedo=np.array([0.8, 0.3, 0.1]), ior=ior,
+                                       params={**{p: q.default for p, q in PARAM_BY_NAME.items()
+                                                  if p in KIND_BY_NAME[k].params}, **v})
+                   for k, ior, v in specs]
+    a.shapes = [dataclasses.replace(a.shapes[0], material=i) for i in range(len(specs))]
+    export_mitsuba(a, tmp_path / "m.xml")
+    b = load_scene(tmp_path / "m.xml")
+    assert [(m.kind, m.albedo.tolist(), m.ior, m.params) for m in b.materials] == \
+        [(m.kind, m.albedo.tolist(), m.ior, m.params) for m in a.materials]
