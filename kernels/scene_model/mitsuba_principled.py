@@ -50,7 +50,8 @@ class PrincipledMapping:
         if "eta" in o.props:
             eta = float(self.number(o, "eta", None, lambda x: x > 0, "> 0"))
             return 1.001 if transmits and eta == 1.0 else eta
-        specular = float(self.number(o, "specular", 0.5, lambda x: 0 <= x < 1, "in [0, 1)"))
+        # eta is finite for 0.08 specular < 1
+        specular = float(self.number(o, "specular", 0.5, lambda x: 0 <= x < 12.5, "in [0, 12.5)"))
         if specular == 0.0:
             # specular 0 is eta 1: Mitsuba's 1e-3 where light crosses, else a boundary that reflects nothing
             specular = 1e-3 if transmits else 0.0
