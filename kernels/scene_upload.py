@@ -192,7 +192,8 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable, lights: list =
         rows.append(sum(len(t) for t in table) if spec.table else 0)
         if spec.table:
             from drtlab.kernels.materials.kinds import model_module
-            table.append(model_module(spec).table_row(x.kind, x.albedo, x.roughness, x.ior))
+            table.append(model_module(spec).table_row(x.kind, x.albedo, x.roughness, x.ior,
+                                                      **({"params": x.params} if spec.params else {})))
     m.table = arr(np.concatenate(table), float, (1,))
     m.row = arr(rows, int, (1,))
     t = texture_tables(materials, lights)

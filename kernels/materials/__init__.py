@@ -1,14 +1,15 @@
 """Materials per kernel variant: kind codes (`kinds.py`), one model module per kind that scatters,
 named by its kind-table row's `model` (`diffuse.py`, `phong.py`, `mirror.py`, `dielectric.py` (also
 Fresnel and refraction), `conductor.py` (also a metal's Fresnel), `glossy_dielectric.py`,
-`plastic.py`, `ggx.py`, `ggx_dielectric.py`, `beckmann.py`, `beckmann_conductor.py`, ...), a
+`plastic.py`, `ggx.py`, `ggx_dielectric.py`, `beckmann.py`, `beckmann_conductor.py`, `principled.py`, ...), a
 variant's composition of them (`bsdf.py`; `Scatter` in `scatter.py`; the uniform strategy's
 proposals in `uniform.py`), the material at a hit as one record (`material_at.py`),
 (checkered) albedo and emission (`surface.py`).
 
 Every kind that scatters is a model module (`MaterialKind.model`) with one interface on the material
 at a hit, `mat` a MaterialAt (`material_at(sd, m, uv)`: kind, albedo, shape, ior, a conductor's
-complex index (eta, k) and the material's row of the flat per-material table):
+complex index (eta, k), the material's row of the flat per-material table and a `params` kind's
+parameters at the hit, `param`):
     eval(mat, n, wo, wi)          -> f(wo, wi) |cos theta_i| (0 for a delta lobe)
     pdf(mat, n, wo, wi)           -> the solid-angle density with which sample proposes wi (it
                                      reads no albedo; 0 for a delta kind)

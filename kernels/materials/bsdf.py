@@ -60,7 +60,7 @@ def kind_functions(kinds: frozenset, strategy: Strategy) -> tuple:
             p = plugged[k.name]
             sample, pdf, tag = p.sample, p.pdf, p.fingerprint
         elif not strategy.lobe and not (k.delta or k.delta_lobe):
-            sample, pdf = ((uniform.sample_sphere, uniform.pdf_sphere) if k.transmits
+            sample, pdf = ((uniform.sample_sphere, uniform.pdf_sphere) if k.transmits or k.params
                            else (uniform.sample_hemisphere, uniform.pdf_hemisphere))
             tag = uniform
         elif k.strategy_sampling:

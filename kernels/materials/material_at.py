@@ -2,11 +2,18 @@
 per property, so a per-material property a new kind needs is a field here and in MaterialData
 (device_scene.py), not an argument threaded through every caller (tracers, direct and environment
 lighting, whitted, the chi-square adapter)."""
+import functools
+
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.materials.surface import surface_albedo
-from drtlab.kernels.materials.texture import SLOT, material_texture, texture_luminance, texture_value
+from drtlab.kernels.materials.texture import SLOT, material_texture, texture_scalar, texture_value
+from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
+from drtlab.kernels.scene_model.principled_params import PARAM_COUNT, PARAMS
+from drtlab.kernels.static_tag import variant_tag
+
+ParamVector = wp.types.vector(length=PARAM_COUNT, dtype=float)
 
 
 @wp.struct
@@ -22,6 +29,8 @@ class MaterialAt:
     row: int                        # ... and this material's row offset in it
     opacity: float                  # a mask's share of hits that scatter (mask.py) ...
     one_sided: int                  # ... and 1: black from behind; both read in their variants only
+    param: ParamVector              # a `params` kind's parameters at the hit (principled_params.py):
+                                    # its row, textured ones looked up at uv (material_at_for)
 
 
 @wp.func
@@ -68,14 +77,47 @@ def material_at_textured_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialA
     r.one_sided = sd.materials.one_sided[m]
     t = material_texture(sd, m, wp.static(SLOT["opacity"]))
     if t >= 0:
-        r.opacity = wp.clamp(texture_luminance(sd, t, uv), 0.0, 1.0)
+        r.opacity = wp.clamp(texture_scalar(sd, t, uv), 0.0, 1.0)
     return r
 
 
-def material_at_for(textures: bool, masks: bool = False):
+def material_at_for(textures: bool, masks: bool = False, kinds: frozenset = frozenset()):
     """The material_at of a variant: the textured one only where the scene has textures, the one
-    reading opacity and sides only where it has masks or one-sided materials (so that other scenes
-    compile none of it)."""
+    reading opacity and sides only where it has masks or one-sided materials, and one that fills
+    MaterialAt.param only where a kind with parameters (MaterialKind.params) is present (so that
+    other scenes compile none of it)."""
     if masks:
-        return material_at_textured_masked if textures else material_at_masked
-    return material_at_textured if textures else material_at
+        base = material_at_textured_masked if textures else material_at_masked
+    else:
+        base = material_at_textured if textures else material_at
+    codes = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.params and k.name in kinds)
+    if not codes:
+        return base
+    return _make_parameterised(base, bool(textures), codes)
+
+
+# (slot column, place in the vector) of every texturable parameter
+_TEXTURED = tuple((SLOT[p.name], i) for i, p in enumerate(PARAMS) if p.texturable and p.name in SLOT)
+
+
+@functools.lru_cache(maxsize=None)
+def _make_parameterised(base, textures: bool, codes: tuple):
+    CODES = codes
+    TEXTURES = textures
+
+    @wp.func
+    def material_at_params(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+        r = base(sd, m, uv)
+        _variant = wp.static(variant_tag((CODES, _TEXTURED)))  # noqa: F841 (static_tag.py)
+        for c in range(wp.static(len(CODES))):
+            if r.kind == wp.static(CODES[c]):
+                for i in range(wp.static(PARAM_COUNT)):
+                    r.param[i] = r.table[r.row + i]
+                if wp.static(TEXTURES):
+                    for j in range(wp.static(len(_TEXTURED))):
+                        t = material_texture(sd, m, wp.static(_TEXTURED[j][0]))
+                        if t >= 0:
+                            r.param[wp.static(_TEXTURED[j][1])] = texture_scalar(sd, t, uv)
+        return r
+
+    return material_at_params

@@ -7,7 +7,6 @@ of scenes with textures (Features.textures)."""
 import numpy as np
 import warp as wp
 
-from drtlab.kernels.colour import REC709_Y
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS, texture_pool
 
@@ -68,13 +67,25 @@ def texel(sd: SceneData, first: int, w: int, h: int, wrap: int, x: int, y: int) 
 
 
 @wp.func
-def texture_luminance(sd: SceneData, t: int, uv: wp.vec2) -> float:
-    """A float parameter from texture t at uv: the luminance of its RGB, as Mitsuba's bitmap eval_1
-    (a grey image's one channel: drtlab holds it as three equal ones, whose luminance it is to
-    float32 rounding; Mitsuba weighs RGB by 0.212671, 0.715160, 0.072169, within 1e-4 of these)."""
+def texture_scalar(sd: SceneData, t: int, uv: wp.vec2) -> float:
+    """Texture t as a float parameter at uv, as Mitsuba's eval_1: a bitmap's luminance (its RGB
+    luminance weights), and a checkerboard's colours swapped against its RGB eval (checkerboard.cpp:
+    eval_1 gives color0 where exactly one fraction of uv' is > 1/2)."""
     c = texture_value(sd, t, uv)
-    return (wp.static(REC709_Y[0]) * c[0] + wp.static(REC709_Y[1]) * c[1]
-            + wp.static(REC709_Y[2]) * c[2])
+    mode = sd.materials.tex_mode[t]
+    if mode[0] == wp.static(CHECKERBOARD):
+        first = mode[3]
+        if c == sd.materials.texels[first]:
+            c = sd.materials.texels[first + 1]
+        else:
+            c = sd.materials.texels[first]
+    return luminance(c)
+
+
+@wp.func
+def luminance(c: wp.vec3) -> float:
+    """Mitsuba 3's luminance of an RGB value (core/spectrum.h; its bitmap's eval_1 too)."""
+    return c[0] * 0.212671 + c[1] * 0.715160 + c[2] * 0.072169
 
 
 @wp.func

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drtlab.kernels.scene_model.principled_params import PARAM_BY_NAME, PRINCIPLED, PRINCIPLED_THIN
+
 
 # GGX alpha in [ROUGHNESS_MIN, 1]: below 1e-3 the surface is a mirror to float32 (the lobe's peak
 # density 1 / (pi alpha^2) passes 3e5 and its width the precision of a direction near the normal).
@@ -49,11 +51,14 @@ class MaterialKind:
     strategy_sampling: bool = False  # its module's `sampling(strategy)` gives (sample, pdf) as the
                                 # strategy says (GGX normals by `microfacet`; a delta lobe chosen
                                 # with probability 1/2 under the uniform strategy)
+    params: tuple = ()          # the names of its parameter vector (principled_params.py) it reads
+                                # (MaterialAt.param; its table row), each a scene-file key, the
+                                # texturable ones also `<name>_texture`; light may cross it
 
     @property
     def ior(self) -> bool:
         """It has a Fresnel interface (the material's `ior`)."""
-        return self.transmits or self.coat
+        return self.transmits or self.coat or bool(self.params)
 
     @property
     def lobe_choice(self) -> bool:
@@ -67,6 +72,9 @@ class MaterialKind:
         no-op."""
         return (("kind",) + (() if self.emitter else ("albedo",))
                 + (("albedo2", "checker", "albedo_texture") if self.checker else ())
+                + ((("albedo_texture",) + self.params
+                    + tuple(f"{p}_texture" for p in self.params if PARAM_BY_NAME[p].texturable))
+                   if self.params else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
                 + (() if self.emitter else ("opacity", "opacity_texture"))
@@ -116,6 +124,8 @@ KINDS = (
     MaterialKind("ggx_plastic", microfacet=True, coat=True, table=True, model="rough_plastic"),
     MaterialKind("beckmann_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),
     MaterialKind("ggx_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),
+    MaterialKind("principled", table=True, model="principled", params=PRINCIPLED),
+    MaterialKind("principled_thin", table=True, model="principled_thin", params=PRINCIPLED_THIN),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -23,6 +23,7 @@ import dataclasses
 
 from drtlab.errors import InputError
 from drtlab.fields import output_files
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME
 from drtlab.kernels.scene_model.mitsuba_xml import coordinate_up
 from drtlab.kernels.scene_model.scene import Camera, Scene
 from drtlab.kernels.scene_model.texture import slot_key
@@ -42,7 +43,8 @@ BSDF_OF_KIND = {"diffuse": "diffuse", "emitter": "diffuse", "mirror": "conductor
                 "dielectric": "dielectric", **dict.fromkeys(ROUGH_CONDUCTORS, "roughconductor"),
                 **dict.fromkeys(ROUGH_DIELECTRICS, "roughdielectric"),
                 **{f"{k}{nl}": "plastic" if d is None else "roughplastic" for k, d in PLASTICS.items()
-                   for nl in ("", "_nonlinear")}}
+                   for nl in ("", "_nonlinear")},
+                "principled": "principled", "principled_thin": "principledthin"}
 # Why the kinds Mitsuba 3 has no counterpart for are refused (any other unmapped kind: not mapped).
 SEPARABLE = "uses height-correlated Smith masking; Mitsuba 3's GGX uses the separable form (kind {})"
 NO_COUNTERPART = {**dict.fromkeys(("glossy", "glossy_dielectric", "plastic"),
@@ -263,6 +265,14 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _num(b, "float", "int_ior", m.ior)
             _num(b, "float", "ext_ior", 1.0)
             _vec(b, "rgb", "specular_transmittance", m.albedo)
+            continue
+        if m.kind in ("principled", "principled_thin"):      # two-sided as they are
+            b = ET.SubElement(root, "bsdf", type=BSDF_OF_KIND[m.kind], id=ident)
+            _vec(b, "rgb", "base_color", m.albedo)
+            _num(b, "float", "eta", m.ior)
+            for name in KIND_BY_NAME[m.kind].params:
+                if name in m.params:
+                    _num(b, "float", name, m.params[name])
             continue
         if m.kind == "emitter":         # black: the import turns it back into kind emitter
             b = ET.SubElement(root, "bsdf", type="diffuse", id=ident)

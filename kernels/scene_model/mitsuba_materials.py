@@ -6,16 +6,17 @@ A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it 
 from __future__ import annotations
 
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
+from drtlab.kernels.scene_model.mitsuba_principled import PRINCIPLED_BSDFS, PrincipledMapping
 from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic", "mask")
+         "roughplastic", "mask") + PRINCIPLED_BSDFS
 # Mitsuba's BSDFs that are black from behind unless wrapped in `twosided`
 ONE_SIDED = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
 
 
-class MaterialMapping(TextureMapping):
+class MaterialMapping(TextureMapping, PrincipledMapping):
     def material(self, shape: Obj, bsdf: Obj | None, emitter: Obj | None) -> str:
         """The drtlab material of a (BSDF, area emitter) pair: one per distinct pair, named after the
         BSDF's id (or the shape's path)."""
@@ -92,6 +93,8 @@ class MaterialMapping(TextureMapping):
                 spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
         elif kind in ("plastic", "roughplastic"):
             spec = self.plastic(o)
+        elif kind in PRINCIPLED_BSDFS:
+            spec = self.principled(o)
         else:
             ior = [self.ior(o, name, default) for name, default in (("int_ior", "bk7"), ("ext_ior", "air"))]
             self.white_coat(o, "dielectric")

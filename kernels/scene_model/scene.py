@@ -73,6 +73,8 @@ class Material:
     # Black from behind (Mitsuba's diffuse, conductors and plastics unless `twosided`); a kind
     # that does not transmit only
     one_sided: bool = False
+    # A `params` kind's parameters by name (principled_params.py; the kind's defaults where absent)
+    params: dict[str, float] = field(default_factory=dict)
 
     @property
     def emissive(self) -> bool:

@@ -24,6 +24,7 @@ from drtlab.kernels.scene_model.scene import (INTEGRATORS, SPOT_BEAM_SHARE, SPOT
 from drtlab.kernels.scene_model.camera_table import parse_camera
 from drtlab.kernels.scene_model.light_projection import (PROJECTOR_KEYS, SPOT_PROJECTION_KEYS, parse_projector,
                                                         parse_spot_texture)
+from drtlab.kernels.scene_model.principled_params import IOR_DEFAULT, PARAM_BY_NAME
 from drtlab.kernels.scene_model.texture import TEXTURE_SLOTS, parse_texture, slot_key
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
@@ -192,6 +193,8 @@ def _parse_material(name: str, value: Any) -> Material:
     if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 1 (the coat's index of refraction)",
                        lambda x: x > 1.0)
+    if spec.params:
+        m.ior, m.params = _params(t, spec)
     if spec.conductor:
         m.eta = _color(t.get("eta", [0, 0, 0], ""), t.field("eta"))
         m.k = _color(t.get("k", [1, 1, 1], ""), t.field("k"))
@@ -221,6 +224,19 @@ def _parse_material(name: str, value: Any) -> Material:
             raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
         m.textures[slot] = parse_texture(t.data[key], t.field(key))
     return m
+
+
+def _params(t: Table, spec) -> tuple[float, dict[str, float]]:
+    """(ior, parameters) of a `params` kind (principled_params.py): Mitsuba's defaults, its ranges."""
+    matched = "" if spec.name == "principled_thin" else " and not 1 (a matched boundary has no half vector)"
+    ior = number(t.get("ior", IOR_DEFAULT, ""), t.field("ior"), "> 0" + matched,
+                 lambda x: x > 0.0 and (x != 1.0 or not matched))
+    out = {}
+    for name in spec.params:
+        p = PARAM_BY_NAME[name]
+        out[name] = number(t.get(name, p.default, ""), t.field(name), f"in [{p.lo:g}, {p.hi:g}]",
+                           lambda x, p=p: p.lo <= x <= p.hi)
+    return ior, out
 
 
 def _checker(v: Any, field: str) -> tuple[int, int]:

@@ -32,6 +32,8 @@ TEXTURE_SLOTS = (
     "albedo",
     "opacity",      # a mask's (kernels/materials/mask.py): the texture's luminance
     "emission",     # an area light's radiance (kernels/emission.py)
+    "roughness", "anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint",
+    "clearcoat", "clearcoat_gloss", "flatness", "diff_trans",      # principled_params.PARAMS
 )
 
 

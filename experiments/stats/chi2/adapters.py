@@ -198,7 +198,8 @@ class BSDFSamples:
 class BSDFAdapter:
     """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, shape, ior,
-    n, wo) or, for a conductor kind, (..., n, wo, eta, k), `shape` the lobe's (MaterialAt.shape); a
+    n, wo) or, for a conductor kind, (..., n, wo, eta, k), or for a `params` kind (..., n, wo,
+    {name: value}) (principled_params.py), `shape` the lobe's (MaterialAt.shape); a
     rough plastic kind's table row is built from the case (rough_plastic_table.py); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
     (Strategy.microfacet); `lobes`: registered lobe samplers replacing the built-in lobe sampling of
@@ -223,6 +224,7 @@ class BSDFAdapter:
     def _launch(self, mode, case, n, seed, pts=None):
         wp = _wp()
         kind, albedo, shape, ior, nrm, wo, *metal = case
+        params = metal.pop() if metal and isinstance(metal[-1], dict) else None
         eta, k = metal or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
         inp, n = input_points(pts, n)
         arrays = outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
@@ -231,8 +233,12 @@ class BSDFAdapter:
         mat.kind = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
         mat.albedo, mat.shape, mat.ior = as_vec3(albedo), float(shape), float(ior)
         mat.eta, mat.k = as_vec3(eta), as_vec3(k)
-        mat.table, mat.row = _table(mat.kind, albedo, shape, ior), 0
+        mat.table, mat.row = _table(mat.kind, albedo, shape, ior, params), 0
         mat.opacity, mat.one_sided = self.opacity, self.one_sided
+        from drtlab.kernels.scene_model.material_kinds import KINDS
+        if KINDS[mat.kind].params:
+            from drtlab.kernels.materials.material_at import ParamVector
+            mat.param = ParamVector(*mat.table.numpy()[:len(ParamVector())].tolist())
         wp.launch(self.kernel, dim=n, device="cpu",
                   inputs=[int(mode), mat, as_vec3(nrm), as_vec3(wo), wp.uint32(seed), inp, *arrays])
         return [a.numpy() for a in arrays]
@@ -265,15 +271,16 @@ class BSDFAdapter:
         return pdf
 
 
-def _table(kind: int, albedo, shape: float, ior: float):
+def _table(kind: int, albedo, shape: float, ior: float, params: dict | None = None):
     """The case's row of MaterialData.table (a kind whose model reads one, MaterialKind.table),
-    else one zero."""
+    else one zero; a `params` kind's (principled_params.py) from the case's trailing dict."""
     from drtlab.kernels.materials.kinds import model_module
     from drtlab.kernels.scene_model.material_kinds import KINDS
     spec = KINDS[kind]
     row = np.zeros(1, dtype=np.float32)
     if spec.table:
-        row = model_module(spec).table_row(spec.name, albedo, shape, ior)
+        row = model_module(spec).table_row(spec.name, albedo, shape, ior,
+                                           **({"params": params} if spec.params else {}))
     return _wp().array(row, dtype=float, device="cpu")
 
 
