@@ -67,6 +67,8 @@ class MaterialKind:
         no-op."""
         return (("kind",) + (() if self.emitter else ("albedo",))
                 + (("albedo2", "checker", "albedo_texture") if self.checker else ())
+                # a blend of two albedos by a texture (Mitsuba's blendbsdf of two diffuse BSDFs)
+                + (("weight_texture", "blend_albedo") if self.name == "diffuse" else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
                 + ("emission",))
