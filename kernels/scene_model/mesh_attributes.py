@@ -26,14 +26,15 @@ COLOR_NAMES = (("r", "g", "b", "a"), ("red", "green", "blue", "alpha"))
 
 
 def ply_attributes(raw: dict) -> dict[str, np.ndarray]:
-    """Mitsuba's attributes of a PLY read by trimesh (its metadata["_ply_raw"]: per element a
-    structured array, one field per property in header order) -> {name: (rows, channels) float32}."""
+    """Mitsuba's attributes of a PLY read by trimesh (its metadata["_ply_raw"]: per element its
+    `properties` in header order and their `data`, a structured array of a binary file or a dict of
+    (rows, 1) arrays of an ASCII one) -> {name: (rows, channels) float32}."""
     out: dict[str, np.ndarray] = {}
     for element in ("vertex", "face"):
         if element not in raw:
             continue
         data = raw[element]["data"]
-        names = [n for n in data.dtype.names or () if n not in RESERVED[element]]
+        names = [n for n in raw[element]["properties"] if n not in RESERVED[element]]
         for name, columns in _groups(names):
             out[f"{element}_{name}"] = np.stack([_as_float(data[c]) for c in columns], axis=1)
     return out
@@ -70,7 +71,7 @@ def _groups(names: list[str]) -> list[tuple[str, list[str]]]:
 
 
 def _as_float(column: np.ndarray) -> np.ndarray:
-    column = np.asarray(column)
+    column = np.asarray(column).reshape(-1)
     if column.dtype.kind in "iu":
         return srgb_to_linear(column.astype(np.float64) / np.iinfo(column.dtype).max).astype(np.float32)
     return column.astype(np.float32)
