@@ -95,6 +95,10 @@ class MeshData:
     points: wp.array(dtype=wp.vec3)            # every mesh's vertices
     vert_normal: wp.array(dtype=wp.vec3)       # per vertex (zeros in flat meshes)
     vert_uv: wp.array(dtype=wp.vec2)           # per vertex texture coordinates (read by textures)
+    # Mesh attributes (kernels/materials/mesh_attribute.py), read only by a variant with them: per
+    # (pool texture, mesh) the offset of its values and 1 if per vertex; the values
+    attr_first: wp.array(dtype=wp.vec2i)
+    attr_values: wp.array(dtype=wp.vec3)
 
 
 @wp.struct

@@ -139,6 +139,8 @@ class Features:
                                      # absent: compiled out)
     projections: bool = False  # some point light projects: a projector or a textured spot
                                # (kernels/projection.py; absent: compiled out)
+    mesh_attributes: bool = False  # some texture is a mesh attribute (kernels/materials/
+                                   # mesh_attribute.py; absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
     bsdf_samples: int = 1
 
@@ -189,7 +191,8 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
-                             "textures", "masks", "one_sided", "projections", "emission_textures")
+                             "textures", "masks", "one_sided", "projections", "emission_textures",
+                             "mesh_attributes")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -237,6 +240,8 @@ def features_of(scene: Scene, integrator: str) -> Features:
         masks=any(scene.materials[s.material].opacity < 1.0 or "opacity" in scene.materials[s.material].textures
                   for s in scene.shapes),
         one_sided=any(scene.materials[s.material].one_sided for s in scene.shapes),
+        mesh_attributes=any(t.kind == "mesh_attribute" for s in scene.shapes
+                            for t in scene.materials[s.material].textures.values()),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
         bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,

@@ -26,11 +26,13 @@ from drtlab.kernels.environment import environment_data
 from drtlab.kernels.features import material_kinds, splits_for, uses_quad_simd, uses_sphere_bvh
 from drtlab.kernels.intersection.bvh_build import build_bvh, mesh_tables, sphere_boxes
 from drtlab.kernels.filters import BOX, clip_table, filter_cdf, get_filter
+from drtlab.kernels.materials.mesh_attribute import attribute_tables
 from drtlab.kernels.materials.texture import texture_tables
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, CameraData, SceneData
 from drtlab.kernels.scene_model.scene import Camera, Scene
 from drtlab.kernels.projection import projection_row
+from drtlab.kernels.scene_model.texture import texture_pool
 from drtlab.kernels.spot import spot_axis, spot_cone
 from drtlab.warp_runtime import warp as initialised_warp
 
@@ -375,6 +377,9 @@ def _upload(scene: Scene, device: str) -> SceneData:
     sd.__dict__["_accel"] = (_put_meshes(sd, scene, meshes, arr, device, extent)
                              + _put_sphere_bvh(sd, scene, spheres, device, extent))
     tex_index = _put_materials(sd, scene.materials, arr, scene.point_lights)
+    attributes = attribute_tables(texture_pool(scene.materials, scene.point_lights), meshes)
+    sd.meshes.attr_first = arr(attributes["attr_first"], wp.vec2i, (1, 2))
+    sd.meshes.attr_values = arr(attributes["attr_values"], wp.vec3, (1, 3))
     power = emitter_powers(scene)              # the area lights' pick and the environment's share
     _put_lights(sd, scene, spheres, quads, meshes, power, arr, tex_index)
     sd.environment = environment_data(scene.environment, np.asarray(power),

@@ -31,7 +31,7 @@ def make(api):
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
     TECHNIQUE = api.dim("technique")
     intersect, emitted, env_radiance = api.intersect, api.emitted, api.env_radiance
-    kind_of, material_at, is_delta = api.kind, api.material_at, api.is_delta
+    kind_of, material_at_hit, is_delta = api.kind, api.material_at_hit, api.is_delta
     shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
     eval_bsdf, pdf_bsdf, scatter = api.eval_bsdf, api.pdf_bsdf, api.scatter
     pick_light, sample_light, light_pdf = api.pick_light, api.sample_light, api.light_pdf
@@ -80,7 +80,7 @@ def make(api):
                     beta = roulette(beta, get1d(seed, pix, idx, ROULETTE(depth), spp))
                     if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
                         break
-            mat = material_at(sd, h.material, h.uv)
+            mat = material_at_hit(sd, h)
             ns = shading_normal(h)
             chose_light = int(0)
             if not is_delta(kind):

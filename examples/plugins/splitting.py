@@ -29,7 +29,7 @@ def make(api):
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
     SPLIT = api.dim("split_light")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
-    kind_of, material_at, is_delta, shading_normal = api.kind, api.material_at, api.is_delta, api.shading_normal
+    kind_of, material_at_hit, is_delta, shading_normal = api.kind, api.material_at_hit, api.is_delta, api.shading_normal
     next_event, direct_delta_lights = api.next_event, api.direct_delta_lights
     scatter, offset_origin, oriented = api.scatter, api.offset_origin, api.oriented
 
@@ -64,7 +64,7 @@ def make(api):
                     beta = roulette(beta, get1d(seed, pix, idx, ROULETTE(depth), spp))
                     if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
                         break
-            mat = material_at(sd, h.material, h.uv)
+            mat = material_at_hit(sd, h)
             ns = shading_normal(h)
             if not is_delta(kind):
                 if wp.static(NEE):

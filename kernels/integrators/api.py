@@ -7,7 +7,8 @@ camera sample. docs/plugins.md states each function's contract; in short:
 
     scene      intersect(sd, o, d, tmax, dt) -> Hit;  visible(sd, o, d, dist, dt, kind, index) -> 1/0;
                offset_origin(p, n, wi, eps); shading_normal(h); shading_consistent(n, ns, wo, wi)
-    material   material_at(sd, m, uv) -> MaterialAt; eval_bsdf(mat, ns, wo, wi) -> f|cos|;
+    material   material_at_hit(sd, h) -> MaterialAt (material_at(sd, m, uv): without a mesh's
+               attributes); eval_bsdf(mat, ns, wo, wi) -> f|cos|;
                pdf_bsdf(mat, ns, wo, wi); sample_bsdf(mat, ns, wo, u_lobe, u) -> Scatter;
                is_delta(kind) -> bool; kind(sd, m) -> int; emitted(sd, h, wo)
     lights     pick_light(sd, x, u); light_pick_pmf(sd, x, li); sample_light(sd, li, x, u, bounce, dt)
@@ -84,6 +85,7 @@ class EstimatorApi(NamedTuple):
     shading_consistent: wp.Function
     # The material at a hit
     material_at: wp.Function
+    material_at_hit: wp.Function
     kind: wp.Function
     is_delta: wp.Function
     eval_bsdf: wp.Function
@@ -212,6 +214,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
             return wp.vec3(0.0)
         return beta / q
 
+    materials = material_at_for(f.textures, f.masks or f.one_sided, f.kinds, f.mesh_attributes)
     api = EstimatorApi(
         features=f, strategy=strategy,
         next_events=(f.sampled_area_lights or ENV) and strategy.light is not None,
@@ -221,8 +224,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         intersect=rays.intersect, visible=rays.visible, visible_mesh=rays.visible_mesh,
         offset_origin=offset_origin, shading_normal=shading_normal,
         shading_consistent=shading_consistent,
-        material_at=material_at_for(f.textures, f.masks or f.one_sided, f.kinds), kind=kind,
-        is_delta=is_delta,
+        material_at=materials[0], material_at_hit=materials[1], kind=kind, is_delta=is_delta,
         eval_bsdf=bsdf.eval_bsdf,
         pdf_bsdf=bsdf.pdf_bsdf, sample_bsdf=bsdf.sample_bsdf, emitted=emitted_for(f),
         pick_light=lights.pick_light, light_pick_pmf=lights.light_pick_pmf,

@@ -7,7 +7,7 @@ proposals in `uniform.py`), the material at a hit as one record (`material_at.py
 (checkered) albedo and emission (`surface.py`).
 
 Every kind that scatters is a model module (`MaterialKind.model`) with one interface on the material
-at a hit, `mat` a MaterialAt (`material_at(sd, m, uv)`: kind, albedo, shape, ior, a conductor's
+at a hit, `mat` a MaterialAt (`material_at_hit(sd, h)`: kind, albedo, shape, ior, a conductor's
 complex index (eta, k), the material's row of the flat per-material table and a `params` kind's
 parameters at the hit, `param`):
     eval(mat, n, wo, wi)          -> f(wo, wi) |cos theta_i| (0 for a delta lobe)

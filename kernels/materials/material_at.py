@@ -6,9 +6,11 @@ import functools
 
 import warp as wp
 
-from drtlab.kernels.device_scene import SceneData
+from drtlab.kernels.device_scene import MESH, SceneData
+from drtlab.kernels.intersection.primitives import Hit
+from drtlab.kernels.materials.mesh_attribute import MESH_ATTRIBUTE, attribute_value
 from drtlab.kernels.materials.surface import surface_albedo
-from drtlab.kernels.materials.texture import SLOT, material_texture, texture_scalar, texture_value
+from drtlab.kernels.materials.texture import SLOT, luminance, material_texture, texture_scalar, texture_value
 from drtlab.kernels.scene_model.material_kinds import KINDS, MATERIAL_CODE
 from drtlab.kernels.scene_model.principled_params import PARAM_COUNT, PARAMS
 from drtlab.kernels.static_tag import variant_tag
@@ -49,65 +51,76 @@ def material_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     return r
 
 
-@wp.func
-def material_at_textured(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
-    """material_at where the scene has textures: a textured material's albedo is its texture at uv,
-    looked up once here for every BSDF call at the hit."""
-    r = material_at(sd, m, uv)
-    t = material_texture(sd, m, wp.static(SLOT["albedo"]))
-    if t >= 0:
-        r.albedo = texture_value(sd, t, uv)
-    return r
+def _make_textured(attributes: bool):
+    """(sd, m, uv, face) -> MaterialAt where the scene has textures, each looked up once here for
+    every BSDF call at the hit: a textured material's albedo is its "albedo" texture; a "weight"
+    texture w blends it with albedo2 (Mitsuba's blendbsdf of two diffuse BSDFs: (1 - w) albedo +
+    w albedo2, w clipped to [0, 1]; a scalar texture is its luminance, as Mitsuba's eval_1, and a
+    mesh attribute's one channel). Mesh attributes need the hit's face (-1: none known, which
+    reads black), compiled in only with `attributes`."""
+    @wp.func
+    def lookup(sd: SceneData, t: int, uv: wp.vec2, face: int) -> wp.vec3:
+        if wp.static(attributes):
+            if sd.materials.tex_mode[t][0] == wp.static(MESH_ATTRIBUTE):
+                if face < 0:
+                    return wp.vec3(0.0)
+                return attribute_value(sd, t, face, uv)
+        return texture_value(sd, t, uv)
+
+    @wp.func
+    def textured(sd: SceneData, m: int, uv: wp.vec2, face: int) -> MaterialAt:
+        r = material_at(sd, m, uv)
+        t = material_texture(sd, m, wp.static(SLOT["albedo"]))
+        if t >= 0:
+            r.albedo = lookup(sd, t, uv, face)
+        t = material_texture(sd, m, wp.static(SLOT["weight"]))
+        if t >= 0:
+            v = lookup(sd, t, uv, face)
+            w = v[0]
+            if sd.materials.tex_mode[t][0] != wp.static(MESH_ATTRIBUTE):
+                w = luminance(v)
+            w = wp.clamp(w, 0.0, 1.0)
+            r.albedo = r.albedo * (1.0 - w) + sd.materials.albedo2[m] * w
+        return r
+
+    return textured
 
 
 @wp.func
-def material_at_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
-    """material_at where the scene has masks or one-sided materials (mask.py)."""
-    r = material_at(sd, m, uv)
-    r.opacity = sd.materials.opacity[m]
-    r.one_sided = sd.materials.one_sided[m]
-    return r
+def untextured(sd: SceneData, m: int, uv: wp.vec2, face: int) -> MaterialAt:
+    return material_at(sd, m, uv)
 
 
-@wp.func
-def material_at_textured_masked(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
-    """... and textures: an opacity texture's luminance at uv, clipped to [0, 1] (Mitsuba's mask)."""
-    r = material_at_textured(sd, m, uv)
-    r.opacity = sd.materials.opacity[m]
-    r.one_sided = sd.materials.one_sided[m]
-    t = material_texture(sd, m, wp.static(SLOT["opacity"]))
-    if t >= 0:
-        r.opacity = wp.clamp(texture_scalar(sd, t, uv), 0.0, 1.0)
-    return r
+def _make_masked(inner, textures: bool):
+    """`inner` where the scene has masks or one-sided materials (mask.py): the material's opacity
+    (an opacity texture's eval_1 at uv, clipped to [0, 1], as Mitsuba's mask) and sides."""
+    @wp.func
+    def masked(sd: SceneData, m: int, uv: wp.vec2, face: int) -> MaterialAt:
+        r = inner(sd, m, uv, face)
+        r.opacity = sd.materials.opacity[m]
+        r.one_sided = sd.materials.one_sided[m]
+        if wp.static(textures):
+            t = material_texture(sd, m, wp.static(SLOT["opacity"]))
+            if t >= 0:
+                r.opacity = wp.clamp(texture_scalar(sd, t, uv), 0.0, 1.0)
+        return r
 
-
-def material_at_for(textures: bool, masks: bool = False, kinds: frozenset = frozenset()):
-    """The material_at of a variant: the textured one only where the scene has textures, the one
-    reading opacity and sides only where it has masks or one-sided materials, and one that fills
-    MaterialAt.param only where a kind with parameters (MaterialKind.params) is present (so that
-    other scenes compile none of it)."""
-    if masks:
-        base = material_at_textured_masked if textures else material_at_masked
-    else:
-        base = material_at_textured if textures else material_at
-    codes = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.params and k.name in kinds)
-    if not codes:
-        return base
-    return _make_parameterised(base, bool(textures), codes)
+    return masked
 
 
 # (slot column, place in the vector) of every texturable parameter
 _TEXTURED = tuple((SLOT[p.name], i) for i, p in enumerate(PARAMS) if p.texturable and p.name in SLOT)
 
 
-@functools.lru_cache(maxsize=None)
-def _make_parameterised(base, textures: bool, codes: tuple):
+def _make_parameterised(inner, textures: bool, codes: tuple):
+    """`inner` where a kind with parameters (MaterialKind.params) is present: MaterialAt.param from
+    the material's row, its textured parameters at uv."""
     CODES = codes
     TEXTURES = textures
 
     @wp.func
-    def material_at_params(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
-        r = base(sd, m, uv)
+    def material_at_params(sd: SceneData, m: int, uv: wp.vec2, face: int) -> MaterialAt:
+        r = inner(sd, m, uv, face)
         _variant = wp.static(variant_tag((CODES, _TEXTURED)))  # noqa: F841 (static_tag.py)
         for c in range(wp.static(len(CODES))):
             if r.kind == wp.static(CODES[c]):
@@ -121,3 +134,41 @@ def _make_parameterised(base, textures: bool, codes: tuple):
         return r
 
     return material_at_params
+
+
+@wp.func
+def plain_at_hit(sd: SceneData, h: Hit) -> MaterialAt:
+    return material_at(sd, h.material, h.uv)
+
+
+@functools.cache
+def material_at_for(textures: bool, masks: bool = False, kinds: frozenset = frozenset(),
+                    attributes: bool = False) -> tuple:
+    """(material_at(sd, m, uv), material_at_hit(sd, h)) of a variant: the textured ones only where
+    the scene has textures (mesh attributes only where it has them), reading opacity and sides only
+    where it has masks or one-sided materials, and filling MaterialAt.param only where a kind with
+    parameters is present (so that other scenes compile none of it). material_at_hit is the
+    material at a hit; material_at, which knows no face, reads a mesh attribute as black."""
+    codes = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.params and k.name in kinds)
+    if not (textures or masks or codes):
+        return material_at, plain_at_hit
+    at = _make_textured(attributes) if textures else untextured
+    if masks:
+        at = _make_masked(at, bool(textures))
+    if codes:
+        at = _make_parameterised(at, bool(textures), codes)
+    ATTRIBUTES = attributes
+
+    @wp.func
+    def composed_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
+        return at(sd, m, uv, -1)
+
+    @wp.func
+    def composed_at_hit(sd: SceneData, h: Hit) -> MaterialAt:
+        face = int(-1)
+        if wp.static(ATTRIBUTES):
+            if h.kind == MESH:
+                face = h.index
+        return at(sd, h.material, h.uv, face)
+
+    return composed_at, composed_at_hit

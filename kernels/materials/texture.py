@@ -23,7 +23,8 @@ def texture_tables(materials: list, lights: list = ()) -> dict:
     pool = texture_pool(materials, lights)
     index = {id(t): i for i, t in enumerate(pool)}
     tex = [index[id(m.textures[s])] if s in m.textures else -1 for m in materials for s in TEXTURE_SLOTS]
-    textured = [int(bool(m.textures)) for m in materials]
+    # 1: a texture reads the hit's uv (a mesh attribute reads the barycentric uv a mesh hit has)
+    textured = [int(any(t.kind != "mesh_attribute" for t in m.textures.values())) for m in materials]
     mode, size, rows_u, rows_v, texels, first = [], [], [], [], [], 0
     for t in pool:
         h, w = t.pixels.shape[:2]

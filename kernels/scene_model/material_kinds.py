@@ -75,6 +75,8 @@ class MaterialKind:
                 + ((("albedo_texture",) + self.params
                     + tuple(f"{p}_texture" for p in self.params if PARAM_BY_NAME[p].texturable))
                    if self.params else ())
+                # a blend of two albedos by a texture (Mitsuba's blendbsdf of two diffuse BSDFs)
+                + (("weight_texture", "blend_albedo") if self.name == "diffuse" else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
                 + (() if self.emitter else ("opacity", "opacity_texture"))

@@ -18,6 +18,7 @@ import numpy as np
 
 from drtlab.errors import InputError
 from drtlab.fields import MAX_SEED, Table, existing_file, integer, number, numbers, show, string
+from drtlab.kernels.scene_model.mesh_attributes import ply_attributes
 from drtlab.kernels.scene_model.mesh_serialized import SerializedError, has_vertex_normals, read_serialized
 from drtlab.kernels.scene_model.procedural import GENERATORS, MAX_GRID, sphere_grid_centres
 from drtlab.kernels.scene_model.scene import Shape, TriangleMesh
@@ -67,8 +68,9 @@ def parse_mesh_shape(t: Table, name: str, material: int, velocity: np.ndarray) -
         # After the transform, as Mitsuba computes them from the world-space positions.
         mesh = TriangleMesh(vertices=mesh.vertices, faces=mesh.faces,
                             normals=smooth_normals(mesh.vertices, mesh.faces), source=mesh.source,
-                            uvs=mesh.uvs)
-    mesh = checked_mesh(mesh.vertices, mesh.faces, mesh.normals, t.path, mesh.source, mesh.uvs)
+                            uvs=mesh.uvs, attributes=mesh.attributes)
+    mesh = checked_mesh(mesh.vertices, mesh.faces, mesh.normals, t.path, mesh.source, mesh.uvs,
+                        mesh.attributes)
     return Shape(kind="mesh", name=name, material=material, velocity=velocity, mesh=mesh)
 
 
@@ -132,7 +134,7 @@ def _transformed(mesh: TriangleMesh, value: Any, field: str) -> TriangleMesh:
         vertices, normals = apply_transform(m, mesh.vertices, mesh.normals)
     faces = mesh.faces[:, [0, 2, 1]] if mirrors(m) else mesh.faces
     return TriangleMesh(vertices=vertices, faces=faces, normals=normals, source=mesh.source,
-                        uvs=mesh.uvs)
+                        uvs=mesh.uvs, attributes=mesh.attributes)
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -168,7 +170,11 @@ def load_mesh_file(value: Any, field: str) -> TriangleMesh:
     parts = [m for m in parts if isinstance(m, trimesh.Trimesh) and len(m.faces)]
     if not parts:
         raise InputError(field, f"mesh file '{path}' has no triangles")
-    return _concatenated(parts, str(path))
+    mesh = _concatenated(parts, str(path))
+    raw = parts[0].metadata.get("_ply_raw") if len(parts) == 1 else None
+    if path.suffix.lower() == ".ply" and isinstance(raw, dict):
+        mesh.attributes = ply_attributes(raw)
+    return mesh
 
 
 def _check_obj_indices(path: Path, field: str) -> None:
@@ -236,7 +242,8 @@ def _concatenated(parts: list, source: str) -> TriangleMesh:
 # Validation
 # ---------------------------------------------------------------------------------------------------
 
-def checked_mesh(vertices, faces, normals, field: str, source: str, uvs=None) -> TriangleMesh:
+def checked_mesh(vertices, faces, normals, field: str, source: str, uvs=None,
+                 attributes=None) -> TriangleMesh:
     """The validated mesh (float64 vertices, int32 faces, unit normals or None), or one InputError."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces)
@@ -258,7 +265,7 @@ def checked_mesh(vertices, faces, normals, field: str, source: str, uvs=None) ->
     if uvs is not None and (np.shape(uvs) != (len(v), 2) or not np.all(np.isfinite(uvs))):
         uvs = None                  # no usable texture coordinates: a texture reads (0, 0)
     return TriangleMesh(vertices=v, faces=f, normals=_checked_normals(normals, len(v), field, what),
-                        source=source, uvs=uvs)
+                        source=source, uvs=uvs, attributes=dict(attributes or {}))
 
 
 def _check_areas(v: np.ndarray, f: np.ndarray, field: str, what: str) -> None:

@@ -143,8 +143,9 @@ class _Importer(ShapeMapping, MaterialMapping):
                 self.instance(child)
             elif child.tag == "shape":
                 self.shape(child)
-            elif child.tag == "texture" and child.id is not None and child.type not in TEXTURES:
-                self.constant_texture(child, False, True)     # checked here, read where referred to
+            elif child.tag == "texture" and child.id is not None:
+                if child.type not in TEXTURES:  # checked here; all are read where referred to
+                    self.constant_texture(child, False, True)
             elif child.tag == "emitter":
                 self.emitter(child)
             elif child.tag == "bsdf":

@@ -11,7 +11,7 @@ from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic", "mask") + PRINCIPLED_BSDFS
+         "roughplastic", "mask", "blendbsdf") + PRINCIPLED_BSDFS
 # Mitsuba's BSDFs that are black from behind unless wrapped in `twosided`
 ONE_SIDED = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
 
@@ -70,6 +70,8 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
             return self.bsdf(nested[0], two_sided=True, masked=masked)
         if kind == "mask":
             return self.mask(o, masked)
+        if kind == "blendbsdf":
+            return self.blend(o)
         named = {p.path for p in o.props.values()}       # read through `colour` where a value is meant
         for child in o.children:
             if child.path in named:
@@ -124,6 +126,31 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
             spec["opacity_texture"] = self.albedo_texture(texture)
         else:
             spec["opacity"] = float(self.number(o, "opacity", 0.5, lambda x: 0.0 <= x <= 1.0, "in [0, 1]"))
+        self.done(o)
+        return spec
+
+    def blend(self, o: Obj) -> dict:
+        """Mitsuba's blendbsdf, (1 - w) bsdf_0 + w bsdf_1 with w = clip(weight, 0, 1), of two diffuse
+        BSDFs of constant reflectance: linear in the reflectance, so a diffuse of the blended one (a
+        constant weight folded in here, a texture's as weight_texture and blend_albedo)."""
+        children = [c for c in self.nested(o) if c.tag == "bsdf"]
+        if len(children) != 2:
+            self.r.fail(o.path, f"a blendbsdf needs two nested bsdfs, got {len(children)}")
+        specs = [self.bsdf(c) for c in children]
+        if any(set(s) != {"kind", "albedo"} or s["kind"] != "diffuse" for s in specs):
+            self.r.fail(o.path, f"a blendbsdf of {children[0].type} and {children[1].type} is not "
+                                "supported (drtlab blends two diffuse bsdfs of constant reflectance)")
+        r0, r1 = specs[0]["albedo"], specs[1]["albedo"]
+        texture = self.texture_of(o, "weight")
+        if texture is not None:
+            spec = {"kind": "diffuse", "albedo": r0, "weight_texture": self.albedo_texture(texture),
+                    "blend_albedo": r1}
+        else:
+            w = self.number(o, "weight", None)
+            if w is None:
+                self.r.fail(o.path, "a blendbsdf needs a weight (a float or a texture)")
+            w = min(max(float(w), 0.0), 1.0)
+            spec = {"kind": "diffuse", "albedo": [(1.0 - w) * a + w * b for a, b in zip(r0, r1)]}
         self.done(o)
         return spec
 

@@ -1,5 +1,5 @@
-"""Mitsuba 3 XML `bitmap` and `checkerboard` textures -> a drtlab material's `albedo_texture` table
-(kernels/scene_model/texture.py). A mixin of the importer (kernels/scene_model/mitsuba_import.py),
+"""Mitsuba 3 XML `bitmap`, `checkerboard` and `mesh_attribute` textures -> a drtlab material's
+`<slot>_texture` table (kernels/scene_model/texture.py). A mixin of the importer (kernels/scene_model/mitsuba_import.py),
 which gives it the property access (`get`, `string`, `colour`, `done`, `deref`).
 
 Only a rectangle's uv ((x + 1) / 2, (y + 1) / 2 of its local square, the quad's parameters along
@@ -14,7 +14,8 @@ import numpy as np
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
 from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_SLOTS, WRAPS, slot_key
 
-TEXTURES = ("bitmap", "checkerboard")
+TEXTURES = ("bitmap", "checkerboard", "mesh_attribute")
+ATTRIBUTE_SHAPES = ("ply",)         # where drtlab reads Mitsuba's mesh attributes
 TEXTURED_SHAPES = ("rectangle", "sphere", "obj")
 
 
@@ -30,7 +31,14 @@ class TextureMapping:
         return None
 
     def albedo_texture(self, t: Obj) -> dict:
-        """A bitmap or checkerboard <texture> as drtlab's albedo_texture table."""
+        """A bitmap, checkerboard or mesh_attribute <texture> as drtlab's <slot>_texture table."""
+        if t.type == "mesh_attribute":
+            table = {"kind": t.type, "name": self.string(t, "name", None),
+                     "scale": self.number(t, "scale", 1.0)}
+            if not isinstance(table["name"], str) or not table["name"].startswith(("vertex_", "face_")):
+                self.r.fail(t.path, "a mesh_attribute needs a name starting with 'vertex_' or 'face_'")
+            self.done(t)
+            return table
         chain = self.get(t, "to_uv", ("transform",), None)
         table = {"kind": t.type}
         if chain is not None:       # uv is the point (u, v, 0): the rows x, y of columns x, y, w
@@ -55,7 +63,13 @@ class TextureMapping:
     def check_textured_shape(self, shape: Obj, spec: dict) -> None:
         """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z, a sphere and
         an obj only."""
-        if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS):
+        tables = [spec[slot_key(slot)] for slot in TEXTURE_SLOTS if slot_key(slot) in spec]
+        if not tables:
+            return
+        if any(t["kind"] == "mesh_attribute" for t in tables):
+            if shape.type not in ATTRIBUTE_SHAPES:
+                self.r.fail(shape.path, f"a mesh_attribute texture on a {shape.type} is not supported "
+                                        "(drtlab reads mesh attributes from PLY files)")
             return
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "

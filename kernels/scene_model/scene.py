@@ -51,7 +51,9 @@ class Material:
     name: str
     kind: str                                   # one of material_kinds.MATERIAL_KINDS
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
-    albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy/plastic)
+    # second checker colour (diffuse/glossy/plastic), or a diffuse's albedo where its "weight"
+    # texture is 1 (TOML blend_albedo)
+    albedo2: np.ndarray | None = None
     checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters
     # Parameters read from a texture at the hit's uv, by slot (texture.TEXTURE_SLOTS: "albedo", ...;
     # the scene-file key is texture.slot_key(slot))
@@ -91,6 +93,9 @@ class TriangleMesh:
     # (V, 2) texture coordinates as Mitsuba reads an OBJ's (u, 1 - v: flip_tex_coords), or None
     uvs: np.ndarray | None = None
     source: str = ""                            # the file or generator it came from
+    # A PLY file's vertex and face attributes by Mitsuba's name (mesh_attributes.py): "vertex_..."
+    # (V, channels) and "face_..." (F, channels) float32
+    attributes: dict[str, np.ndarray] = field(default_factory=dict)
 
     def triangle_areas(self) -> np.ndarray:
         a, b, c = (self.vertices[self.faces[:, k]] for k in range(3))
@@ -104,6 +109,8 @@ class TriangleMesh:
             h.update(np.ascontiguousarray(self.normals).tobytes())
         if self.uvs is not None:
             h.update(np.ascontiguousarray(self.uvs).tobytes())
+        for name in sorted(self.attributes):
+            h.update(name.encode() + np.ascontiguousarray(self.attributes[name]).tobytes())
         return h.hexdigest()
 
 

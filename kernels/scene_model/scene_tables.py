@@ -25,8 +25,9 @@ from drtlab.kernels.scene_model.camera_table import parse_camera
 from drtlab.kernels.scene_model.light_projection import (PROJECTOR_KEYS, SPOT_PROJECTION_KEYS, parse_projector,
                                                         parse_spot_texture)
 from drtlab.kernels.scene_model.principled_params import IOR_DEFAULT, PARAM_BY_NAME
-from drtlab.kernels.scene_model.texture import TEXTURE_SLOTS, parse_texture, slot_key
+from drtlab.kernels.scene_model.texture import ATTRIBUTE_SLOTS, TEXTURE_SLOTS, parse_texture, slot_key
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
+from drtlab.kernels.scene_model.mesh_attributes import check_attribute_textures
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
 TOP_LEVEL_KEYS = ("scene", "camera", "materials", "shapes", "lights", "environment")
@@ -88,6 +89,7 @@ def _build_scene_checked(data: dict, *, name: str, source: str, text: str) -> Sc
     groups = _parse_shapes(data.get("shapes", []), materials)
     check_emitter_sizes(groups, data["shapes"], materials, camera)
     shapes = [s for g in groups for s in g]
+    check_attribute_textures(shapes, materials)
     point_lights, directional_lights = _parse_lights(data.get("lights", []))
     environment = parse_environment(data["environment"]) if "environment" in data else None
     if environment is not None and np.any(settings["background"] > 0.0):
@@ -223,6 +225,16 @@ def _parse_material(name: str, value: Any) -> Material:
         if slot == "albedo" and m.checker is not None:
             raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
         m.textures[slot] = parse_texture(t.data[key], t.field(key))
+        if m.textures[slot].kind == "mesh_attribute" and slot not in ATTRIBUTE_SLOTS:
+            raise InputError(t.field(key), f"a mesh_attribute texture fills {', '.join(ATTRIBUTE_SLOTS)} only")
+    if t.has("weight_texture") != t.has("blend_albedo") or (t.has("weight_texture") and m.checker):
+        raise InputError(t.field("weight_texture"), "a blend needs weight_texture and blend_albedo (the "
+                                                    "albedo at weight 1), and no checker")
+    if len({x.kind == "mesh_attribute" for x in m.textures.values()}) > 1:
+        raise InputError(t.field(slot_key(next(iter(m.textures)))), "a material's textures read either "
+                         "the surface's uv or its mesh's attributes (mesh_attribute), not both")
+    if t.has("blend_albedo"):       # the device's second albedo (MaterialData.albedo2)
+        m.albedo2 = _albedo(t.data["blend_albedo"], t.field("blend_albedo"))
     return m
 
 

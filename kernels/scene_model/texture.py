@@ -1,6 +1,7 @@
 """Textures of a material's parameters, as Mitsuba 3 defines them: `bitmap` (src/textures/bitmap.cpp,
-a Dr.Jit texture: bilinear or nearest, repeat / mirror / clamp) and `checkerboard`
-(src/textures/checkerboard.cpp). The scene-file table (`albedo_texture`, SCENE_FORMAT.md) and the
+a Dr.Jit texture: bilinear or nearest, repeat / mirror / clamp), `checkerboard`
+(src/textures/checkerboard.cpp) and `mesh_attribute` (src/textures/mesh_attribute.cpp: a vertex or
+face attribute of the mesh it lies on, kernels/scene_model/mesh_attributes.py, times `scale`). The scene-file table (`albedo_texture`, SCENE_FORMAT.md) and the
 model the device upload reads (kernels/materials/texture.py evaluates it once per hit). A material
 holds one texture per textured parameter, its slot (TEXTURE_SLOTS); the scene's textures are one pool
 (texture_pool), which lights may index too.
@@ -18,13 +19,16 @@ from typing import Any
 import numpy as np
 
 from drtlab.errors import InputError
-from drtlab.fields import existing_file, show
+from drtlab.fields import FLOAT32_MAX, existing_file, show
 
-TEXTURE_KINDS = ("bitmap", "checkerboard")
+TEXTURE_KINDS = ("bitmap", "checkerboard", "mesh_attribute")
 FILTERS = ("bilinear", "nearest")        # bitmap.cpp's filter_type (bilinear its default)
 WRAPS = ("repeat", "mirror", "clamp")     # bitmap.cpp's wrap_mode (repeat its default)
 KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
-        "checkerboard": ("kind", "color0", "color1", "to_uv")}
+        "checkerboard": ("kind", "color0", "color1", "to_uv"),
+        "mesh_attribute": ("kind", "name", "scale")}
+# The slots a mesh attribute may fill (the lookup that knows the hit's face reads these only).
+ATTRIBUTE_SLOTS = ("albedo", "weight")
 MAX_TEXELS = 1 << 24
 # A material's textured parameters, in the order of the device's per-material slot table
 # (MaterialData.tex): a new slot is one name here, then its lookup where the parameter is read.
@@ -34,6 +38,7 @@ TEXTURE_SLOTS = (
     "emission",     # an area light's radiance (kernels/emission.py)
     "roughness", "anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint",
     "clearcoat", "clearcoat_gloss", "flatness", "diff_trans",      # principled_params.PARAMS
+    "weight",       # a diffuse's blend of albedo (at 0) and blend_albedo (at 1)
 )
 
 
@@ -45,18 +50,26 @@ def slot_key(slot: str) -> str:
 @dataclass(eq=False)
 class Texture:
     kind: str                          # one of TEXTURE_KINDS
-    # (H, W, 3) float32 linear texels; a checkerboard's are (1, 2, 3): color0, color1
+    # (H, W, 3) float32 linear texels; a checkerboard's are (1, 2, 3): color0, color1; a mesh
+    # attribute has none, (0, 0, 3)
     pixels: np.ndarray
     filter: str = "bilinear"
     wrap: str = "repeat"
     # uv' = to_uv[:, :2] @ uv + to_uv[:, 2]: Mitsuba's to_uv (a 2D affine map, 2 x 3)
     to_uv: np.ndarray = field(default_factory=lambda: np.eye(2, 3))
     source: str = ""
+    name: str = ""                     # a mesh attribute's: "vertex_..." or "face_..."
+    scale: float = 1.0                 # a mesh attribute's factor
+
+    @property
+    def per_vertex(self) -> bool:
+        return self.name.startswith("vertex_")
 
     def digest(self) -> str:
         """Hash of the texels and the lookup: what the TOML text cannot show of an image file."""
         h = hashlib.sha256(np.ascontiguousarray(self.pixels, dtype=np.float32).tobytes())
-        h.update(repr((self.kind, self.filter, self.wrap, self.to_uv.tolist())).encode())
+        h.update(repr((self.kind, self.filter, self.wrap, self.to_uv.tolist(), self.name,
+                       self.scale)).encode())
         return h.hexdigest()
 
 
@@ -86,6 +99,8 @@ def parse_texture(value: Any, where: str) -> Texture:
     if extra:
         raise InputError(f"{where}.{extra[0]}", f"is not a key of a {kind} texture (keys: "
                                                 f"{', '.join(KEYS[kind])})")
+    if kind == "mesh_attribute":
+        return _mesh_attribute(value, where)
     to_uv = _to_uv(value.get("to_uv"), f"{where}.to_uv")
     if kind == "checkerboard":
         colours = [_colour(value.get(k, d), f"{where}.{k}") for k, d in (("color0", 0.4), ("color1", 0.2))]
@@ -124,6 +139,20 @@ def read_bitmap(path: str, raw: bool, where: str) -> np.ndarray:
     if not np.all(np.isfinite(px)):
         raise InputError(where, f"{path}: every texel must be finite")
     return np.ascontiguousarray(px)
+
+
+def _mesh_attribute(value: dict, where: str) -> Texture:
+    name = value.get("name")
+    if not isinstance(name, str) or not name.startswith(("vertex_", "face_")):
+        raise InputError(f"{where}.name", "must name a mesh attribute, starting with 'vertex_' or "
+                                          f"'face_' (e.g. 'vertex_color'), got {show(name)}")
+    scale = value.get("scale", 1.0)
+    if (not isinstance(scale, (int, float)) or isinstance(scale, bool) or not np.isfinite(scale)
+            or abs(scale) > FLOAT32_MAX):
+        raise InputError(f"{where}.scale", f"must be a finite number (the attribute's factor), got "
+                                           f"{show(scale)}")
+    return Texture("mesh_attribute", np.zeros((0, 0, 3), dtype=np.float32), name=name,
+                   scale=float(scale), source=name)
 
 
 def _choice(v: Any, where: str, choices: tuple[str, ...]) -> str:
