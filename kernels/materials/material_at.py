@@ -20,6 +20,11 @@ class MaterialAt:
     k: wp.vec3
     table: wp.array(dtype=float)    # the flat per-material table (MaterialKind.table kinds) ...
     row: int                        # ... and this material's row offset in it
+    # A normal or bump map's perturbation at the hit (shading_frame.py; mapped 0: none): the
+    # perturbed normal and its shadowing term's a2
+    mapped: int
+    nm: wp.vec3
+    nm_alpha2: float
 
 
 @wp.func
