@@ -111,10 +111,12 @@ class MaterialData:
     # material's row offset (0 for the others).
     table: wp.array(dtype=float)
     row: wp.array(dtype=int)
-    # Albedo textures (kernels/materials/texture.py), read only by a variant with textures: each
-    # material's texture (-1: none); per texture its (kind, filter, wrap, first texel), its width
-    # and height, its to_uv rows; every texture's texels, row by row from the image's top.
+    # Textures (kernels/materials/texture.py), read only by a variant with textures: each material's
+    # pool index per slot (material-major, -1: none; material_texture reads it) and whether it has
+    # any; per pool texture its (kind, filter, wrap, first texel), its width and height, its to_uv
+    # rows; every texture's texels, row by row from the image's top.
     tex: wp.array(dtype=int)
+    textured: wp.array(dtype=int)
     tex_mode: wp.array(dtype=wp.vec4i)
     tex_size: wp.array(dtype=wp.vec2i)
     tex_u: wp.array(dtype=wp.vec3)

@@ -216,7 +216,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         filter_clip=scene.camera.filter_clip,
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
-        textures=any(scene.materials[s.material].albedo_texture is not None for s in scene.shapes),
+        textures=any(scene.materials[s.material].textures for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
         bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,

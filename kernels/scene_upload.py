@@ -190,6 +190,7 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.row = arr(rows, int, (1,))
     t = texture_tables(materials)
     m.tex = arr(t["tex"], int, (1,))
+    m.textured = arr(t["textured"], int, (1,))
     m.tex_mode = arr(t["tex_mode"], wp.vec4i, (1, 4))
     m.tex_size = arr(t["tex_size"], wp.vec2i, (1, 2))
     m.tex_u = arr(t["tex_u"], wp.vec3, (1, 3))

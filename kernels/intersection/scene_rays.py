@@ -184,7 +184,7 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                 h.light = sd.meshes.light[mh.mesh]
                 h.uv = wp.vec2(mh.u, mh.v)      # a checker on a mesh: by barycentric coordinates
                 if wp.static(TEXTURES):
-                    if sd.materials.tex[h.material] >= 0:   # a texture: the file's coordinates
+                    if sd.materials.textured[h.material] == 1:   # a texture: the file's coordinates
                         idx = sd.meshes.tri_index[h.index]
                         h.uv = (sd.meshes.vert_uv[idx[0]] * mh.u + sd.meshes.vert_uv[idx[1]] * mh.v
                                 + sd.meshes.vert_uv[idx[2]] * (1.0 - mh.u - mh.v))
@@ -201,7 +201,7 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     # texture coordinates only where a material reads them
                     reads_uv = checkered(sd, h.material)
                     if wp.static(TEXTURES):
-                        if sd.materials.tex[h.material] >= 0:
+                        if sd.materials.textured[h.material] == 1:
                             reads_uv = 1
                     if reads_uv == 1:
                         h.uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
@@ -213,7 +213,7 @@ def _make_nearest(f: Features, motion: Motion, mesh_rays: MeshRays, sphere_bvh: 
                     h.light = sd.quads.light[h.index]
                     reads_uv = checkered(sd, h.material)
                     if wp.static(TEXTURES):
-                        if sd.materials.tex[h.material] >= 0:
+                        if sd.materials.textured[h.material] == 1:
                             reads_uv = 1
                     if reads_uv == 1:
                         q = sd.quads.geom[h.index]

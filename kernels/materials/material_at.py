@@ -6,7 +6,7 @@ import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.materials.surface import surface_albedo
-from drtlab.kernels.materials.texture import texture_value
+from drtlab.kernels.materials.texture import SLOT, material_texture, texture_value
 
 
 @wp.struct
@@ -47,7 +47,7 @@ def material_at_textured(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
     """material_at where the scene has textures: a textured material's albedo is its texture at uv,
     looked up once here for every BSDF call at the hit."""
     r = material_at(sd, m, uv)
-    t = sd.materials.tex[m]
+    t = material_texture(sd, m, wp.static(SLOT["albedo"]))
     if t >= 0:
         r.albedo = texture_value(sd, t, uv)
     return r

@@ -1,4 +1,4 @@
-"""Albedo textures at a hit (the model: kernels/scene_model/texture.py): Mitsuba 3's `bitmap`, a
+"""Textures at a hit (the model: kernels/scene_model/texture.py): Mitsuba 3's `bitmap`, a
 Dr.Jit texture lookup (bitmap.cpp: uv' = to_uv uv; bilinear: p = uv' res - 1/2, the four texels
 around floor(p) wrapped and weighted by p - floor(p); nearest: the texel floor(uv' res) wrapped),
 and its `checkerboard` (color0 where both fractions of uv' are <= 1/2 or both > 1/2, else color1).
@@ -8,22 +8,24 @@ import numpy as np
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_KINDS, WRAPS
+from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS, texture_pool
 
 BITMAP, CHECKERBOARD = (TEXTURE_KINDS.index(k) for k in ("bitmap", "checkerboard"))
 NEAREST = FILTERS.index("nearest")
 REPEAT, MIRROR, CLAMP = (WRAPS.index(w) for w in ("repeat", "mirror", "clamp"))
+SLOT = {s: i for i, s in enumerate(TEXTURE_SLOTS)}     # a slot's column in MaterialData.tex
+N_SLOTS = len(TEXTURE_SLOTS)
 
 
-def texture_tables(materials: list) -> dict:
-    """The MaterialData texture arrays of `materials` (device_scene.py), as numpy-ready lists."""
-    tex, mode, size, rows_u, rows_v, texels, first = [], [], [], [], [], [], 0
-    for m in materials:
-        t = m.albedo_texture
-        if t is None:
-            tex.append(-1)
-            continue
-        tex.append(len(mode))
+def texture_tables(materials: list, lights: list = ()) -> dict:
+    """The MaterialData texture arrays of `materials` (device_scene.py), as numpy-ready lists, and
+    `index`: each pool texture's index by id (what a light's upload stores for its texture)."""
+    pool = texture_pool(materials, lights)
+    index = {id(t): i for i, t in enumerate(pool)}
+    tex = [index[id(m.textures[s])] if s in m.textures else -1 for m in materials for s in TEXTURE_SLOTS]
+    textured = [int(bool(m.textures)) for m in materials]
+    mode, size, rows_u, rows_v, texels, first = [], [], [], [], [], 0
+    for t in pool:
         h, w = t.pixels.shape[:2]
         mode.append((TEXTURE_KINDS.index(t.kind), FILTERS.index(t.filter), WRAPS.index(t.wrap), first))
         size.append((w, h))
@@ -31,8 +33,14 @@ def texture_tables(materials: list) -> dict:
         rows_v.append(t.to_uv[1])
         texels.append(np.asarray(t.pixels, dtype=np.float32).reshape(-1, 3))
         first += w * h
-    return {"tex": tex, "tex_mode": mode, "tex_size": size, "tex_u": rows_u, "tex_v": rows_v,
-            "texels": np.concatenate(texels) if texels else []}
+    return {"tex": tex, "textured": textured, "tex_mode": mode, "tex_size": size, "tex_u": rows_u,
+            "tex_v": rows_v, "texels": np.concatenate(texels) if texels else [], "index": index}
+
+
+@wp.func
+def material_texture(sd: SceneData, m: int, slot: int) -> int:
+    """The pool index of material m's texture in `slot` (SLOT[name]), -1 where it has none."""
+    return sd.materials.tex[m * wp.static(N_SLOTS) + slot]
 
 
 @wp.func

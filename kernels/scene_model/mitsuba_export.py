@@ -25,6 +25,7 @@ from drtlab.errors import InputError
 from drtlab.fields import output_files
 from drtlab.kernels.scene_model.mitsuba_xml import coordinate_up
 from drtlab.kernels.scene_model.scene import Camera, Scene
+from drtlab.kernels.scene_model.texture import slot_key
 
 # drtlab's kinds that are Mitsuba's roughconductor (material "none"), by its `distribution`.
 ROUGH_CONDUCTORS = {"beckmann": "beckmann", "ggx_separable": "ggx", "beckmann_conductor": "beckmann",
@@ -90,8 +91,8 @@ def check_exportable(scene: Scene) -> None:
                                                          f"{', '.join(BSDF_OF_KIND)})")
         if m.checker is not None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
-        if m.albedo_texture is not None:
-            raise InputError(f"materials.{m.name}.albedo_texture", "textures are not exported")
+        for slot in m.textures:
+            raise InputError(f"materials.{m.name}.{slot_key(slot)}", "textures are not exported")
     for i, s in enumerate(scene.shapes):
         if np.any(s.velocity != 0.0):
             raise InputError("shapes.velocity", f"shape '{s.name or i}' moves: moving shapes (motion "

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from drtlab.kernels.scene_model.mitsuba_xml import Obj, Prop, Ref, chain_matrix
-from drtlab.kernels.scene_model.texture import FILTERS, WRAPS
+from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_SLOTS, WRAPS, slot_key
 
 TEXTURES = ("bitmap", "checkerboard")
 TEXTURED_SHAPES = ("rectangle", "obj")
@@ -53,7 +53,7 @@ class TextureMapping:
 
     def check_textured_shape(self, shape: Obj, spec: dict) -> None:
         """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
-        if "albedo_texture" not in spec:
+        if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS):
             return
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "

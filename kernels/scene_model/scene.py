@@ -53,8 +53,9 @@ class Material:
     albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.5))
     albedo2: np.ndarray | None = None           # second checker colour (diffuse/glossy/plastic)
     checker: tuple[int, int] | None = None      # checks along the shape's (u, v) parameters
-    # The albedo read from a texture at the hit's uv (kernels/scene_model/texture.py: Texture)
-    albedo_texture: Texture | None = None
+    # Parameters read from a texture at the hit's uv, by slot (texture.TEXTURE_SLOTS: "albedo", ...;
+    # the scene-file key is texture.slot_key(slot))
+    textures: dict[str, Texture] = field(default_factory=dict)
     exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric,
                                                 # plastic's coat)
     roughness: float = 0.1                      # GGX alpha (ggx, ggx_dielectric), in
@@ -180,8 +181,8 @@ class Scene:
             if s.mesh is not None:
                 h.update(s.mesh.digest().encode())
         for m in self.materials:        # and a texture's image file
-            if m.albedo_texture is not None:
-                h.update(m.albedo_texture.digest().encode())
+            for slot in sorted(m.textures):
+                h.update(m.textures[slot].digest().encode())
         if self.environment is not None:        # so may an environment's image file
             h.update(self.environment.digest().encode())
         return h.hexdigest()[:16]

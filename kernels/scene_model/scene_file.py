@@ -20,6 +20,7 @@ from drtlab.errors import InputError
 from drtlab.fields import REQUIRED, check_nesting, file_kind, name_lengths, show, too_deep
 from drtlab.kernels.scene_model.scene import Scene
 from drtlab.kernels.scene_model.scene_tables import TOP_LEVEL_KEYS, build_scene, parse_settings
+from drtlab.kernels.scene_model.texture import TEXTURE_SLOTS, slot_key
 
 BUILTIN_DIR = Path(__file__).parent / "scenes"
 
@@ -181,11 +182,12 @@ def _anchor_texture_files(data: dict, folder: Path) -> None:
     """A texture's relative `file` names a file next to the scene file (as meshes')."""
     materials = data.get("materials")
     for body in materials.values() if isinstance(materials, dict) else ():
-        tex = body.get("albedo_texture") if isinstance(body, dict) else None
-        if isinstance(tex, dict) and isinstance(tex.get("file"), str):
-            file = Path(tex["file"]).expanduser()
-            if not file.is_absolute():
-                tex["file"] = str(folder / file)
+        for slot in TEXTURE_SLOTS if isinstance(body, dict) else ():
+            tex = body.get(slot_key(slot))
+            if isinstance(tex, dict) and isinstance(tex.get("file"), str):
+                file = Path(tex["file"]).expanduser()
+                if not file.is_absolute():
+                    tex["file"] = str(folder / file)
 
 
 def _anchor_environment_file(data: dict, folder: Path) -> None:

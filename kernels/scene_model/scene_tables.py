@@ -22,7 +22,7 @@ from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KIN
 from drtlab.kernels.scene_model.scene import (INTEGRATORS, SPOT_BEAM_SHARE, SPOT_CUTOFF_DEFAULT,
                                              DirectionalLight, Material, PointLight, Scene, Shape)
 from drtlab.kernels.scene_model.camera_table import parse_camera
-from drtlab.kernels.scene_model.texture import parse_texture
+from drtlab.kernels.scene_model.texture import TEXTURE_SLOTS, parse_texture, slot_key
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
@@ -198,11 +198,13 @@ def _parse_material(name: str, value: Any) -> Material:
     elif t.has("checker"):
         raise InputError(t.field("checker"), "needs albedo2 (the second checker colour, each channel "
                                              "in [0, 1])")
-    if t.has("albedo_texture"):
-        if m.checker is not None:
-            raise InputError(t.field("albedo_texture"), "a material has a checker (albedo2) or a "
-                                                        "texture, not both")
-        m.albedo_texture = parse_texture(t.data["albedo_texture"], t.field("albedo_texture"))
+    for slot in TEXTURE_SLOTS:
+        key = slot_key(slot)
+        if not t.has(key):
+            continue
+        if slot == "albedo" and m.checker is not None:
+            raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
+        m.textures[slot] = parse_texture(t.data[key], t.field(key))
     return m
 
 

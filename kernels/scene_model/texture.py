@@ -1,7 +1,9 @@
-"""Textures of a material's albedo, as Mitsuba 3 defines them: `bitmap` (src/textures/bitmap.cpp,
+"""Textures of a material's parameters, as Mitsuba 3 defines them: `bitmap` (src/textures/bitmap.cpp,
 a Dr.Jit texture: bilinear or nearest, repeat / mirror / clamp) and `checkerboard`
 (src/textures/checkerboard.cpp). The scene-file table (`albedo_texture`, SCENE_FORMAT.md) and the
-model the device upload reads (kernels/materials/texture.py evaluates it once per hit).
+model the device upload reads (kernels/materials/texture.py evaluates it once per hit). A material
+holds one texture per textured parameter, its slot (TEXTURE_SLOTS); the scene's textures are one pool
+(texture_pool), which lights may index too.
 
 Texel (x, y) is column x, row y of the image as stored (row 0 the top row): Mitsuba's uv (0, 0)
 addresses the first stored texel, so a shape's v grows down the image.
@@ -24,6 +26,14 @@ WRAPS = ("repeat", "mirror", "clamp")     # bitmap.cpp's wrap_mode (repeat its d
 KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
         "checkerboard": ("kind", "color0", "color1", "to_uv")}
 MAX_TEXELS = 1 << 24
+# A material's textured parameters, in the order of the device's per-material slot table
+# (MaterialData.tex): a new slot is one name here, then its lookup where the parameter is read.
+TEXTURE_SLOTS = ("albedo",)
+
+
+def slot_key(slot: str) -> str:
+    """A slot's key in a material's scene-file table."""
+    return f"{slot}_texture"
 
 
 @dataclass(eq=False)
@@ -44,8 +54,23 @@ class Texture:
         return h.hexdigest()
 
 
+def texture_pool(materials: list, lights: list = ()) -> list[Texture]:
+    """The scene's distinct textures in upload order: every material's, slot by slot, then any a
+    light holds (a `texture` attribute); a texture shared by several is one entry."""
+    pool: dict[int, Texture] = {}
+    for m in materials:
+        for slot in TEXTURE_SLOTS:
+            if slot in m.textures:
+                pool.setdefault(id(m.textures[slot]), m.textures[slot])
+    for light in lights:
+        t = getattr(light, "texture", None)
+        if t is not None:
+            pool.setdefault(id(t), t)
+    return list(pool.values())
+
+
 def parse_texture(value: Any, where: str) -> Texture:
-    """A material's `albedo_texture` table -> Texture (InputError naming the field)."""
+    """A material's `<slot>_texture` table -> Texture (InputError naming the field)."""
     if not isinstance(value, dict):
         raise InputError(where, f"must be a table (kind = {' | '.join(TEXTURE_KINDS)}), got {show(value)}")
     kind = value.get("kind", "bitmap")

@@ -55,11 +55,11 @@ def test_bitmap_reflectance_on_a_rectangle(folder):
     tmp, codes = folder
     more = ('<string name="filter_type" value="nearest"/><string name="wrap_mode" value="mirror"/>'
             '<boolean name="raw" value="true"/>')
-    t = load(tmp, BITMAP.format(more=more)).materials[0].albedo_texture
+    t = load(tmp, BITMAP.format(more=more)).materials[0].textures.get("albedo")
     assert (t.kind, t.filter, t.wrap) == ("bitmap", "nearest", "mirror")
     assert np.array_equal(t.to_uv, [[2.0, 0.0, -0.5], [0.0, 2.0, -0.5]])
     assert np.allclose(t.pixels, codes / 255.0, atol=1e-7)         # raw: the codes, not decoded
-    d = load(tmp, BITMAP.format(more="")).materials[0].albedo_texture
+    d = load(tmp, BITMAP.format(more="")).materials[0].textures.get("albedo")
     assert (d.filter, d.wrap) == ("bilinear", "repeat")               # Mitsuba's defaults
     assert np.all(d.pixels <= t.pixels + 1e-7) and np.any(d.pixels < t.pixels - 0.05)   # decoded
 
@@ -67,7 +67,7 @@ def test_bitmap_reflectance_on_a_rectangle(folder):
 def test_a_flipped_and_mirrored_rectangle_keeps_its_uv(folder):
     both = ('<boolean name="flip_normals" value="true"/>'
             '<transform name="to_world"><scale x="-1"/></transform>')
-    assert load(folder[0], BITMAP.format(more="") + both).materials[0].albedo_texture is not None
+    assert load(folder[0], BITMAP.format(more="") + both).materials[0].textures.get("albedo") is not None
 
 
 def test_checkerboard_through_a_ref(folder):
@@ -75,7 +75,7 @@ def test_checkerboard_through_a_ref(folder):
     bsdf = ('<bsdf type="diffuse" id="b"><texture name="reflectance" type="checkerboard">'
             '<transform name="to_uv"><scale x="5" y="5"/></transform>'
             '<rgb name="color0" value="0.8"/></texture></bsdf>')
-    t = load(tmp, '<ref id="b"/>', extra=bsdf).materials[0].albedo_texture
+    t = load(tmp, '<ref id="b"/>', extra=bsdf).materials[0].textures.get("albedo")
     assert t.kind == "checkerboard" and np.array_equal(t.to_uv, [[5.0, 0.0, 0.0], [0.0, 5.0, 0.0]])
     assert np.allclose(t.pixels[0], [[0.8] * 3, [0.2] * 3])          # color1: Mitsuba's default 0.2
 

@@ -192,9 +192,9 @@ def test_png_texels_are_srgb_decoded_unless_raw(png_texture):
     scene = scene_from_dict(quad_scene({"file": path}))
     raw = scene_from_dict(quad_scene({"file": path, "raw": True}))
     decoded = colour.cctf_decoding(codes / 255.0, function="sRGB")
-    tex = scene.materials[1].albedo_texture.pixels
+    tex = scene.materials[1].textures["albedo"].pixels
     assert np.max(np.abs(tex - decoded)) < 4 * EPS32
-    assert np.max(np.abs(raw.materials[1].albedo_texture.pixels - codes / 255.0)) < 4 * EPS32
+    assert np.max(np.abs(raw.materials[1].textures["albedo"].pixels - codes / 255.0)) < 4 * EPS32
     assert np.max(np.abs(tex - codes / 255.0)) > 0.1         # negative control: not decoded
 
 
