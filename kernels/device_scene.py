@@ -122,6 +122,7 @@ class MaterialData:
     tex_u: wp.array(dtype=wp.vec3)
     tex_v: wp.array(dtype=wp.vec3)
     texels: wp.array(dtype=wp.vec3)
+    bump_scale: wp.array(dtype=float)          # per material: its bump map's scale (shading_frame.py)
 
 
 @wp.struct

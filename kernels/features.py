@@ -128,6 +128,8 @@ class Features:
     spot_lights: bool = False  # some point light is a spot (kernels/spot.py; absent: compiled out)
     textures: bool = False  # some material reads a texture (kernels/materials/texture.py; absent:
                             # compiled out)
+    frame_maps: bool = False  # some material has a normal or bump map (kernels/materials/shading_frame.py;
+                              # absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
     bsdf_samples: int = 1
 
@@ -178,7 +180,7 @@ class Features:
         flags = [n for n in ("lens", "motion", "spheres", "quads", "checker", "area_lights",
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
-                             "textures")
+                             "textures", "frame_maps")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -217,6 +219,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         orthographic=scene.camera.orthographic,
         spot_lights=any(pl.spot for pl in scene.point_lights),
         textures=any(scene.materials[s.material].textures for s in scene.shapes),
+        frame_maps=any({"normal", "bump"} & set(scene.materials[s.material].textures) for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
         bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,

@@ -14,6 +14,7 @@ from drtlab.kernels.materials import uniform
 from drtlab.kernels.materials.kinds import model_module
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
+from drtlab.kernels.materials.shading_frame import mapped_bsdf
 
 
 class Bsdf(NamedTuple):
@@ -37,7 +38,9 @@ def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
     kinds = kind_functions(f.kinds, strategy)
     eval_bsdf = _make_eval(kinds)
     pdf_bsdf = _make_pdf(kinds)
-    return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=_make_sampler(kinds, eval_bsdf, pdf_bsdf))
+    b = Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=_make_sampler(kinds, eval_bsdf, pdf_bsdf))
+    # A normal or bump map perturbs the normal every kind sees (compiled only where a scene has one)
+    return mapped_bsdf(b) if f.frame_maps else b
 
 
 def kind_functions(kinds: frozenset, strategy: Strategy) -> tuple:

@@ -23,8 +23,17 @@ material at a hit (the estimator API's `frame_at`).
 """
 import warp as wp
 
+from drtlab.kernels.device_scene import MESH, SceneData
+from drtlab.kernels.intersection.primitives import Hit
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
+from drtlab.kernels.materials.texture import (BITMAP, NEAREST, SLOT, material_texture, texel,
+                                              texture_value)
+
+NORMAL, BUMP = SLOT["normal"], SLOT["bump"]
+# Mitsuba's luminance (the linear sRGB Y row): a bump map's height from an RGB texel (bitmap.cpp's
+# eval_1_grad reads the luminance of each of the four texels)
+LUMINANCE = wp.constant(wp.vec3(0.212671, 0.715160, 0.072169))
 
 
 @wp.struct
@@ -168,3 +177,74 @@ def mapped_bsdf(bsdf):
         return s
 
     return type(bsdf)(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+
+
+@wp.func
+def texture_gradient(sd: SceneData, t: int, uv: wp.vec2) -> wp.vec2:
+    """(df/du, df/dv) of texture t's luminance at uv, as bitmap.cpp's eval_1_grad: the bilinear
+    interpolant's partials in texel units, through to_uv's transpose, times the resolution; 0 for a
+    nearest-filtered bitmap and for a checkerboard (flat almost everywhere)."""
+    mode = sd.materials.tex_mode[t]
+    if mode[0] != wp.static(BITMAP) or mode[1] == wp.static(NEAREST):
+        return wp.vec2(0.0)
+    ru = sd.materials.tex_u[t]
+    rv = sd.materials.tex_v[t]
+    size = sd.materials.tex_size[t]
+    w = size[0]
+    h = size[1]
+    first = mode[3]
+    wrap = mode[2]
+    px = (ru[0] * uv[0] + ru[1] * uv[1] + ru[2]) * float(w) - 0.5
+    py = (rv[0] * uv[0] + rv[1] * uv[1] + rv[2]) * float(h) - 0.5
+    fx = wp.floor(px)
+    fy = wp.floor(py)
+    x = int(fx)
+    y = int(fy)
+    w1x = px - fx
+    w1y = py - fy
+    f00 = wp.dot(LUMINANCE, texel(sd, first, w, h, wrap, x, y))
+    f10 = wp.dot(LUMINANCE, texel(sd, first, w, h, wrap, x + 1, y))
+    f01 = wp.dot(LUMINANCE, texel(sd, first, w, h, wrap, x, y + 1))
+    f11 = wp.dot(LUMINANCE, texel(sd, first, w, h, wrap, x + 1, y + 1))
+    dx = (1.0 - w1y) * (f10 - f00) + w1y * (f11 - f01)
+    dy = (1.0 - w1x) * (f01 - f00) + w1x * (f11 - f10)
+    return wp.vec2((ru[0] * dx + rv[0] * dy) * float(w), (ru[1] * dx + rv[1] * dy) * float(h))
+
+
+@wp.func
+def mesh_tangents(sd: SceneData, h: Hit) -> Tangents:
+    idx = sd.meshes.tri_index[h.index]
+    return triangle_tangents(sd.meshes.points[idx[0]], sd.meshes.points[idx[1]], sd.meshes.points[idx[2]],
+                             sd.meshes.vert_uv[idx[0]], sd.meshes.vert_uv[idx[1]],
+                             sd.meshes.vert_uv[idx[2]], h.n)
+
+
+@wp.func
+def mapped_frame(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
+    """mat with the hit's normal or bump map applied (unchanged where it has neither, and off
+    meshes: a map reads a mesh's texture coordinates and tangents)."""
+    if h.kind != MESH:
+        return mat
+    tn = material_texture(sd, h.material, wp.static(NORMAL))
+    tb = material_texture(sd, h.material, wp.static(BUMP))
+    if tn < 0 and tb < 0:
+        return mat
+    tg = mesh_tangents(sd, h)
+    s = tangent_s(h.ns, tg.dpdu)
+    local = wp.vec3(0.0, 0.0, 1.0)
+    if tn >= 0:
+        local = normal_map_local(texture_value(sd, tn, h.uv), s, h.ns, wo)
+    else:
+        grad = sd.materials.bump_scale[h.material] * texture_gradient(sd, tb, h.uv)
+        local = bump_map_local(grad, tg, h.n, s, h.ns, wo)
+    return with_local_normal(mat, local, s, h.ns)
+
+
+@wp.func(inline=True)
+def unmapped_frame(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
+    return mat
+
+
+def frame_at_for(frame_maps: bool):
+    """The estimator API's frame_at of a variant: the identity where the scene has no map."""
+    return mapped_frame if frame_maps else unmapped_frame

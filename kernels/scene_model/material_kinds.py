@@ -69,7 +69,8 @@ class MaterialKind:
                 + (("albedo2", "checker", "albedo_texture") if self.checker else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
-                + ("emission",))
+                + ("emission",)
+                + (() if self.emitter else ("normal_texture", "bump_texture", "bump_scale")))
 
     @property
     def shape_key(self) -> str | None:

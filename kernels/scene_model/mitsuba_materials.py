@@ -6,11 +6,13 @@ A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it 
 from __future__ import annotations
 
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
-from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
-from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
+from drtlab.kernels.scene_model.mitsuba_textures import TEXTURES, TextureMapping
+from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj, Ref
+from drtlab.kernels.scene_model.texture import slot_key
 
+FRAME_MAPS = ("normalmap", "bumpmap")
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic")
+         "roughplastic", "normalmap", "bumpmap")
 
 
 class MaterialMapping(TextureMapping):
@@ -49,6 +51,8 @@ class MaterialMapping(TextureMapping):
 
     def bsdf(self, o: Obj) -> dict:
         kind = self.kind(o, BSDFS)
+        if kind in FRAME_MAPS:
+            return self.frame_map(o)
         if kind == "twosided":
             nested = self.nested(o)
             if len(nested) != 1:
@@ -165,3 +169,55 @@ class MaterialMapping(TextureMapping):
             return IOR_PRESETS[preset.lower()]
         return self.number(o, name, None, lambda x: x > 0, "> 0")
 
+
+    def frame_map(self, o: Obj) -> dict:
+        """Mitsuba's `normalmap` (its `normalmap` texture, raw RGB) or `bumpmap` (its one texture,
+        `scale` default 1) around one nested BSDF: the nested material with a normal_texture or a
+        bump_texture (kernels/materials/shading_frame.py)."""
+        for name in ("flip_invalid_normals", "use_shadowing_function"):     # both default true
+            if not self.get(o, name, ("boolean",), True):
+                self.r.fail(o.props[name].path, f"false is not supported (drtlab's {o.type} always "
+                                                "does what Mitsuba's default does)")
+        textures = [p for p in o.props.values() if p.tag == "texture" or (
+            p.tag == "ref" and self.deref(Ref(p.value, p.path)).tag == "texture")]
+        bsdfs = [c for c in map(self.deref, o.children) if c.tag == "bsdf"]
+        if len(bsdfs) != 1:
+            self.r.fail(o.path, f"{o.type} needs exactly one nested bsdf, got {len(bsdfs)}")
+        if o.type == "normalmap":
+            if "normalmap" not in o.props:
+                self.r.fail(o.path, "normalmap needs a texture named 'normalmap' (its raw RGB normals)")
+            textures = [o.props["normalmap"]]
+        elif len(textures) != 1:
+            self.r.fail(o.path, f"bumpmap needs exactly one texture (its heights), got {len(textures)}")
+        scale = self.number(o, "scale", 1.0) if o.type == "bumpmap" else None
+        p = textures[0]
+        t = self.deref(Ref(p.value, p.path)) if p.tag == "ref" else p.value
+        o.used.update(n for n, q in o.props.items() if q is p)
+        if t.type == "rawconstant":
+            value = self.get(t, "value", ("vector", "point", "float", "rgb"), None)
+            if value is None:
+                self.r.fail(t.path, "a rawconstant texture needs a value")
+            self.done(t)
+            table = {"kind": "constant", "value": [float(v) for v in value] if isinstance(value, list)
+                     else float(value)}
+        elif t.type in TEXTURES:
+            self.ignore(t, "format")            # the stored precision: drtlab reads float32 texels
+            table = self.albedo_texture(t)
+        else:
+            self.r.fail(t.path, f"<texture type='{t.type}'> is not supported in a {o.type} "
+                                f"(supported: rawconstant, {', '.join(TEXTURES)})")
+        self.nested(o)
+        nested = bsdfs[0]
+        if nested.type in FRAME_MAPS:
+            self.r.fail(nested.path, f"a {nested.type} inside a {o.type} is not supported (one map)")
+        spec = self.bsdf(nested)
+        if spec["kind"] != "diffuse" and not spec["kind"].startswith(("ggx", "beckmann")):
+            self.r.fail(nested.path, f"a {o.type} around '{nested.type}' is not supported (diffuse, "
+                                     "roughconductor, roughplastic, roughdielectric)")
+        if o.type == "normalmap":
+            spec[slot_key("normal")] = table
+        else:
+            spec[slot_key("bump")] = table
+            spec["bump_scale"] = float(scale)
+        self.done(o)
+        return spec

@@ -205,7 +205,20 @@ def _parse_material(name: str, value: Any) -> Material:
         if slot == "albedo" and m.checker is not None:
             raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
         m.textures[slot] = parse_texture(t.data[key], t.field(key))
+    _parse_frame_map(t, m)
     return m
+
+
+def _parse_frame_map(t: Table, m: Material) -> None:
+    """A normal or bump map (kernels/materials/shading_frame.py): one of the two, and a finite
+    bump_scale only with a bump map."""
+    if "normal" in m.textures and "bump" in m.textures:
+        raise InputError(t.field("bump_texture"), "a material has a normal_texture or a bump_texture, "
+                                                  "not both")
+    if t.has("bump_scale"):
+        if "bump" not in m.textures:
+            raise InputError(t.field("bump_scale"), "needs a bump_texture (it scales the bump map's heights)")
+        m.bump_scale = number(t.data["bump_scale"], t.field("bump_scale"))
 
 
 def _checker(v: Any, field: str) -> tuple[int, int]:
