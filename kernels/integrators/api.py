@@ -58,9 +58,12 @@ from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.materials.material_at import material_at_for
 from drtlab.kernels.materials.shading_frame import frame_at_for
 from drtlab.kernels.mis import balance_heuristic, heuristic_of, power_heuristic
-from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE, kinds_where
 from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.whitted import make_whitted_parts
+
+# The kinds that read the hit's tangent frame (frame_at fills it in)
+ANISOTROPIC_KINDS = frozenset(kinds_where(lambda k: k.anisotropic))
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
@@ -240,5 +243,5 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         light_centres=whitted.light_centres, ends_path=whitted.ends_path,
         specular_reflect=whitted.specular_reflect, splits=whitted.splits,
         interface=interface, refract_dir=refract_dir, pixel_filter=pixel_filter,
-        frame_at=frame_at_for(f.frame_maps))
+        frame_at=frame_at_for(f.frame_maps, bool(f.kinds & ANISOTROPIC_KINDS)))
     return with_vertex_steps(with_probes(api, f))

@@ -25,6 +25,9 @@ class MaterialAt:
     mapped: int
     nm: wp.vec3
     nm_alpha2: float
+    # An anisotropic kind's alpha_v and the tangent its frame is built from (shading_frame.py)
+    shape_v: float
+    ts: wp.vec3
 
 
 @wp.func

@@ -219,32 +219,43 @@ def mesh_tangents(sd: SceneData, h: Hit) -> Tangents:
                              sd.meshes.vert_uv[idx[2]], h.n)
 
 
-@wp.func
-def mapped_frame(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
-    """mat with the hit's normal or bump map applied (unchanged where it has neither, and off
-    meshes: a map reads a mesh's texture coordinates and tangents)."""
-    if h.kind != MESH:
+def frame_at_for(maps: bool, anisotropic: bool):
+    """The estimator API's frame_at(sd, mat, h, wo) -> MaterialAt of a variant: the hit's normal or
+    bump map applied (`maps`), an anisotropic kind's alpha_v and tangent filled in (`anisotropic`);
+    the identity where the scene has neither. A map reads a mesh's texture coordinates and
+    tangents: off meshes nothing is perturbed."""
+    MAPS, ANISO = maps, anisotropic
+
+    @wp.func
+    def frame_at(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
+        r = mat
+        if wp.static(ANISO):
+            r.shape_v = sd.materials.shape_v[h.material]
+        if h.kind != MESH:
+            return r
+        tn = int(-1)
+        tb = int(-1)
+        if wp.static(MAPS):
+            tn = material_texture(sd, h.material, wp.static(NORMAL))
+            tb = material_texture(sd, h.material, wp.static(BUMP))
+        if tn < 0 and tb < 0:
+            if wp.static(ANISO):
+                r.ts = mesh_tangents(sd, h).dpdu      # s: dp_du made orthogonal to ns
+            return r
+        tg = mesh_tangents(sd, h)
+        s = tangent_s(h.ns, tg.dpdu)
+        local = wp.vec3(0.0, 0.0, 1.0)
+        if tn >= 0:
+            local = normal_map_local(texture_value(sd, tn, h.uv), s, h.ns, wo)
+            r.ts = s                # normalmap.cpp: the perturbed s is s made orthogonal to nm
+        else:
+            grad = sd.materials.bump_scale[h.material] * texture_gradient(sd, tb, h.uv)
+            local = bump_map_local(grad, tg, h.n, s, h.ns, wo)
+            r.ts = tg.dpdu          # bumpmap.cpp: dp_du made orthogonal to nm
+        return with_local_normal(r, local, s, h.ns)
+
+    @wp.func(inline=True)
+    def identity(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
         return mat
-    tn = material_texture(sd, h.material, wp.static(NORMAL))
-    tb = material_texture(sd, h.material, wp.static(BUMP))
-    if tn < 0 and tb < 0:
-        return mat
-    tg = mesh_tangents(sd, h)
-    s = tangent_s(h.ns, tg.dpdu)
-    local = wp.vec3(0.0, 0.0, 1.0)
-    if tn >= 0:
-        local = normal_map_local(texture_value(sd, tn, h.uv), s, h.ns, wo)
-    else:
-        grad = sd.materials.bump_scale[h.material] * texture_gradient(sd, tb, h.uv)
-        local = bump_map_local(grad, tg, h.n, s, h.ns, wo)
-    return with_local_normal(mat, local, s, h.ns)
 
-
-@wp.func(inline=True)
-def unmapped_frame(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
-    return mat
-
-
-def frame_at_for(frame_maps: bool):
-    """The estimator API's frame_at of a variant: the identity where the scene has no map."""
-    return mapped_frame if frame_maps else unmapped_frame
+    return frame_at if (MAPS or ANISO) else identity

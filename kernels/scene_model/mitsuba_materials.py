@@ -79,10 +79,15 @@ class MaterialMapping(TextureMapping):
                     {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)})
         elif kind in ("conductor", "roughconductor"):
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
-            if kind == "roughconductor":
+            aniso = self.anisotropic(o) if kind == "roughconductor" else None
+            if aniso is not None:
+                spec.update(kind="ggx_anisotropic", roughness=aniso[0], roughness_v=aniso[1])
+            elif kind == "roughconductor":
                 spec.update(zip(("kind", "roughness"), self.roughness(o)))
             eta, k = self.complex_ior(o)
-            if (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
+            if aniso is not None:                       # the kind applies F (1 for Mitsuba's "none")
+                spec.update(eta=eta, k=k)
+            elif (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
                 metal = {"mirror": "conductor", "beckmann": "beckmann_conductor", "ggx_separable": "ggx_conductor"}
                 spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
         elif kind in ("plastic", "roughplastic"):
@@ -158,6 +163,17 @@ class MaterialMapping(TextureMapping):
                                     "equal to alpha_v")
             return kinds[distribution], alpha[1]
         return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
+
+    def anisotropic(self, o: Obj) -> tuple[float, float] | None:
+        """(alpha_u, alpha_v) of a GGX roughconductor whose two differ (drtlab's ggx_anisotropic),
+        else None (the isotropic kinds, through `roughness`)."""
+        if self.get(o, "distribution", ("string",), "beckmann") != "ggx" or "alpha" in o.props:
+            return None
+        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha_u", "alpha_v")]
+        if None in alpha or alpha[0] == alpha[1]:
+            return None
+        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
+        return alpha[0], alpha[1]
 
     def ior(self, o: Obj, name: str, default: str) -> float:
         p = o.props.get(name)

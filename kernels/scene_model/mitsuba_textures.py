@@ -53,11 +53,12 @@ class TextureMapping:
 
     def check_textured_shape(self, shape: Obj, spec: dict) -> None:
         """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
-        if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS):
+        if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS) and spec["kind"] != "ggx_anisotropic":
             return
-        if any(slot_key(s) in spec for s in ("normal", "bump")) and shape.type != "obj":
-            self.r.fail(shape.path, f"a normal or bump map on a {shape.type} is not supported (drtlab "
-                                    "has the tangent frame of an obj's triangles only)")
+        if (any(slot_key(s) in spec for s in ("normal", "bump")) or spec["kind"] == "ggx_anisotropic") \
+                and shape.type != "obj":
+            self.r.fail(shape.path, f"a normal or bump map or anisotropic roughness on a {shape.type} is "
+                                    "not supported (drtlab has the tangent frame of an obj's triangles only)")
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
                                     "Mitsuba's on a rectangle and an obj only)")
