@@ -96,6 +96,18 @@ def test_refusals_are_one_line(folder, bsdf, shape, words):
     assert words in refused(folder, bsdf, shape)
 
 
+ANISO = ('<bsdf type="roughconductor"><string name="distribution" value="{d}"/><string name="material" '
+         'value="Al"/><float name="alpha_u" value="0.25"/><float name="alpha_v" value="0.05"/></bsdf>')
+
+
+def test_anisotropic_ggx_roughconductor(folder):
+    m = load(folder, ANISO.format(d="ggx")).materials[0]
+    assert (m.kind, m.roughness, m.roughness_v) == ("ggx_anisotropic", 0.25, 0.05)
+    assert np.all(m.k > 1.0)                                      # Al's index, applied by the kind
+    assert "anisotropic roughness is not supported" in refused(folder, ANISO.format(d="beckmann"))
+    assert "anisotropic roughness on a sphere" in refused(folder, ANISO.format(d="ggx"), "sphere")
+
+
 def test_export_refuses_maps(folder):
     with pytest.raises(InputError) as e:
         check_exportable(load(folder, BUMPMAP.format(more="")))
@@ -119,11 +131,18 @@ def constant(v):
     ({"bump_scale": 2.0}, "materials.m.bump_scale"),
     ({"bump_texture": constant(0.5), "bump_scale": "x"}, "materials.m.bump_scale"),
     ({"normal_texture": {"kind": "constant"}}, "materials.m.normal_texture.value"),
+    ({"kind": "ggx_anisotropic", "roughness_v": 0.0}, "materials.m.roughness_v"),
+    ({"roughness_v": 0.2}, "materials.m.roughness_v"),
 ])
 def test_toml_errors_name_the_field(folder, material, field):
     with pytest.raises(InputError) as e:
         scene_from_dict(scene_dict(folder, {"kind": "diffuse", **material}))
     assert e.value.field == field
+
+
+def test_roughness_v_defaults_to_roughness(folder):
+    m = scene_from_dict(scene_dict(folder, {"kind": "ggx_anisotropic", "roughness": 0.3})).materials[0]
+    assert m.roughness_v == 0.3
 
 
 def test_map_code_only_in_a_variant_with_a_map(folder):
