@@ -131,6 +131,8 @@ class MaterialData:
     tex_u: wp.array(dtype=wp.vec3)
     tex_v: wp.array(dtype=wp.vec3)
     texels: wp.array(dtype=wp.vec3)
+    bump_scale: wp.array(dtype=float)          # per material: its bump map's scale (shading_frame.py)
+    shape_v: wp.array(dtype=float)             # per material: an anisotropic kind's alpha_v (else 0)
 
 
 @wp.struct

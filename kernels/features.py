@@ -141,6 +141,8 @@ class Features:
                                # (kernels/projection.py; absent: compiled out)
     mesh_attributes: bool = False  # some texture is a mesh attribute (kernels/materials/
                                    # mesh_attribute.py; absent: compiled out)
+    frame_maps: bool = False  # some material has a normal or bump map (kernels/materials/shading_frame.py;
+                              # absent: compiled out)
     emitter_samples: int = 1  # the direct integrator's light and BSDF samples (compile-time counts)
     bsdf_samples: int = 1
 
@@ -192,7 +194,7 @@ class Features:
                              "point_lights", "dir_lights", "roulette", "background", "meshes",
                              "sphere_bvh", "environment", "quad_simd", "orthographic", "spot_lights",
                              "textures", "masks", "one_sided", "projections", "emission_textures",
-                             "mesh_attributes")
+                             "mesh_attributes", "frame_maps")
                  if getattr(self, n)]
         key = f"{self.integrator}[{','.join(flags)}|{','.join(sorted(self.kinds))}]"
         key += (f"+{self.filter}" + (f"{self.filter_stddev:g}" if self.filter_stddev else "")
@@ -242,6 +244,7 @@ def features_of(scene: Scene, integrator: str) -> Features:
         one_sided=any(scene.materials[s.material].one_sided for s in scene.shapes),
         mesh_attributes=any(t.kind == "mesh_attribute" for s in scene.shapes
                             for t in scene.materials[s.material].textures.values()),
+        frame_maps=any({"normal", "bump"} & set(scene.materials[s.material].textures) for s in scene.shapes),
         # Other integrators ignore them: the defaults, so that their variants stay one each.
         emitter_samples=scene.emitter_samples if integrator == "direct" else 1,
         bsdf_samples=scene.bsdf_samples if integrator == "direct" else 1,

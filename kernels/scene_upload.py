@@ -206,6 +206,8 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable, lights: list =
     m.tex_u = arr(t["tex_u"], wp.vec3, (1, 3))
     m.tex_v = arr(t["tex_v"], wp.vec3, (1, 3))
     m.texels = arr(t["texels"], wp.vec3, (1, 3))
+    m.bump_scale = arr([x.bump_scale for x in materials], float, (1,))
+    m.shape_v = arr([x.roughness_v or 0.0 for x in materials], float, (1,))
     return t["index"]
 
 

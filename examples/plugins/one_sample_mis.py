@@ -32,6 +32,7 @@ def make(api):
     TECHNIQUE = api.dim("technique")
     intersect, emitted, env_radiance = api.intersect, api.emitted, api.env_radiance
     kind_of, material_at_hit, is_delta = api.kind, api.material_at_hit, api.is_delta
+    frame_at = api.frame_at
     shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
     eval_bsdf, pdf_bsdf, scatter = api.eval_bsdf, api.pdf_bsdf, api.scatter
     pick_light, sample_light, light_pdf = api.pick_light, api.sample_light, api.light_pdf
@@ -81,6 +82,7 @@ def make(api):
                     if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
                         break
             mat = material_at_hit(sd, h)
+            mat = frame_at(sd, mat, h, wo)
             ns = shading_normal(h)
             chose_light = int(0)
             if not is_delta(kind):

@@ -30,6 +30,7 @@ def make(api):
     SPLIT = api.dim("split_light")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
     kind_of, material_at_hit, is_delta, shading_normal = api.kind, api.material_at_hit, api.is_delta, api.shading_normal
+    frame_at = api.frame_at
     next_event, direct_delta_lights = api.next_event, api.direct_delta_lights
     scatter, offset_origin, oriented = api.scatter, api.offset_origin, api.oriented
 
@@ -65,6 +66,7 @@ def make(api):
                     if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
                         break
             mat = material_at_hit(sd, h)
+            mat = frame_at(sd, mat, h, wo)
             ns = shading_normal(h)
             if not is_delta(kind):
                 if wp.static(NEE):

@@ -32,6 +32,7 @@ def make(api):
     LOBE, DIRECTION = api.dim("lobe_choice"), api.dim("direction")
     intersect, emitted, env_radiance = api.intersect, api.emitted, api.env_radiance
     kind_of, material_at_hit, is_delta = api.kind, api.material_at_hit, api.is_delta
+    frame_at = api.frame_at
     shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
     eval_bsdf, pdf_bsdf, sample_bsdf = api.eval_bsdf, api.pdf_bsdf, api.sample_bsdf
     pick_light, sample_light, light_pdf = api.pick_light, api.sample_light, api.light_pdf
@@ -52,6 +53,7 @@ def make(api):
         if kind == wp.static(EMITTER):
             return L
         mat = material_at_hit(sd, h)
+        mat = frame_at(sd, mat, h, wo)
         ns = shading_normal(h)
         if not is_delta(kind):
             if wp.static(LIGHTS):

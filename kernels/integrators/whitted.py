@@ -22,6 +22,7 @@ def make(api):
     EMITTER = api.emitter
     intersect, offset_origin, shading_normal = api.intersect, api.offset_origin, api.shading_normal
     shading_consistent, material_at_hit, kind_of = api.shading_consistent, api.material_at_hit, api.kind
+    frame_at = api.frame_at
     emitted, env_radiance = api.emitted, api.env_radiance
     ends_path, specular_reflect, splits = api.ends_path, api.specular_reflect, api.splits
     interface, refract_dir = api.interface, api.refract_dir
@@ -57,6 +58,7 @@ def make(api):
                 if kind == wp.static(EMITTER):
                     break
                 mat = material_at_hit(sd, h)
+                mat = frame_at(sd, mat, h, wo)
                 ns = shading_normal(h)
                 if ends_path(kind):
                     direct = wp.vec3(0.0)

@@ -14,6 +14,7 @@ from drtlab.kernels.materials import mask, uniform
 from drtlab.kernels.materials.kinds import model_module
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
+from drtlab.kernels.materials.shading_frame import mapped_bsdf
 
 
 class Bsdf(NamedTuple):
@@ -41,7 +42,9 @@ def make_bsdf(f: Features, strategy: Strategy) -> Bsdf:
     if f.masks or f.one_sided:          # mask.py: opacity and one-sidedness around every kind
         eval_bsdf, pdf_bsdf, sample_bsdf = mask.wrap(eval_bsdf, pdf_bsdf, sample_bsdf, f.masks,
                                                      f.one_sided, kinds, f.faults)
-    return Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+    b = Bsdf(eval_bsdf=eval_bsdf, pdf_bsdf=pdf_bsdf, sample_bsdf=sample_bsdf)
+    # A normal or bump map perturbs the normal every kind sees (compiled only where a scene has one)
+    return mapped_bsdf(b) if f.frame_maps else b
 
 
 def kind_functions(kinds: frozenset, strategy: Strategy) -> tuple:

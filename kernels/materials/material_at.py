@@ -33,6 +33,14 @@ class MaterialAt:
     one_sided: int                  # ... and 1: black from behind; both read in their variants only
     param: ParamVector              # a `params` kind's parameters at the hit (principled_params.py):
                                     # its row, textured ones looked up at uv (material_at_for)
+    # A normal or bump map's perturbation at the hit (shading_frame.py; mapped 0: none): the
+    # perturbed normal and its shadowing term's a2
+    mapped: int
+    nm: wp.vec3
+    nm_alpha2: float
+    # An anisotropic kind's alpha_v and the tangent its frame is built from (shading_frame.py)
+    shape_v: float
+    ts: wp.vec3
 
 
 @wp.func

@@ -48,6 +48,8 @@ class MaterialKind:
                                 # (MaterialData.table), built on the host by the model's `table_row`
     delta_lobe: bool = False    # a delta (mirror) lobe beside its density: its `sample` may return
                                 # a delta Scatter, so a uniform proposal cannot stand in for it
+    anisotropic: bool = False   # its alpha along the shading frame's t is `roughness_v` (alpha_v;
+                                # `roughness` is alpha_u, along s): it reads the hit's tangent
     strategy_sampling: bool = False  # its module's `sampling(strategy)` gives (sample, pdf) as the
                                 # strategy says (GGX normals by `microfacet`; a delta lobe chosen
                                 # with probability 1/2 under the uniform strategy)
@@ -78,10 +80,12 @@ class MaterialKind:
                 # a blend of two albedos by a texture (Mitsuba's blendbsdf of two diffuse BSDFs)
                 + (("weight_texture", "blend_albedo") if self.name == "diffuse" else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
+                + (("roughness_v",) if self.anisotropic else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
                 + (() if self.emitter else ("opacity", "opacity_texture"))
                 + (() if self.emitter or self.transmits else ("one_sided",))
-                + ("emission", "emission_texture"))
+                + ("emission", "emission_texture")
+                + (() if self.emitter else ("normal_texture", "bump_texture", "bump_scale")))
 
     @property
     def shape_key(self) -> str | None:
@@ -128,6 +132,7 @@ KINDS = (
     MaterialKind("ggx_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),
     MaterialKind("principled", table=True, model="principled", params=PRINCIPLED),
     MaterialKind("principled_thin", table=True, model="principled_thin", params=PRINCIPLED_THIN),
+    MaterialKind("ggx_anisotropic", microfacet=True, conductor=True, anisotropic=True, model="ggx_anisotropic"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

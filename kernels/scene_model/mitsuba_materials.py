@@ -7,11 +7,13 @@ from __future__ import annotations
 
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
 from drtlab.kernels.scene_model.mitsuba_principled import PRINCIPLED_BSDFS, PrincipledMapping
-from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
-from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
+from drtlab.kernels.scene_model.mitsuba_textures import TEXTURES, TextureMapping
+from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj, Ref
+from drtlab.kernels.scene_model.texture import slot_key
 
+FRAME_MAPS = ("normalmap", "bumpmap")
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
-         "roughplastic", "mask", "blendbsdf") + PRINCIPLED_BSDFS
+         "roughplastic", "mask", "blendbsdf", "normalmap", "bumpmap") + PRINCIPLED_BSDFS
 # Mitsuba's BSDFs that are black from behind unless wrapped in `twosided`
 ONE_SIDED = ("diffuse", "conductor", "roughconductor", "plastic", "roughplastic")
 
@@ -58,6 +60,8 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
 
     def bsdf(self, o: Obj, two_sided: bool = False, masked: bool = False) -> dict:
         kind = self.kind(o, BSDFS)
+        if kind in FRAME_MAPS:
+            return self.frame_map(o)
         if kind == "twosided":
             nested = self.nested(o)
             if len(nested) != 1:
@@ -87,10 +91,15 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
                     {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)})
         elif kind in ("conductor", "roughconductor"):
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
-            if kind == "roughconductor":
+            aniso = self.anisotropic(o) if kind == "roughconductor" else None
+            if aniso is not None:
+                spec.update(kind="ggx_anisotropic", roughness=aniso[0], roughness_v=aniso[1])
+            elif kind == "roughconductor":
                 spec.update(zip(("kind", "roughness"), self.roughness(o)))
             eta, k = self.complex_ior(o)
-            if (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
+            if aniso is not None:                       # the kind applies F (1 for Mitsuba's "none")
+                spec.update(eta=eta, k=k)
+            elif (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
                 metal = {"mirror": "conductor", "beckmann": "beckmann_conductor", "ggx_separable": "ggx_conductor"}
                 spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
         elif kind in ("plastic", "roughplastic"):
@@ -214,6 +223,17 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
             return kinds[distribution], alpha[1]
         return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
 
+    def anisotropic(self, o: Obj) -> tuple[float, float] | None:
+        """(alpha_u, alpha_v) of a GGX roughconductor whose two differ (drtlab's ggx_anisotropic),
+        else None (the isotropic kinds, through `roughness`)."""
+        if self.get(o, "distribution", ("string",), "beckmann") != "ggx" or "alpha" in o.props:
+            return None
+        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha_u", "alpha_v")]
+        if None in alpha or alpha[0] == alpha[1]:
+            return None
+        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
+        return alpha[0], alpha[1]
+
     def ior(self, o: Obj, name: str, default: str) -> float:
         p = o.props.get(name)
         if p is not None and p.tag == "string" or p is None:
@@ -224,3 +244,55 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
             return IOR_PRESETS[preset.lower()]
         return self.number(o, name, None, lambda x: x > 0, "> 0")
 
+
+    def frame_map(self, o: Obj) -> dict:
+        """Mitsuba's `normalmap` (its `normalmap` texture, raw RGB) or `bumpmap` (its one texture,
+        `scale` default 1) around one nested BSDF: the nested material with a normal_texture or a
+        bump_texture (kernels/materials/shading_frame.py)."""
+        for name in ("flip_invalid_normals", "use_shadowing_function"):     # both default true
+            if not self.get(o, name, ("boolean",), True):
+                self.r.fail(o.props[name].path, f"false is not supported (drtlab's {o.type} always "
+                                                "does what Mitsuba's default does)")
+        textures = [p for p in o.props.values() if p.tag == "texture" or (
+            p.tag == "ref" and self.deref(Ref(p.value, p.path)).tag == "texture")]
+        bsdfs = [c for c in map(self.deref, o.children) if c.tag == "bsdf"]
+        if len(bsdfs) != 1:
+            self.r.fail(o.path, f"{o.type} needs exactly one nested bsdf, got {len(bsdfs)}")
+        if o.type == "normalmap":
+            if "normalmap" not in o.props:
+                self.r.fail(o.path, "normalmap needs a texture named 'normalmap' (its raw RGB normals)")
+            textures = [o.props["normalmap"]]
+        elif len(textures) != 1:
+            self.r.fail(o.path, f"bumpmap needs exactly one texture (its heights), got {len(textures)}")
+        scale = self.number(o, "scale", 1.0) if o.type == "bumpmap" else None
+        p = textures[0]
+        t = self.deref(Ref(p.value, p.path)) if p.tag == "ref" else p.value
+        o.used.update(n for n, q in o.props.items() if q is p)
+        if t.type == "rawconstant":
+            value = self.get(t, "value", ("vector", "point", "float", "rgb"), None)
+            if value is None:
+                self.r.fail(t.path, "a rawconstant texture needs a value")
+            self.done(t)
+            table = {"kind": "constant", "value": [float(v) for v in value] if isinstance(value, list)
+                     else float(value)}
+        elif t.type in TEXTURES:
+            self.ignore(t, "format")            # the stored precision: drtlab reads float32 texels
+            table = self.albedo_texture(t)
+        else:
+            self.r.fail(t.path, f"<texture type='{t.type}'> is not supported in a {o.type} "
+                                f"(supported: rawconstant, {', '.join(TEXTURES)})")
+        self.nested(o)
+        nested = bsdfs[0]
+        if nested.type in FRAME_MAPS:
+            self.r.fail(nested.path, f"a {nested.type} inside a {o.type} is not supported (one map)")
+        spec = self.bsdf(nested)
+        if spec["kind"] != "diffuse" and not spec["kind"].startswith(("ggx", "beckmann")):
+            self.r.fail(nested.path, f"a {o.type} around '{nested.type}' is not supported (diffuse, "
+                                     "roughconductor, roughplastic, roughdielectric)")
+        if o.type == "normalmap":
+            spec[slot_key("normal")] = table
+        else:
+            spec[slot_key("bump")] = table
+            spec["bump_scale"] = float(scale)
+        self.done(o)
+        return spec

@@ -64,13 +64,17 @@ class TextureMapping:
         """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z, a sphere and
         an obj only."""
         tables = [spec[slot_key(slot)] for slot in TEXTURE_SLOTS if slot_key(slot) in spec]
-        if not tables:
+        if not tables and spec["kind"] != "ggx_anisotropic":
             return
         if any(t["kind"] == "mesh_attribute" for t in tables):
             if shape.type not in ATTRIBUTE_SHAPES:
                 self.r.fail(shape.path, f"a mesh_attribute texture on a {shape.type} is not supported "
                                         "(drtlab reads mesh attributes from PLY files)")
             return
+        if (any(slot_key(s) in spec for s in ("normal", "bump")) or spec["kind"] == "ggx_anisotropic") \
+                and shape.type != "obj":
+            self.r.fail(shape.path, f"a normal or bump map or anisotropic roughness on a {shape.type} is "
+                                    "not supported (drtlab has the tangent frame of an obj's triangles only)")
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
                                     "Mitsuba's on a rectangle, a sphere and an obj only)")

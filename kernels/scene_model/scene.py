@@ -58,6 +58,8 @@ class Material:
     # Parameters read from a texture at the hit's uv, by slot (texture.TEXTURE_SLOTS: "albedo", ...;
     # the scene-file key is texture.slot_key(slot))
     textures: dict[str, Texture] = field(default_factory=dict)
+    roughness_v: float | None = None            # alpha along t of an anisotropic kind (None: roughness)
+    bump_scale: float = 1.0                     # the "bump" texture's height scale (Mitsuba's `scale`)
     exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric,
                                                 # plastic's coat)
     roughness: float = 0.1                      # GGX alpha (ggx, ggx_dielectric), in

@@ -190,6 +190,10 @@ def _parse_material(name: str, value: Any) -> Material:
         m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
                              f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
                              lambda x: ROUGHNESS_MIN <= x <= 1.0)
+    if spec.anisotropic:
+        m.roughness_v = number(t.get("roughness_v", m.roughness, ""), t.field("roughness_v"),
+                               f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha along t)",
+                               lambda x: ROUGHNESS_MIN <= x <= 1.0)
     if spec.transmits:
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
     if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all
@@ -235,6 +239,7 @@ def _parse_material(name: str, value: Any) -> Material:
                          "the surface's uv or its mesh's attributes (mesh_attribute), not both")
     if t.has("blend_albedo"):       # the device's second albedo (MaterialData.albedo2)
         m.albedo2 = _albedo(t.data["blend_albedo"], t.field("blend_albedo"))
+    _parse_frame_map(t, m)
     return m
 
 
@@ -249,6 +254,18 @@ def _params(t: Table, spec) -> tuple[float, dict[str, float]]:
         out[name] = number(t.get(name, p.default, ""), t.field(name), f"in [{p.lo:g}, {p.hi:g}]",
                            lambda x, p=p: p.lo <= x <= p.hi)
     return ior, out
+
+
+def _parse_frame_map(t: Table, m: Material) -> None:
+    """A normal or bump map (kernels/materials/shading_frame.py): one of the two, and a finite
+    bump_scale only with a bump map."""
+    if "normal" in m.textures and "bump" in m.textures:
+        raise InputError(t.field("bump_texture"), "a material has a normal_texture or a bump_texture, "
+                                                  "not both")
+    if t.has("bump_scale"):
+        if "bump" not in m.textures:
+            raise InputError(t.field("bump_scale"), "needs a bump_texture (it scales the bump map's heights)")
+        m.bump_scale = number(t.data["bump_scale"], t.field("bump_scale"))
 
 
 def _checker(v: Any, field: str) -> tuple[int, int]:

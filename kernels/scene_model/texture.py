@@ -26,7 +26,10 @@ FILTERS = ("bilinear", "nearest")        # bitmap.cpp's filter_type (bilinear it
 WRAPS = ("repeat", "mirror", "clamp")     # bitmap.cpp's wrap_mode (repeat its default)
 KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
         "checkerboard": ("kind", "color0", "color1", "to_uv"),
-        "mesh_attribute": ("kind", "name", "scale")}
+        "mesh_attribute": ("kind", "name", "scale"),
+        "constant": ("kind", "value")}
+# A constant (Mitsuba's `rawconstant`) is a one-texel nearest bitmap on the device: the table kinds
+TABLE_KINDS = TEXTURE_KINDS + ("constant",)
 # The slots a mesh attribute may fill (the lookup that knows the hit's face reads these only).
 ATTRIBUTE_SLOTS = ("albedo", "weight")
 MAX_TEXELS = 1 << 24
@@ -39,6 +42,8 @@ TEXTURE_SLOTS = (
     "roughness", "anisotropic", "metallic", "spec_trans", "spec_tint", "sheen", "sheen_tint",
     "clearcoat", "clearcoat_gloss", "flatness", "diff_trans",      # principled_params.PARAMS
     "weight",       # a diffuse's blend of albedo (at 0) and blend_albedo (at 1)
+    "normal",       # a normal map (raw RGB, 2 rgb - 1 in the tangent frame)
+    "bump",         # a bump map (its luminance a height; Material.bump_scale)
 )
 
 
@@ -93,14 +98,19 @@ def parse_texture(value: Any, where: str) -> Texture:
     if not isinstance(value, dict):
         raise InputError(where, f"must be a table (kind = {' | '.join(TEXTURE_KINDS)}), got {show(value)}")
     kind = value.get("kind", "bitmap")
-    if kind not in TEXTURE_KINDS:
-        raise InputError(f"{where}.kind", f"must be one of {', '.join(TEXTURE_KINDS)}, got {show(kind)}")
+    if kind not in TABLE_KINDS:
+        raise InputError(f"{where}.kind", f"must be one of {', '.join(TABLE_KINDS)}, got {show(kind)}")
     extra = sorted(set(value) - set(KEYS[kind]))
     if extra:
         raise InputError(f"{where}.{extra[0]}", f"is not a key of a {kind} texture (keys: "
                                                 f"{', '.join(KEYS[kind])})")
     if kind == "mesh_attribute":
         return _mesh_attribute(value, where)
+    if kind == "constant":
+        if "value" not in value:
+            raise InputError(f"{where}.value", "a constant texture needs a value (a number or 3 numbers)")
+        return Texture("bitmap", np.array([[_colour(value["value"], f"{where}.value")]], dtype=np.float32),
+                       "nearest", source="constant")
     to_uv = _to_uv(value.get("to_uv"), f"{where}.to_uv")
     if kind == "checkerboard":
         colours = [_colour(value.get(k, d), f"{where}.{k}") for k, d in (("color0", 0.4), ("color1", 0.2))]
