@@ -92,7 +92,7 @@ def hits(scene, xz: np.ndarray) -> dict:
     assert f.textures and f.mesh_attributes
     if "k" not in _kernels:
         rays = make_intersect(f, motion=make_motion())
-        material_at_hit = material_at_for(True, True)[1]
+        material_at_hit = material_at_for(True, attributes=True)[1]
 
         @wp.kernel(enable_backward=False, module="unique")
         def k(sd: SceneData, o: wp.array(dtype=wp.vec3), face: wp.array(dtype=int),

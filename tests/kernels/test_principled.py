@@ -348,8 +348,8 @@ def test_textured_parameters_are_looked_up_as_mitsubas_eval_1():
     MaterialAt.param from the variant's material_at, the checkerboard's colours swapped against its
     RGB lookup (Mitsuba's eval_1), a grey colour's luminance the grey itself; a scene without a
     principled kind gets the plain material_at."""
-    assert material_at_for(False, kinds=frozenset({"diffuse"})) is material_at
-    at = material_at_for(True, kinds=frozenset({"principled"}))
+    assert material_at_for(False, kinds=frozenset({"diffuse"}))[0] is material_at
+    at = material_at_for(True, kinds=frozenset({"principled"}))[0]
     c0, c1 = 0.7, 0.1
     d = quad_scene({"kind": "checkerboard", "color0": c0, "color1": c1, "to_uv": TO_UV.tolist()})
     d["materials"]["tex"] = {"kind": "principled", "sheen": 0.25, "metallic_texture": d["materials"]["tex"]["albedo_texture"]}
