@@ -6,19 +6,17 @@ scenes that have one (Features.emission_textures).
 Two places read it: a hit on the emitter (`emitted_for`: the hit's uv, which the intersection
 computes for textured materials) and a light sample's point (`make_sample_emission`: its uv
 recomputed from the point as the intersection would have it: a quad's edge parameters, a mesh face's
-interpolated texture coordinates, a sphere's longitude and latitude). Light sampling stays uniform
+interpolated texture coordinates, a sphere's Mitsuba uv in its own frame). Light sampling stays uniform
 by area or solid angle (Mitsuba samples the texture: another unbiased estimator of the same image).
 """
 import warp as wp
 
-from drtlab.estimators.domain_maps import PI
 from drtlab.kernels.device_scene import MESH, QUAD, SPHERE, SceneData
-from drtlab.kernels.intersection.primitives import Hit, quad_params_w
+from drtlab.kernels.intersection.primitives import Hit, quad_params_w, sphere_uv
 from drtlab.kernels.materials.surface import emitted
 from drtlab.kernels.materials.texture import SLOT, material_texture, texture_value
 
 EMISSION = SLOT["emission"]
-INV_PI = 1.0 / PI
 
 
 @wp.func
@@ -88,8 +86,7 @@ def make_sample_emission(motion):
                   + sd.meshes.vert_uv[idx[2]] * b[1])
         elif kind == SPHERE:
             n = wp.normalize(y - sphere_center(sd, s, dt))
-            uv = wp.vec2(0.5 + wp.atan2(n[2], n[0]) * (0.5 * INV_PI),
-                         wp.acos(wp.clamp(n[1], -1.0, 1.0)) * INV_PI)
+            uv = sphere_uv(sd.spheres.to_local[s] * n)       # as a hit on it reads it
         return wp.cw_mul(radiance, texture_value(sd, t, uv))
 
     return sample_emission

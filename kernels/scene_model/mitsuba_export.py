@@ -95,9 +95,10 @@ def check_exportable(scene: Scene) -> None:
             raise InputError(f"materials.{m.name}.checker", "checker textures are not exported")
         for slot in m.textures:
             raise InputError(f"materials.{m.name}.{slot_key(slot)}", "textures are not exported")
-        if m.opacity < 1.0 or m.one_sided:     # (an opacity texture is refused above)
-            key = "opacity" if m.opacity < 1.0 else "one_sided"
-            raise InputError(f"materials.{m.name}.{key}", "masks and one-sided materials are not exported")
+        if m.opacity < 1.0:     # (an opacity texture is refused above)
+            raise InputError(f"materials.{m.name}.opacity", "masks are not exported")
+        if m.one_sided and m.kind in ("emitter", "principled", "principled_thin"):
+            raise InputError(f"materials.{m.name}.one_sided", f"a one-sided {m.kind} is not exported")
     for i, light in enumerate(scene.point_lights):
         if light.projects:
             raise InputError(f"lights[{i}]", "projectors and spots' textures are not exported")
@@ -248,8 +249,8 @@ def _sensor(root, scene: Scene) -> None:
 
 
 def _bsdfs(root, scene: Scene) -> dict[str, str]:
-    """One <bsdf id> per material (drtlab's surfaces are two-sided: `twosided` where Mitsuba's are
-    one-sided; beckmann, ggx_separable and the rough metals are Mitsuba's roughconductor, beckmann_dielectric and
+    """One <bsdf id> per material (drtlab's surfaces are two-sided unless `one_sided`: `twosided`
+    where Mitsuba's are one-sided; beckmann, ggx_separable and the rough metals are Mitsuba's roughconductor, beckmann_dielectric and
     ggx_dielectric_separable its roughdielectric, the plastics its plastic and roughplastic); material name -> its
     id."""
     ids: dict[str, str] = {}
@@ -278,9 +279,12 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             b = ET.SubElement(root, "bsdf", type="diffuse", id=ident)
             _vec(b, "rgb", "reflectance", np.zeros(3))
             continue
-        outer = ET.SubElement(root, "bsdf", type="twosided", id=ident)
+        if m.one_sided:         # Mitsuba's own: a bare BSDF is black from behind
+            outer, named = root, {"id": ident}
+        else:
+            outer, named = ET.SubElement(root, "bsdf", type="twosided", id=ident), {}
         if m.kind in ("mirror", "conductor") + tuple(ROUGH_CONDUCTORS):
-            b = ET.SubElement(outer, "bsdf", type="roughconductor" if m.kind in ROUGH_CONDUCTORS else "conductor")
+            b = ET.SubElement(outer, "bsdf", **named, type="roughconductor" if m.kind in ROUGH_CONDUCTORS else "conductor")
             if m.kind in ROUGH_CONDUCTORS:
                 _num(b, "string", "distribution", ROUGH_CONDUCTORS[m.kind])
                 _num(b, "float", "alpha", m.roughness)
@@ -290,7 +294,7 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _vec(b, "rgb", "specular_reflectance", m.albedo)
         elif m.kind.removesuffix("_nonlinear") in PLASTICS:
             rough = PLASTICS[m.kind.removesuffix("_nonlinear")]
-            b = ET.SubElement(outer, "bsdf", type="plastic" if rough is None else "roughplastic")
+            b = ET.SubElement(outer, "bsdf", **named, type="plastic" if rough is None else "roughplastic")
             if rough is not None:
                 _num(b, "string", "distribution", rough)
                 _num(b, "float", "alpha", m.roughness)
@@ -299,7 +303,7 @@ def _bsdfs(root, scene: Scene) -> dict[str, str]:
             _num(b, "boolean", "nonlinear", "true" if m.kind.endswith("_nonlinear") else "false")
             _vec(b, "rgb", "diffuse_reflectance", m.albedo)
         elif BSDF_OF_KIND[m.kind] == "diffuse":
-            b = ET.SubElement(outer, "bsdf", type="diffuse")
+            b = ET.SubElement(outer, "bsdf", **named, type="diffuse")
             _vec(b, "rgb", "reflectance", m.albedo)
         else:       # a row of BSDF_OF_KIND without its branch here: never written as something else
             raise InputError(f"materials.{m.name}.kind", f"'{m.kind}' is in BSDF_OF_KIND but not written")

@@ -146,9 +146,12 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
         if len(children) != 2:
             self.r.fail(o.path, f"a blendbsdf needs two nested bsdfs, got {len(children)}")
         specs = [self.bsdf(c) for c in children]
-        if any(set(s) != {"kind", "albedo"} or s["kind"] != "diffuse" for s in specs):
+        sides = {bool(s.get("one_sided")) for s in specs}
+        if (any(set(s) - {"one_sided"} != {"kind", "albedo"} or s["kind"] != "diffuse" for s in specs)
+                or len(sides) > 1):
             self.r.fail(o.path, f"a blendbsdf of {children[0].type} and {children[1].type} is not "
-                                "supported (drtlab blends two diffuse bsdfs of constant reflectance)")
+                                "supported (drtlab blends two diffuse bsdfs of constant reflectance, "
+                                "both one-sided or both two-sided)")
         r0, r1 = specs[0]["albedo"], specs[1]["albedo"]
         texture = self.texture_of(o, "weight")
         if texture is not None:
@@ -160,6 +163,8 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
                 self.r.fail(o.path, "a blendbsdf needs a weight (a float or a texture)")
             w = min(max(float(w), 0.0), 1.0)
             spec = {"kind": "diffuse", "albedo": [(1.0 - w) * a + w * b for a, b in zip(r0, r1)]}
+        if sides == {True}:
+            spec["one_sided"] = True
         self.done(o)
         return spec
 
