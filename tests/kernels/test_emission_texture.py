@@ -106,7 +106,6 @@ def mitsuba_emitter(shape: str, texture_file: str) -> str:
 
 
 def test_mitsuba_area_emitter_with_a_bitmap_radiance(tmp_path, textures):
-    from drtlab.errors import InputError
     from drtlab.kernels.scene_model.scene_file import load_scene
     (tmp_path / "a.xml").write_text(mitsuba_emitter("rectangle", textures["left"]["file"]))
     m = load_scene(tmp_path / "a.xml").materials[0]
