@@ -253,7 +253,7 @@ def test_direct_takes_its_sample_counts(tmp_path):
     ('<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>', "emitter(envmap)", "does not exist"),
     ('<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>', "hide_emitters", "true"),
     ('<integrator type="volpath"/>', "integrator(volpath)", "supported: path, direct"),
-    ('<texture type="bitmap" id="t"/>', "texture(bitmap)", "not supported"),
+    ('<texture type="noise" id="t"/>', "texture(noise)", "not supported"),
     ('<include filename="other.xml"/>', "scene/include", "does not exist"),
     ('<shape type="sphere"><ref id="nothing"/></shape>', "scene/shape[2](sphere)/ref", "'nothing' names no object"),
 ])

@@ -456,6 +456,7 @@ def test_export_writes_them_back(tmp_path):
                                    "clearcoat_sampling_rate": 2.0}),
              ("principled_thin", 1.33, {"diff_trans": 1.4, "sheen": 0.8, "anisotropic": 0.5}))
     a.materials = [dataclasses.replace(a.materials[0], name=k, kind=k, albedo=np.array([0.8, 0.3, 0.1]), ior=ior,
+                                       one_sided=False,
                                        params={**{p: q.default for p, q in PARAM_BY_NAME.items()
                                                   if p in KIND_BY_NAME[k].params}, **v})
                    for k, ior, v in specs]
