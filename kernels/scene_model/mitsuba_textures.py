@@ -53,8 +53,7 @@ class TextureMapping:
         return table
 
     def check_textured_shape(self, shape: Obj, spec: dict) -> None:
-        """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z, a sphere and
-        an obj only."""
+        """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
         if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS):
             return
         if shape.type not in TEXTURED_SHAPES:
