@@ -95,6 +95,13 @@ class ShapeMapping:
             elif kind == "cube":
                 shape.update(kind="box", min=[-1.0] * 3, max=[1.0] * 3)
             elif kind == "sphere":
+                own = self.get(o, "to_world", ("transform",), [])
+                if own and np.linalg.det(chain_matrix(own)[:3, :3]) < 0:
+                    # Mitsuba 3 turns a mirrored sphere's normals inwards (a one-sided BSDF is
+                    # black from outside); drtlab's face out.
+                    self.r.fail(o.props["to_world"].path, "a mirroring to_world on a sphere is not "
+                                                          "supported (Mitsuba turns its normals "
+                                                          "inwards, drtlab's face out)")
                 shape.update(kind="sphere", center=list(self.get(o, "center", ("point",), [0.0] * 3)),
                              radius=self.number(o, "radius", 1.0, lambda x: x > 0, "> 0"))
             else:

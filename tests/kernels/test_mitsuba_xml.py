@@ -249,6 +249,8 @@ def test_direct_takes_its_sample_counts(tmp_path):
     ('<shape type="sdfgrid"/>', "scene/shape[2](sdfgrid)", "supported: rectangle"),
     ('<shape type="sphere"><medium type="homogeneous" name="interior"/></shape>', "medium(homogeneous)", "not supported"),
     ('<shape type="sphere"><boolean name="flip_normals" value="true"/></shape>', "flip_normals", "rectangle or a disk"),
+    ('<shape type="sphere"><transform name="to_world"><scale value="-1"/></transform></shape>',
+     "shape[2](sphere)/transform[@name=to_world]", "a mirroring to_world on a sphere"),
     ('<shape type="sphere"><float name="roughness" value="1"/></shape>', "float[@name=roughness]", "'roughness'"),
     ('<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>', "emitter(envmap)", "does not exist"),
     ('<integrator type="path"><boolean name="hide_emitters" value="true"/></integrator>', "hide_emitters", "true"),

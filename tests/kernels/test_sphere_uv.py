@@ -150,3 +150,19 @@ def test_the_bright_texel_lands_where_the_formula_says(folder):
     assert centre_pixel(folder, local_direction(1.0 - u, v)) == 0.0
     unrotated = chain_of_xml()[:3, :3].T @ local_direction(u, v)
     assert centre_pixel(folder, unrotated) == 0.0
+
+
+def test_a_mirrored_sphere_is_refused_and_two_mirrors_are_a_turn(folder):
+    """Mitsuba 3 turns the normals of a sphere whose to_world mirrors (determinant < 0) inwards: a
+    diffuse one seen from outside is black there (Mitsuba 3.9.1: 0 at the centre pixel under a
+    constant environment, 0.5 unmirrored), which drtlab's outward spheres cannot show, so it is
+    refused in one line. Two mirrors are a half turn about z: loaded, its frame diag(-1, -1, 1)."""
+    from drtlab.errors import InputError
+    text = scene_xml(folder, np.array([0.0, 0.0, 1.0])).read_text()
+    turned = text.replace(CHAIN, '<scale x="-1" y="-1"/>')
+    (folder / "turned.xml").write_text(turned)
+    assert np.allclose(load_scene(folder / "turned.xml").shapes[0].to_local, np.diag([-1.0, -1.0, 1.0]))
+    (folder / "mirrored.xml").write_text(text.replace(CHAIN, '<scale z="-1"/>'))
+    with pytest.raises(InputError) as e:
+        load_scene(folder / "mirrored.xml")
+    assert "\n" not in str(e.value) and "shape(sphere)/transform[@name=to_world]: a mirroring" in str(e.value)
