@@ -240,7 +240,8 @@ def frame_at_for(maps: bool, anisotropic: bool):
             tb = material_texture(sd, h.material, wp.static(BUMP))
         if tn < 0 and tb < 0:
             if wp.static(ANISO):
-                r.ts = mesh_tangents(sd, h).dpdu      # s: dp_du made orthogonal to ns
+                # s, as a normal map's frame holds it too: an identity map then changes no bit
+                r.ts = tangent_s(h.ns, mesh_tangents(sd, h).dpdu)
             return r
         tg = mesh_tangents(sd, h)
         s = tangent_s(h.ns, tg.dpdu)

@@ -3,7 +3,8 @@ material's normal_texture / bump_texture and bump_scale (kernels/scene_model/mit
 their defaults (bumpmap's scale 1, flip_invalid_normals and use_shadowing_function true), the
 `rawconstant` texture, each refusal one line naming its path; the TOML keys and their errors; the
 variant compiling the map code only for a scene with one; and renders: an identity normal map
-(0.5, 0.5, 1) gives the unwrapped material's image bit for bit, a tilted one a different image."""
+(0.5, 0.5, 1) gives the unwrapped material's image bit for bit (diffuse and ggx_anisotropic, whose
+tangent frame a map also sets), a tilted one a different image."""
 from __future__ import annotations
 
 import numpy as np
@@ -152,9 +153,10 @@ def test_map_code_only_in_a_variant_with_a_map(folder):
     assert features_of(mapped, "path").frame_maps and "frame_maps" in features_of(mapped, "path").key()
 
 
-def test_identity_map_renders_bit_identically_and_a_tilted_one_does_not(folder):
+@pytest.mark.parametrize("base", [{"kind": "diffuse", "albedo": [0.7, 0.7, 0.7]},
+                                  {"kind": "ggx_anisotropic", "roughness": 0.25, "roughness_v": 0.05}])
+def test_identity_map_renders_bit_identically_and_a_tilted_one_does_not(folder, base):
     from drtlab.kernels.render import render
-    base = {"kind": "diffuse", "albedo": [0.7, 0.7, 0.7]}
     images = {}
     for name, extra in (("plain", {}), ("identity", {"normal_texture": constant([0.5, 0.5, 1.0])}),
                         ("tilted", {"normal_texture": constant([0.8, 0.5, 0.9])})):
