@@ -164,3 +164,32 @@ def test_identity_map_renders_bit_identically_and_a_tilted_one_does_not(folder, 
                               seed=3)
     assert np.array_equal(images["identity"], images["plain"])
     assert np.abs(images["tilted"] - images["plain"]).max() > 1e-3
+
+
+def test_wrong_maps_are_rejected_on_mitsubas_scenes():
+    """Negative controls on Mitsuba's own scenes (test_suite_scene renders the correct ones): the
+    normal map read without its 2 rgb - 1 decode, the bump map's scale 0 (no bump) and the rough
+    conductor's alphas swapped (its tangent frame turned 90 degrees) each fail the suite's rule."""
+    from drtlab.experiments.bench.mitsuba import suite
+    from drtlab.kernels.imageio import read_linear
+    from drtlab.kernels.render import render_with_stats
+    if not (suite.suite_dir() / "tests" / "scenes").is_dir():
+        pytest.skip(f"Mitsuba 3's test scenes are not at {suite.suite_dir()} (set DRTLAB_MITSUBA_TESTS)")
+    jobs = {j["name"]: j for j in suite.scenes(suite.suite_dir())}
+
+    def undecoded(m):
+        m.textures["normal"].pixels = (m.textures["normal"].pixels + 1.0) / 2.0
+
+    def swapped(m):
+        m.roughness, m.roughness_v = m.roughness_v, m.roughness
+    for name, wrong in (("test_normalmap_path", undecoded),
+                        ("test_bumpmap_path", lambda m: setattr(m, "bump_scale", 0.0)),
+                        ("test_normalmap_roughconductor_path", swapped)):
+        job = jobs[name]
+        scene, refusal = suite.load(job)
+        assert refusal is None
+        wrong(scene.materials[0])
+        stats = render_with_stats(scene, spp=32, sampler=suite.SAMPLER, seed=0, progress=False, variance=True)
+        ref, var = (read_linear(job[k])[0][..., :3].astype(np.float64) for k in ("ref", "var"))
+        verdict = suite.judge(stats.image, suite.channel_se(stats.variance, 32), 32, ref, var)
+        assert not verdict["agrees"], name
