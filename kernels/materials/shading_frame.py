@@ -16,10 +16,12 @@ render/mesh.cpp, interaction.h):
   different sides of ns and nm (and so is a sampled wi); eval and the sampled weight are multiplied
   by the shadowing term of Estevez et al. 2019 (`use_shadowing_function`, default true):
   2 / (1 + sqrt(1 + a2 tan^2 theta_i)), a2 = min(tan^2 theta_nm / 8, 1), both angles from ns.
-drtlab's kinds are isotropic, so the perturbed frame's tangent (which an anisotropic lobe would
-read) is not kept: only nm and a2. Compiled only into variants with a normal or bump map
-(Features.frame_maps): `mapped_bsdf` wraps the composed Bsdf (bsdf.py), `frame_at` fills the
-material at a hit (the estimator API's `frame_at`).
+The material at the hit keeps nm, a2 and the vector the perturbed tangent is made from (s for a
+normal map, dp_du for a bump map: the anisotropic kind, ggx_anisotropic.py, makes it orthogonal to
+nm). Compiled only into variants with a normal or bump map (Features.frame_maps; the tangent alone
+where an anisotropic kind is present): `mapped_bsdf` wraps the composed Bsdf (bsdf.py), `frame_at`
+fills the material at a hit (the estimator API's `frame_at`). Not reciprocal, as Mitsuba's are not
+(the flip reads wo, the shadowing term wi).
 """
 import warp as wp
 
@@ -240,7 +242,8 @@ def frame_at_for(maps: bool, anisotropic: bool):
             tb = material_texture(sd, h.material, wp.static(BUMP))
         if tn < 0 and tb < 0:
             if wp.static(ANISO):
-                r.ts = mesh_tangents(sd, h).dpdu      # s: dp_du made orthogonal to ns
+                # s, as a normal map's frame holds it too: an identity map then changes no bit
+                r.ts = tangent_s(h.ns, mesh_tangents(sd, h).dpdu)
             return r
         tg = mesh_tangents(sd, h)
         s = tangent_s(h.ns, tg.dpdu)

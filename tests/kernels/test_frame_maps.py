@@ -3,7 +3,8 @@ material's normal_texture / bump_texture and bump_scale (kernels/scene_model/mit
 their defaults (bumpmap's scale 1, flip_invalid_normals and use_shadowing_function true), the
 `rawconstant` texture, each refusal one line naming its path; the TOML keys and their errors; the
 variant compiling the map code only for a scene with one; and renders: an identity normal map
-(0.5, 0.5, 1) gives the unwrapped material's image bit for bit, a tilted one a different image."""
+(0.5, 0.5, 1) gives the unwrapped material's image bit for bit (diffuse and ggx_anisotropic, whose
+tangent frame a map also sets), a tilted one a different image."""
 from __future__ import annotations
 
 import numpy as np
@@ -78,7 +79,7 @@ def test_rawconstant_and_a_nested_rough_conductor(folder):
 
 
 @pytest.mark.parametrize("bsdf,shape,words", [
-    (NORMALMAP.format(more=""), "rectangle", "normal or bump map on a rectangle"),
+    (NORMALMAP.format(more=""), "rectangle", "anisotropic roughness on a rectangle is not supported"),
     (NORMALMAP.format(more='<boolean name="flip_invalid_normals" value="false"/>'), "obj",
      "flip_invalid_normals"),
     (BUMPMAP.format(more='<boolean name="use_shadowing_function" value="false"/>'), "obj",
@@ -152,9 +153,10 @@ def test_map_code_only_in_a_variant_with_a_map(folder):
     assert features_of(mapped, "path").frame_maps and "frame_maps" in features_of(mapped, "path").key()
 
 
-def test_identity_map_renders_bit_identically_and_a_tilted_one_does_not(folder):
+@pytest.mark.parametrize("base", [{"kind": "diffuse", "albedo": [0.7, 0.7, 0.7]},
+                                  {"kind": "ggx_anisotropic", "roughness": 0.25, "roughness_v": 0.05}])
+def test_identity_map_renders_bit_identically_and_a_tilted_one_does_not(folder, base):
     from drtlab.kernels.render import render
-    base = {"kind": "diffuse", "albedo": [0.7, 0.7, 0.7]}
     images = {}
     for name, extra in (("plain", {}), ("identity", {"normal_texture": constant([0.5, 0.5, 1.0])}),
                         ("tilted", {"normal_texture": constant([0.8, 0.5, 0.9])})):
@@ -162,3 +164,32 @@ def test_identity_map_renders_bit_identically_and_a_tilted_one_does_not(folder):
                               seed=3)
     assert np.array_equal(images["identity"], images["plain"])
     assert np.abs(images["tilted"] - images["plain"]).max() > 1e-3
+
+
+def test_wrong_maps_are_rejected_on_mitsubas_scenes():
+    """Negative controls on Mitsuba's own scenes (test_suite_scene renders the correct ones): the
+    normal map read without its 2 rgb - 1 decode, the bump map's scale 0 (no bump) and the rough
+    conductor's alphas swapped (its tangent frame turned 90 degrees) each fail the suite's rule."""
+    from drtlab.experiments.bench.mitsuba import suite
+    from drtlab.kernels.imageio import read_linear
+    from drtlab.kernels.render import render_with_stats
+    if not (suite.suite_dir() / "tests" / "scenes").is_dir():
+        pytest.skip(f"Mitsuba 3's test scenes are not at {suite.suite_dir()} (set DRTLAB_MITSUBA_TESTS)")
+    jobs = {j["name"]: j for j in suite.scenes(suite.suite_dir())}
+
+    def undecoded(m):
+        m.textures["normal"].pixels = (m.textures["normal"].pixels + 1.0) / 2.0
+
+    def swapped(m):
+        m.roughness, m.roughness_v = m.roughness_v, m.roughness
+    for name, wrong in (("test_normalmap_path", undecoded),
+                        ("test_bumpmap_path", lambda m: setattr(m, "bump_scale", 0.0)),
+                        ("test_normalmap_roughconductor_path", swapped)):
+        job = jobs[name]
+        scene, refusal = suite.load(job)
+        assert refusal is None
+        wrong(scene.materials[0])
+        stats = render_with_stats(scene, spp=32, sampler=suite.SAMPLER, seed=0, progress=False, variance=True)
+        ref, var = (read_linear(job[k])[0][..., :3].astype(np.float64) for k in ("ref", "var"))
+        verdict = suite.judge(stats.image, suite.channel_se(stats.variance, 32), 32, ref, var)
+        assert not verdict["agrees"], name

@@ -22,6 +22,8 @@ LOADS = {"test_roughdielectric_path", "test_roughplastic_linear_path",
          "test_roughplastic_nonlinear_path", "test_directional_direct", "scene_path",
          "test_instancing_path", "test_texture_interp_direct", "test_textured_diffuse_path",
          "test_orthographic_path"}
+LOADS |= {"test_normalmap_path", "test_normalmap_roughconductor_path",
+          "test_normalmap_identity_roughconductor_path", "test_bumpmap_path"}    # normal and bump maps
 
 
 def synthetic(seed: int, spp: int = SPP):
