@@ -24,6 +24,7 @@ def black(c: wp.vec3) -> int:
 def make(api):
     f = api.features
     AREA, ENV = f.area_lights, f.environment
+    MASKS = f.masks         # a mask's pass-through on a diffuse surface is not its diffuse scatter
     DEPTH_CAP, EMITTER, DIFFUSE = api.depth_cap, api.emitter, api.diffuse
     # After a diffuse scatter only the emission hit counts; nothing to find there when emitters
     # count only through light samples and the background is black.
@@ -75,7 +76,12 @@ def make(api):
             if s.valid == 0:
                 break
             beta = wp.cw_mul(beta, s.weight)
+            diffuse_scatter = int(0)
             if kind == wp.static(DIFFUSE):
+                diffuse_scatter = 1
+                if wp.static(MASKS):
+                    diffuse_scatter = 1 - s.delta
+            if diffuse_scatter == 1:
                 last_segment = 1
                 if wp.static(not COUNTS_HITS):
                     if black(sd.background) == 1:   # at runtime: one variant either way

@@ -188,6 +188,35 @@ def test_the_pass_through_is_a_bounce():
     assert np.any(img)
 
 
+def behind_a_mask(integrator: str) -> dict:
+    """A black masked plane in front of a white diffuse plane that a quad light faces: the white
+    plane, seen through the mask, is lit directly only (the black plane reflects nothing), so drt
+    and path render the same image in expectation."""
+    cam = camera_dict((0.0, 0.0, 3.0), (0.0, 0.0, 0.0), 30.0)
+    mats = {"leaf": {"kind": "diffuse", "albedo": [0.0] * 3, "opacity": 0.35},
+            "wall": {"kind": "diffuse", "albedo": [0.8] * 3},
+            "lamp": {"kind": "emitter", "emission": [4.0] * 3}}
+    shapes = [quad((-4, -4, 0), (8, 0, 0), (0, 8, 0), "leaf"), quad((-4, -4, -1), (8, 0, 0), (0, 8, 0), "wall"),
+              quad((-1, 1.5, -0.9), (2, 0, 0), (0, 0, 0.8), "lamp")]
+    return scene_dict("a lit wall behind a mask", cam, mats, shapes, integrator=integrator, max_depth=6)
+
+
+def test_drt_lights_what_it_sees_through_a_mask():
+    """drt's path ends one segment after a diffuse scatter; a mask's pass-through on a diffuse
+    surface is no such scatter: the wall behind it is lit as under path (a z-test of the image
+    means, alpha ALPHA)."""
+    means, ses = [], []
+    for integrator in ("drt", "path"):
+        from drtlab.kernels.render import render_with_stats
+        st = render_with_stats(scene_from_dict(behind_a_mask(integrator)), spp=64, seed=seed_for("behind", integrator),
+                               sampler="independent+importance", progress=False, variance=True)
+        means.append(st.image.mean())
+        ses.append(math.sqrt(st.variance.mean() / 64 / (st.image.shape[0] * st.image.shape[1])))
+    assert means[0] > 0.0
+    z = (means[0] - means[1]) / math.hypot(*ses)
+    assert abs(z) < stats.norm.ppf(1 - ALPHA / 2), (means, z)
+
+
 def test_white_masked_sphere_furnace():
     base = su.sphere_furnace("diffuse", depth=200).scene
     base["materials"]["m"]["opacity"] = 0.4
