@@ -175,6 +175,7 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable) -> None:
     m.checker = arr([x.checker if x.checker is not None else (0, 0) for x in materials],
                     wp.vec2, (1, 2))
     m.shape = arr([KIND_BY_NAME[x.kind].shape(x) for x in materials], float, (1,))
+    m.shape_v = arr([KIND_BY_NAME[x.kind].shape_v(x) for x in materials], float, (1,))
     m.ior = arr([x.ior for x in materials], float, (1,))
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
     m.eta = arr([x.eta for x in materials], wp.vec3, (1, 3))

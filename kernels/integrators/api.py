@@ -7,7 +7,8 @@ camera sample. docs/plugins.md states each function's contract; in short:
 
     scene      intersect(sd, o, d, tmax, dt) -> Hit;  visible(sd, o, d, dist, dt, kind, index) -> 1/0;
                offset_origin(p, n, wi, eps); shading_normal(h); shading_consistent(n, ns, wo, wi)
-    material   material_at(sd, m, uv) -> MaterialAt; eval_bsdf(mat, ns, wo, wi) -> f|cos|;
+    material   material_at(sd, m, uv) -> MaterialAt; material_at_hit(sd, h) -> MaterialAt (also
+               what only the hit knows: an anisotropic lobe's tangent); eval_bsdf(mat, ns, wo, wi) -> f|cos|;
                pdf_bsdf(mat, ns, wo, wi); sample_bsdf(mat, ns, wo, u_lobe, u) -> Scatter;
                is_delta(kind) -> bool; kind(sd, m) -> int; emitted(sd, h, wo)
     lights     pick_light(sd, x, u); light_pick_pmf(sd, x, li); sample_light(sd, li, x, u, bounce, dt)
@@ -55,6 +56,7 @@ from drtlab.kernels.lights import make_lights
 from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, emitted, make_bsdf
 from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.materials.material_at import material_at_for
+from drtlab.kernels.materials.material_hit import make_material_at_hit
 from drtlab.kernels.mis import balance_heuristic, heuristic_of, power_heuristic
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
@@ -83,6 +85,7 @@ class EstimatorApi(NamedTuple):
     shading_consistent: wp.Function
     # The material at a hit
     material_at: wp.Function
+    material_at_hit: wp.Function
     kind: wp.Function
     is_delta: wp.Function
     eval_bsdf: wp.Function
@@ -220,7 +223,8 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         intersect=rays.intersect, visible=rays.visible, visible_mesh=rays.visible_mesh,
         offset_origin=offset_origin, shading_normal=shading_normal,
         shading_consistent=shading_consistent,
-        material_at=material_at_for(f.textures), kind=kind, is_delta=is_delta,
+        material_at=material_at_for(f.textures),
+        material_at_hit=make_material_at_hit(f.textures, f.anisotropic), kind=kind, is_delta=is_delta,
         eval_bsdf=bsdf.eval_bsdf,
         pdf_bsdf=bsdf.pdf_bsdf, sample_bsdf=bsdf.sample_bsdf, emitted=emitted,
         pick_light=lights.pick_light, light_pick_pmf=lights.light_pick_pmf,

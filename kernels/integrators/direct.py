@@ -31,7 +31,7 @@ def make(api):
     LIGHT_CHOICE, LIGHT_POSITION = api.dim("light_choice"), api.dim("light_position")
     LOBE, DIRECTION = api.dim("lobe_choice"), api.dim("direction")
     intersect, emitted, env_radiance = api.intersect, api.emitted, api.env_radiance
-    kind_of, material_at, is_delta = api.kind, api.material_at, api.is_delta
+    kind_of, material_at_hit, is_delta = api.kind, api.material_at_hit, api.is_delta
     shading_normal, shading_consistent = api.shading_normal, api.shading_consistent
     eval_bsdf, pdf_bsdf, sample_bsdf = api.eval_bsdf, api.pdf_bsdf, api.sample_bsdf
     pick_light, sample_light, light_pdf = api.pick_light, api.sample_light, api.light_pdf
@@ -51,7 +51,7 @@ def make(api):
         kind = kind_of(sd, h.material)
         if kind == wp.static(EMITTER):
             return L
-        mat = material_at(sd, h.material, h.uv)
+        mat = material_at_hit(sd, h)
         ns = shading_normal(h)
         if not is_delta(kind):
             if wp.static(LIGHTS):

@@ -29,7 +29,7 @@ def make(api):
     # count only through light samples and the background is black.
     COUNTS_HITS = api.strategy.counts_hits
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
-    kind_of, material_at, is_delta, shading_normal = api.kind, api.material_at, api.is_delta, api.shading_normal
+    kind_of, material_at_hit, is_delta, shading_normal = api.kind, api.material_at_hit, api.is_delta, api.shading_normal
     direct_light, scatter, offset_origin, oriented = api.direct_light, api.scatter, api.offset_origin, api.oriented
 
     # Called once per sample: inlined, so SceneData is not copied per call.
@@ -65,7 +65,7 @@ def make(api):
             kind = kind_of(sd, h.material)
             if kind == wp.static(EMITTER):
                 break
-            mat = material_at(sd, h.material, h.uv)
+            mat = material_at_hit(sd, h)
             ns = shading_normal(h)
             if not is_delta(kind):
                 L = direct_light(sd, L, beta, mat, h, wo, ns, seed, pix, idx, spp, depth, dt)

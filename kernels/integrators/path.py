@@ -20,7 +20,7 @@ def make(api):
     DEPTH_CAP, EMITTER = api.depth_cap, api.emitter
     get1d, roulette, ROULETTE = api.get1d, api.roulette, api.dim("roulette")
     intersect, escape, emitted, hit_weight = api.intersect, api.escape, api.emitted, api.hit_weight
-    kind_of, material_at, is_delta, shading_normal = api.kind, api.material_at, api.is_delta, api.shading_normal
+    kind_of, material_at_hit, is_delta, shading_normal = api.kind, api.material_at_hit, api.is_delta, api.shading_normal
     direct_light, scatter, offset_origin, oriented = api.direct_light, api.scatter, api.offset_origin, api.oriented
 
     # Called once per sample: inlined, so SceneData is not copied per call.
@@ -58,7 +58,7 @@ def make(api):
                     beta = roulette(beta, get1d(seed, pix, idx, ROULETTE(depth), spp))
                     if beta[0] == 0.0 and beta[1] == 0.0 and beta[2] == 0.0:
                         break
-            mat = material_at(sd, h.material, h.uv)
+            mat = material_at_hit(sd, h)
             ns = shading_normal(h)
             if not is_delta(kind):
                 L = direct_light(sd, L, beta, mat, h, wo, ns, seed, pix, idx, spp, depth, dt)

@@ -21,7 +21,7 @@ def make(api):
     ENV = api.features.environment
     EMITTER = api.emitter
     intersect, offset_origin, shading_normal = api.intersect, api.offset_origin, api.shading_normal
-    shading_consistent, material_at, kind_of = api.shading_consistent, api.material_at, api.kind
+    shading_consistent, material_at_hit, kind_of = api.shading_consistent, api.material_at_hit, api.kind
     emitted, env_radiance = api.emitted, api.env_radiance
     ends_path, specular_reflect, splits = api.ends_path, api.specular_reflect, api.splits
     interface, refract_dir = api.interface, api.refract_dir
@@ -56,7 +56,7 @@ def make(api):
                 kind = kind_of(sd, m)
                 if kind == wp.static(EMITTER):
                     break
-                mat = material_at(sd, m, h.uv)
+                mat = material_at_hit(sd, h)
                 ns = shading_normal(h)
                 if ends_path(kind):
                     direct = wp.vec3(0.0)

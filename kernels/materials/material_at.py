@@ -20,6 +20,10 @@ class MaterialAt:
     k: wp.vec3
     table: wp.array(dtype=float)    # the flat per-material table (MaterialKind.table kinds) ...
     row: int                        # ... and this material's row offset in it
+    # Set only in variants with an anisotropic kind (MaterialKind.anisotropic; zero elsewhere):
+    shape_v: float                  # the roughness across the tangent (Mitsuba's alpha_v; `shape` is
+                                    # alpha_u, along it)
+    tangent: wp.vec3                # the hit's dp/du (kernels/intersection/tangent.py), not unit
 
 
 @wp.func

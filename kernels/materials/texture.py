@@ -100,3 +100,19 @@ def texture_value(sd: SceneData, t: int, uv: wp.vec2) -> wp.vec3:
     c0 = w0x * texel(sd, first, w, h, wrap, x, y) + w1x * texel(sd, first, w, h, wrap, x + 1, y)
     c1 = w0x * texel(sd, first, w, h, wrap, x, y + 1) + w1x * texel(sd, first, w, h, wrap, x + 1, y + 1)
     return w0y * c0 + w1y * c1
+
+
+@wp.func
+def texture_float(sd: SceneData, t: int, uv: wp.vec2) -> float:
+    """Texture t at uv as one number, Mitsuba's eval_1: a bitmap's luminance (Rec. 709, what
+    Mitsuba's `luminance` weighs linear RGB by; a grey image's value); a checkerboard's colours in
+    the other order than texture_value's (checkerboard.cpp's eval_1 gives color1 where both
+    fractions of uv' are on the same side of 1/2), their first channel (a float colour is grey)."""
+    mode = sd.materials.tex_mode[t]
+    if mode[0] == wp.static(CHECKERBOARD):
+        # texture_value returns one of the two texels as stored: which one says the square
+        first = mode[3]
+        if texture_value(sd, t, uv) == sd.materials.texels[first]:
+            return sd.materials.texels[first + 1][0]
+        return sd.materials.texels[first][0]
+    return wp.dot(texture_value(sd, t, uv), wp.vec3(0.212671, 0.715160, 0.072169))

@@ -60,6 +60,8 @@ class Material:
                                                 # plastic's coat)
     roughness: float = 0.1                      # GGX alpha (ggx, ggx_dielectric), in
                                                 # [material_kinds.ROUGHNESS_MIN, 1]
+    alpha_u: float = 0.1                        # an anisotropic kind's alpha along the tangent dp/du
+    alpha_v: float = 0.1                        # ... and across it (same range as roughness)
     ior: float = 1.5                            # dielectric, glossy_dielectric, plastic's coat
                                                 # (outside is vacuum)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))  # emitted radiance

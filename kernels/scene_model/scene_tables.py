@@ -179,6 +179,12 @@ def _parse_material(name: str, value: Any) -> Material:
         m.roughness = number(t.get("roughness", 0.1, ""), t.field("roughness"),
                              f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
                              lambda x: ROUGHNESS_MIN <= x <= 1.0)
+    if spec.anisotropic:
+        for key in ("alpha_u", "alpha_v"):
+            setattr(m, key, number(t.get(key, 0.1, ""), t.field(key),
+                                   f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha along the tangent "
+                                   "dp/du (alpha_u) or across it (alpha_v))",
+                                   lambda x: ROUGHNESS_MIN <= x <= 1.0))
     if spec.transmits:
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
     if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all

@@ -28,7 +28,8 @@ KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
 MAX_TEXELS = 1 << 24
 # A material's textured parameters, in the order of the device's per-material slot table
 # (MaterialData.tex): a new slot is one name here, then its lookup where the parameter is read.
-TEXTURE_SLOTS = ("albedo",)
+TEXTURE_SLOTS = ("albedo",
+                 "alpha_u", "alpha_v")
 
 
 def slot_key(slot: str) -> str:
