@@ -8,7 +8,8 @@ import numpy as np
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS, texture_pool
+from drtlab.kernels.scene_model.texture import (FILTERS, LUMINANCE, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS,
+                                                texture_pool)
 
 BITMAP, CHECKERBOARD = (TEXTURE_KINDS.index(k) for k in ("bitmap", "checkerboard"))
 NEAREST = FILTERS.index("nearest")
@@ -115,4 +116,4 @@ def texture_float(sd: SceneData, t: int, uv: wp.vec2) -> float:
         if texture_value(sd, t, uv) == sd.materials.texels[first]:
             return sd.materials.texels[first + 1][0]
         return sd.materials.texels[first][0]
-    return wp.dot(texture_value(sd, t, uv), wp.vec3(0.212671, 0.715160, 0.072169))
+    return wp.dot(texture_value(sd, t, uv), wp.static(wp.vec3(*LUMINANCE)))

@@ -5,10 +5,12 @@ A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it 
 """
 from __future__ import annotations
 
+from drtlab.kernels.scene_model.material_kinds import ROUGHNESS_MIN
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
 from drtlab.kernels.scene_model.mitsuba_textures import TextureMapping
 from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj
 
+ANISOTROPIC_METAL = "beckmann_conductor_anisotropic"
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
          "roughplastic")
 
@@ -75,10 +77,15 @@ class MaterialMapping(TextureMapping):
                     {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)})
         elif kind in ("conductor", "roughconductor"):
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
-            if kind == "roughconductor":
+            anisotropic = self.anisotropy(o) if kind == "roughconductor" else None
+            if anisotropic is not None:
+                spec.update(kind=ANISOTROPIC_METAL, **anisotropic)
+            elif kind == "roughconductor":
                 spec.update(zip(("kind", "roughness"), self.roughness(o)))
             eta, k = self.complex_ior(o)
-            if (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
+            if anisotropic is not None:
+                spec.update(eta=eta, k=k)
+            elif (eta, k) != ([0.0] * 3, [1.0] * 3):    # else Mitsuba's "none": F = 1, the kinds above
                 metal = {"mirror": "conductor", "beckmann": "beckmann_conductor", "ggx_separable": "ggx_conductor"}
                 spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
         elif kind in ("plastic", "roughplastic"):
@@ -154,6 +161,30 @@ class MaterialMapping(TextureMapping):
                                     "equal to alpha_v")
             return kinds[distribution], alpha[1]
         return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
+
+    def anisotropy(self, o: Obj) -> dict | None:
+        """A roughconductor's alpha_u (along dp/du) and alpha_v as numbers or float textures
+        (`alpha_u`, `alpha_u_texture`, ...), or None where it is isotropic (no alpha_u / alpha_v, or
+        two equal numbers: `roughness` reads it)."""
+        if "alpha_u" not in o.props and "alpha_v" not in o.props:
+            return None
+        if "alpha" in o.props or "alpha_u" not in o.props or "alpha_v" not in o.props:
+            self.r.fail(o.path, "give alpha, or both alpha_u and alpha_v (as Mitsuba 3)")
+        out = {}
+        for name in ("alpha_u", "alpha_v"):
+            texture = self.texture_of(o, name)
+            if texture is not None:
+                out[f"{name}_texture"] = self.albedo_texture(texture)
+            else:
+                out[name] = self.number(o, name, None, lambda x: ROUGHNESS_MIN <= x <= 1,
+                                        f"in [{ROUGHNESS_MIN:g}, 1] (drtlab's microfacet alpha)")
+        if out.get("alpha_u", -1) == out.get("alpha_v", -2):
+            return None
+        if self.string(o, "distribution", "beckmann") != "beckmann":
+            self.r.fail(o.props["distribution"].path, "anisotropic roughness is supported with the "
+                                                      "beckmann distribution only")
+        self.ignore(o, "sample_visible")            # the proposal only: the same estimate
+        return out
 
     def ior(self, o: Obj, name: str, default: str) -> float:
         p = o.props.get(name)

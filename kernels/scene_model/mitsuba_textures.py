@@ -53,10 +53,12 @@ class TextureMapping:
 
     def check_textured_shape(self, shape: Obj, spec: dict) -> None:
         """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z only."""
-        if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS):
+        # An anisotropic lobe turns with dp/du, which follows the uv too.
+        if not any(slot_key(slot) in spec for slot in TEXTURE_SLOTS) and "alpha_u" not in spec:
             return
         if shape.type not in TEXTURED_SHAPES:
-            self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
+            what = "a texture" if "alpha_u" not in spec else "anisotropic roughness"
+            self.r.fail(shape.path, f"{what} on a {shape.type} is not supported (drtlab's uv is "
                                     "Mitsuba's on a rectangle and an obj only)")
         flip_uv = shape.props.get("flip_tex_coords")
         if flip_uv is not None and not flip_uv.value:

@@ -22,7 +22,7 @@ from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_KIN
 from drtlab.kernels.scene_model.scene import (INTEGRATORS, SPOT_BEAM_SHARE, SPOT_CUTOFF_DEFAULT,
                                              DirectionalLight, Material, PointLight, Scene, Shape)
 from drtlab.kernels.scene_model.camera_table import parse_camera
-from drtlab.kernels.scene_model.texture import TEXTURE_SLOTS, parse_texture, slot_key
+from drtlab.kernels.scene_model.texture import LUMINANCE, TEXTURE_SLOTS, parse_texture, slot_key
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
 
@@ -211,7 +211,22 @@ def _parse_material(name: str, value: Any) -> Material:
         if slot == "albedo" and m.checker is not None:
             raise InputError(t.field(key), "a material has a checker (albedo2) or a texture, not both")
         m.textures[slot] = parse_texture(t.data[key], t.field(key))
+        if slot in ("alpha_u", "alpha_v"):
+            _check_alpha_texture(m.textures[slot], t.field(key))
     return m
+
+
+def _check_alpha_texture(tex, field: str) -> None:
+    """A roughness texture is read as one number (Mitsuba's eval_1: a checkerboard's colour, a
+    bitmap's luminance), which must be an alpha the kind takes."""
+    px = np.asarray(tex.pixels, dtype=np.float64)
+    if tex.kind == "checkerboard" and np.any(px != px[..., :1]):
+        raise InputError(field, f"a roughness checkerboard's colours must be numbers (grey), got "
+                                f"{show(px.reshape(-1, 3).tolist())}")
+    lum = px @ np.array(LUMINANCE)
+    if not (ROUGHNESS_MIN <= lum.min() and lum.max() <= 1.0):
+        raise InputError(field, f"must read as alphas in [{ROUGHNESS_MIN:g}, 1] (the microfacet "
+                                f"alpha), got values from {lum.min():g} to {lum.max():g}")
 
 
 def _checker(v: Any, field: str) -> tuple[int, int]:

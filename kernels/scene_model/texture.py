@@ -26,6 +26,8 @@ WRAPS = ("repeat", "mirror", "clamp")     # bitmap.cpp's wrap_mode (repeat its d
 KEYS = {"bitmap": ("kind", "file", "filter", "wrap", "raw", "to_uv"),
         "checkerboard": ("kind", "color0", "color1", "to_uv")}
 MAX_TEXELS = 1 << 24
+# Mitsuba's `luminance` of linear Rec. 709 RGB: what a float texture reads of a colour (eval_1)
+LUMINANCE = (0.212671, 0.715160, 0.072169)
 # A material's textured parameters, in the order of the device's per-material slot table
 # (MaterialData.tex): a new slot is one name here, then its lookup where the parameter is read.
 TEXTURE_SLOTS = ("albedo",
