@@ -162,7 +162,7 @@ class Features:
     @property
     def anisotropic(self) -> bool:
         """A kind whose lobe turns with the surface's tangent (MaterialKind.anisotropic): the hit's
-        tangent and alpha_v reach the BSDF (kernels/materials/material_hit.py)."""
+        tangent, alpha_v and roughness textures reach the BSDF (kernels/materials/material_hit.py)."""
         return bool(self.kinds & ANISOTROPIC_KINDS)
 
     @property

@@ -55,8 +55,7 @@ from drtlab.kernels.intersection.scene_rays import make_intersect
 from drtlab.kernels.lights import make_lights
 from drtlab.kernels.materials import DIFFUSE, EMITTER, LOBE_CHOICE_KINDS, emitted, make_bsdf
 from drtlab.kernels.materials.dielectric import interface, refract_dir
-from drtlab.kernels.materials.material_at import material_at_for
-from drtlab.kernels.materials.material_hit import make_material_at_hit
+from drtlab.kernels.materials.material_hit import make_material_at
 from drtlab.kernels.mis import balance_heuristic, heuristic_of, power_heuristic
 from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
@@ -172,6 +171,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
     lighting = make_direct(f, strategy, rays=rays, bsdf=bsdf, lights=lights, environment=environment)
     whitted = make_whitted_parts(f, rays=rays, bsdf=bsdf)
     pixel_filter = make_pixel_filter(f)
+    material_at, material_at_hit = make_material_at(f.textures, f.anisotropic)
     camera_ray = make_camera(f, pointset, pixel_filter)
     ENV = environment is not None
     env_escape = environment.env_escape if ENV else None
@@ -223,8 +223,7 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         intersect=rays.intersect, visible=rays.visible, visible_mesh=rays.visible_mesh,
         offset_origin=offset_origin, shading_normal=shading_normal,
         shading_consistent=shading_consistent,
-        material_at=material_at_for(f.textures),
-        material_at_hit=make_material_at_hit(f.textures, f.anisotropic), kind=kind, is_delta=is_delta,
+        material_at=material_at, material_at_hit=material_at_hit, kind=kind, is_delta=is_delta,
         eval_bsdf=bsdf.eval_bsdf,
         pdf_bsdf=bsdf.pdf_bsdf, sample_bsdf=bsdf.sample_bsdf, emitted=emitted,
         pick_light=lights.pick_light, light_pick_pmf=lights.light_pick_pmf,
