@@ -5,7 +5,8 @@ escapes into black), so renders of the same seed compare to float rounding.
 * A quad's lobe follows edge_u: alphas (a, b) along edge_u = x equal alphas (b, a) along edge_u = z
   (the same square, the same normal). Negative control: (b, a) along x differs by far more.
 * A mesh's lobe follows its uv's dp/du: the square as two OBJ triangles with u along x renders as the
-  quad; with u along z and the alphas swapped, too.
+  quad; with u along z and the alphas swapped, too; without uv, as Mitsuba's coordinate_system of
+  the face normal (+y: its first axis is +x).
 """
 from __future__ import annotations
 
@@ -34,13 +35,14 @@ def _render(material, floor):
     return drtlab.render(drtlab.load_scene(_scene(material, floor)), spp=2, seed=3)
 
 
-def _obj(path, u_along_x: bool):
+def _obj(path, u_along_x: bool | None):
+    """The floor as two triangles, u along x or z, or (None) without texture coordinates."""
     corners = [(-10, 10), (10, 10), (10, -10), (-10, -10)]                 # (x, z), a floor facing +y
     lines = [f"v {x} 0 {z}" for x, z in corners]
-    for x, z in corners:
+    for x, z in corners if u_along_x is not None else ():
         u, v = ((x + 10) / 20, (z + 10) / 20) if u_along_x else ((10 - z) / 20, (x + 10) / 20)
         lines.append(f"vt {u} {v}")
-    lines += ["f 1/1 2/2 3/3", "f 1/1 3/3 4/4"]
+    lines += (["f 1/1 2/2 3/3", "f 1/1 3/3 4/4"] if u_along_x is not None else ["f 1 2 3", "f 1 3 4"])
     path.write_text("\n".join(lines) + "\n")
     return {"kind": "mesh", "file": str(path)}
 
@@ -59,5 +61,7 @@ def test_a_meshs_lobe_turns_with_its_uv(tmp_path):
     x = _render({"alpha_u": A, "alpha_v": B}, QUAD_X)
     mesh_x = _render({"alpha_u": A, "alpha_v": B}, _obj(tmp_path / "x.obj", True))
     mesh_z = _render({"alpha_u": B, "alpha_v": A}, _obj(tmp_path / "z.obj", False))
-    for m in (mesh_x, mesh_z):
+    # Without uv: Mitsuba's coordinate_system of the face normal +y, whose first axis is +x.
+    bare = _render({"alpha_u": A, "alpha_v": B}, _obj(tmp_path / "bare.obj", None))
+    for m in (mesh_x, mesh_z, bare):
         np.testing.assert_allclose(m, x, rtol=1e-3, atol=1e-5 * x.max())
