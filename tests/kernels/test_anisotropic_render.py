@@ -65,3 +65,13 @@ def test_a_meshs_lobe_turns_with_its_uv(tmp_path):
     bare = _render({"alpha_u": A, "alpha_v": B}, _obj(tmp_path / "bare.obj", None))
     for m in (mesh_x, mesh_z, bare):
         np.testing.assert_allclose(m, x, rtol=1e-3, atol=1e-5 * x.max())
+
+
+def test_a_sphere_renders_finite_through_its_pole():
+    """A sphere's tangent (drtlab's u direction) vanishes at its poles (y = +-r): the lobe falls back
+    to an arbitrary tangent there, and the image stays finite; swapping the alphas changes it."""
+    sphere = {"kind": "sphere", "center": [0.0, -1.0, -0.3], "radius": 1.0}
+    one = _render({"alpha_u": A, "alpha_v": B}, sphere)
+    other = _render({"alpha_u": B, "alpha_v": A}, sphere)
+    assert np.isfinite(one).all() and one.max() > 0.01
+    assert np.abs(one - other).max() > 0.1 * one.max()
