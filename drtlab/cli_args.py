@@ -27,6 +27,13 @@ class Parser(argparse.ArgumentParser):
         # a digit, so none is mistaken for a value).
         self._negative_number_matcher = re.compile(r"^-\.?\d")
 
+    def _print_message(self, message, file=None):
+        # argparse drops a failed write of --help or --version and exits 0; a full disk or a closed
+        # pipe must reach run_main like any other output error (exit 2, or 141 for the pipe).
+        if message:
+            (file or sys.stderr).write(message)
+            (file or sys.stderr).flush()
+
     def error(self, message: str):
         m = re.match(r"argument ([^:]+): (.*)", message)
         if m:

@@ -21,11 +21,13 @@ def _settings(text: str, field: str) -> list[str]:
 
 def cmd_audit_intervals(args) -> int:
     from drtlab import fields
-    from drtlab.experiments.audit.coverage import run_audit, write_audit
+    from drtlab.experiments.audit.coverage import AUDIT_FILES, run_audit, write_audit
+    from drtlab.experiments.study.output_dir import checked_folder
     from drtlab.experiments.audit.simulate import SETTINGS
     from drtlab.experiments.paths import results_root
     out = args.out if args.out is not None else results_root() / "audit"
     out = fields.writable_location(out, "--out", folder=True)
+    record = checked_folder(out, AUDIT_FILES)
     result = run_audit(args.settings or list(SETTINGS), args.studies, args.seed, args.jobs)
     ok = bool(result["pass"])
     if args.renderer:
@@ -37,6 +39,7 @@ def cmd_audit_intervals(args) -> int:
         renderer_lines = ["", "## The cell MSE interval on the renderer (white furnace, 200 cells of 5 "
                           "runs, 32x24, exact reference)", ""] + [f"    {ln}" for ln in summary_lines(r)]
     result["pass"] = ok
+    record.claim(AUDIT_FILES)
     lines = write_audit(result, Path(out), renderer_lines if args.renderer else [])
     print("\n".join(lines))
     print(f"wrote {out}/: intervals.json, intervals.md")

@@ -10,6 +10,7 @@ from drtlab import fields
 from drtlab.cli_args import Help, flag, int_flag, path_flag
 from drtlab.errors import InputError
 from drtlab.experiments.tools import lobes as L
+from drtlab.experiments.study.output_dir import checked_folder
 
 
 # Each lobe parameter, the kinds it applies to and its default: a flag a kind does not read is
@@ -36,9 +37,11 @@ def cmd_lobe(args) -> int:
                                                                   args.roughness)
     out = fields.writable_location(out, "--out", folder=True)
     fields.output_files([out / name for name in L.FILES], "--out")     # none of them a folder
+    record = checked_folder(out, L.FILES)
     result = L.analyse(args.kind, exponent=args.exponent, ior=args.ior, albedo=args.albedo,
                        incident=args.incident, strategy=args.strategy, samples=args.samples,
                        seed=args.seed, roughness=args.roughness)
+    record.claim(L.FILES)
     L.write_lobe(result, out, argv=sys.argv)
     S = result.summary
     print(f"wrote {out}/: {', '.join(L.FILES)}")

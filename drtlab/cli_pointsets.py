@@ -10,6 +10,7 @@ from drtlab.cli_args import Given, Help, flag, given_flags, int_flag, path_flag
 from drtlab.errors import InputError
 from drtlab.experiments.pointsets import analysis as A
 from drtlab.experiments.pointsets import validate as V
+from drtlab.experiments.study.output_dir import checked_folder
 
 
 def _pointset_name(text: str, field: str) -> str:
@@ -56,7 +57,9 @@ def cmd_pointset(args) -> int:
     out = args.out if args.out is not None else A.default_out_dir(args.name, args.n, args.dims)
     out = fields.writable_location(out, "--out", folder=True)
     fields.output_files([out / name for name in A.FILES], "--out")     # none of them a folder
+    record = checked_folder(out, A.FILES)
     result = A.analyse(args.name, args.n, args.dims, args.realisations, args.seed)
+    record.claim(A.FILES)
     A.write_analysis(result, out, argv=sys.argv)
     s = result.summary
     print(f"wrote {out}/: {', '.join(A.FILES)}")

@@ -10,6 +10,7 @@ from drtlab.cli_args import Help, flag, int_flag, path_flag, resolution_flag
 from drtlab.errors import InputError
 from drtlab.estimators.dimensions import GROUPS
 from drtlab.estimators.strategies import STRATEGIES
+from drtlab.experiments.study.output_dir import checked_folder
 
 
 def _groups(text: str, field: str) -> tuple:
@@ -38,10 +39,12 @@ def cmd_sources(args) -> int:
     out = args.out if args.out is not None else results_root() / "sources" / output_stem(scene, args.scene)
     out = fields.writable_location(out, "--out", folder=True)
     fields.output_files([out / name for name in report.FILES], "--out")    # none of them a folder
+    record = checked_folder(out, report.FILES)
     _check_cost(scene, args)
     s = variance_sources(scene, spp=args.spp, res=args.res, groups=args.groups, strategy=args.strategy,
                          integrator=args.integrator, seed=args.seed, threads=args.threads,
                          metric=args.metric)
+    record.claim(report.FILES)
     report.write_sources(s, out, argv=sys.argv)
     print("\n".join(report.table_lines(s)))
     print(f"wrote {out}/: {', '.join(report.FILES)} ({s.seconds:.1f} s, rendering {s.render_seconds:.1f} s)")

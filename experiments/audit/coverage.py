@@ -359,12 +359,16 @@ def markdown(result: dict) -> list[str]:
     return lines
 
 
+AUDIT_FILES = ("intervals.json", "intervals.md")
+
+
 def write_audit(result: dict, out: Path, extra: list[str] = ()) -> list[str]:
     """intervals.json and intervals.md in `out` (each written whole or not at all), the Markdown
     with `extra` lines at its end; returns the Markdown lines."""
     from drtlab.experiments.files import atomic_write_json, atomic_write_text
     out.mkdir(parents=True, exist_ok=True)
     lines = markdown(result) + list(extra)
-    atomic_write_json(out / "intervals.json", result)
-    atomic_write_text(out / "intervals.md", "\n".join(lines) + "\n")
+    json_file, md_file = AUDIT_FILES
+    atomic_write_json(out / json_file, result)
+    atomic_write_text(out / md_file, "\n".join(lines) + "\n")
     return lines

@@ -100,7 +100,7 @@ class OutputRecord:
         clash = [f for f in planned if f not in self.files and f not in (LOCK, RECORD)
                  and os.path.lexists(self.out_dir / f)]
         if clash:
-            raise InputError(field, f"{self.out_dir / clash[0]} was not written by drtlab and this sweep "
+            raise InputError(field, f"{self.out_dir / clash[0]} was not written by drtlab and this run "
                                     "would overwrite it: move it, or choose another folder")
         for parent in sorted({f.rpartition("/")[0] for f in planned} - {""}):
             p = self.out_dir / parent
@@ -134,6 +134,11 @@ class OutputRecord:
         atomic_write_json(self.out_dir / RECORD, {"format": 1, "files": sorted(self.files),
                                                   "folders": sorted(self.folders)})
 
+    def claim(self, names) -> None:
+        """The folder made and `names` recorded as drtlab's, before they are written."""
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.enter(list(names))
+
     def remove_outputs(self) -> None:
         """`--fresh`: the recorded files (not the lock, the record or the kept caches), then the
         recorded folders left empty, deepest first."""
@@ -159,6 +164,17 @@ class OutputRecord:
                 m = _TEMP.match(p.name)
                 if m and _join(folder, m["name"]) in self.files and p.is_file() and not p.is_symlink():
                     p.unlink(missing_ok=True)
+
+
+def checked_folder(out_dir: Path, names, field: str = "--out") -> "OutputRecord":
+    """A command that writes fixed names (`names`, relative) into a folder the user may name: refused
+    before any work where a file drtlab did not write is at one of those names (a user's own
+    `analysis.json` is never overwritten); other files beside them are left alone. Call `claim` on
+    the result just before writing."""
+    out_dir = Path(out_dir)
+    record = OutputRecord.load(out_dir, []) if out_dir.is_dir() else OutputRecord(out_dir)
+    record.check(list(names), True, field)
+    return record
 
 
 def _join(folder: str, name: str) -> str:

@@ -169,3 +169,27 @@ def test_two_scene_files_of_one_name_get_their_own_default_sources_folder(elsewh
     assert len(folders) == 2 and all(f.startswith("s-") for f in folders), folders
     assert main(["sources", "aa-edges", "--spp", "2", "--res", "8"]) == 0
     assert (elsewhere / "results" / "sources" / "aa-edges" / "sources.json").is_file()
+
+
+@pytest.mark.parametrize("argv, name", [
+    (["pointset", "sobol", "--n", "16", "--realisations", "1"], "analysis.json"),
+    (["lobe", "diffuse", "--samples", "10000"], "lobe.json"),
+    (["sources", "aa-edges", "--spp", "2", "--res", "8"], "sources.json"),
+])
+def test_a_users_file_at_a_name_the_command_writes_is_never_overwritten(argv, name, tmp_path, capsys):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / name).write_text("the user's own")
+    (mine / "notes.txt").write_text("beside it")
+    assert main(argv + ["--out", str(mine)]) == 2
+    assert_one_line_error(capsys.readouterr().err, "--out")
+    assert (mine / name).read_text() == "the user's own"
+    assert sorted(p.name for p in mine.iterdir()) == sorted([name, "notes.txt"])
+    # Its own folder: written, then written again (the files are drtlab's now); a user's other
+    # files beside them are left alone.
+    ours = tmp_path / "ours"
+    ours.mkdir()
+    (ours / "notes.txt").write_text("beside it")
+    assert main(argv + ["--out", str(ours)]) in (0, 1)
+    assert main(argv + ["--out", str(ours)]) in (0, 1)
+    assert (ours / name).read_text() != "the user's own" and (ours / "notes.txt").read_text() == "beside it"
