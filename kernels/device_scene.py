@@ -108,6 +108,8 @@ class MaterialData:
     albedo2: wp.array(dtype=wp.vec3)
     checker: wp.array(dtype=wp.vec2)
     shape: wp.array(dtype=float)               # the lobe's shape (MaterialKind.shape)
+    shape_v: wp.array(dtype=float)             # an anisotropic kind's alpha_v (MaterialKind.shape_v);
+                                               # read only by a variant with one
     ior: wp.array(dtype=float)
     emission: wp.array(dtype=wp.vec3)
     eta: wp.array(dtype=wp.vec3)               # a conductor's complex index eta + i k, per channel

@@ -90,6 +90,7 @@ RUNTIME_SWITCHES = ("lens", "motion", "checker", "background")
 # Whitted splits a ray at up to this many dielectric interfaces (2**N reflect/refract paths).
 WHITTED_SPLITS = 4
 SPLITTING_KINDS = frozenset(kinds_where(lambda k: k.transmits))    # they reflect and refract
+ANISOTROPIC_KINDS = frozenset(kinds_where(lambda k: k.anisotropic))
 
 
 def material_kinds(scene: Scene) -> frozenset:
@@ -172,6 +173,12 @@ class Features:
     def sampled_area_lights(self) -> bool:
         """The stochastic integrators sample area lights (next-event estimation)."""
         return self.area_lights and not self.whitted
+
+    @property
+    def anisotropic(self) -> bool:
+        """A kind whose lobe turns with the surface's tangent (MaterialKind.anisotropic): the hit's
+        tangent, alpha_v and roughness textures reach the BSDF (kernels/materials/material_at.py)."""
+        return bool(self.kinds & ANISOTROPIC_KINDS)
 
     @property
     def delta_lights(self) -> bool:

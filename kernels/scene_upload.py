@@ -182,6 +182,7 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable, lights: list =
     m.checker = arr([x.checker if x.checker is not None else (0, 0) for x in materials],
                     wp.vec2, (1, 2))
     m.shape = arr([KIND_BY_NAME[x.kind].shape(x) for x in materials], float, (1,))
+    m.shape_v = arr([KIND_BY_NAME[x.kind].shape_v(x) for x in materials], float, (1,))
     m.ior = arr([x.ior for x in materials], float, (1,))
     m.emission = arr([x.emission for x in materials], wp.vec3, (1, 3))
     m.eta = arr([x.eta for x in materials], wp.vec3, (1, 3))
@@ -207,7 +208,6 @@ def _put_materials(sd: SceneData, materials: list, arr: Callable, lights: list =
     m.tex_v = arr(t["tex_v"], wp.vec3, (1, 3))
     m.texels = arr(t["texels"], wp.vec3, (1, 3))
     m.bump_scale = arr([x.bump_scale for x in materials], float, (1,))
-    m.shape_v = arr([x.roughness_v or 0.0 for x in materials], float, (1,))
     return t["index"]
 
 

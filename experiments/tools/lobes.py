@@ -49,7 +49,7 @@ DELTA_KINDS = kinds_where(lambda k: k.delta)        # all light leaves in one or
 NO_SCATTER_KINDS = kinds_where(lambda k: k.emitter)  # sample_bsdf never returns a direction
 LOBE_KINDS = kinds_where(lambda k: not (k.delta or k.emitter))
 USES_EXPONENT = kinds_where(lambda k: k.phong)
-USES_ROUGHNESS = kinds_where(lambda k: k.microfacet)
+USES_ROUGHNESS = kinds_where(lambda k: k.microfacet or k.anisotropic)   # alpha (an anisotropic one: both)
 USES_ALBEDO_MEAN = kinds_where(lambda k: k.albedo_shape)     # their shape is the albedo's mean
 USES_IOR = kinds_where(lambda k: k.ior and k.name in LOBE_KINDS)
 # Lobes below the surface too: a full circle.

@@ -7,9 +7,10 @@ camera sample. docs/plugins.md states each function's contract; in short:
 
     scene      intersect(sd, o, d, tmax, dt) -> Hit;  visible(sd, o, d, dist, dt, kind, index) -> 1/0;
                offset_origin(p, n, wi, eps); shading_normal(h); shading_consistent(n, ns, wo, wi)
-    material   material_at_hit(sd, h) -> MaterialAt (material_at(sd, m, uv): without a mesh's
-               attributes); frame_at(sd, mat, h, wo) -> mat with the hit's normal or bump map
-               (mat itself without one); eval_bsdf(mat, ns, wo, wi) -> f|cos|;
+    material   material_at_hit(sd, h) -> MaterialAt (also what only the hit knows: a mesh's
+               attributes, an anisotropic lobe's tangent; material_at(sd, m, uv) without them);
+               frame_at(sd, mat, h, wo) -> mat with the hit's normal or bump map (mat itself
+               without one); eval_bsdf(mat, ns, wo, wi) -> f|cos|;
                pdf_bsdf(mat, ns, wo, wi); sample_bsdf(mat, ns, wo, u_lobe, u) -> Scatter;
                is_delta(kind) -> bool; kind(sd, m) -> int; emitted(sd, h, wo)
     lights     pick_light(sd, x, u); light_pick_pmf(sd, x, li); sample_light(sd, li, x, u, bounce, dt)
@@ -60,12 +61,10 @@ from drtlab.kernels.materials.dielectric import interface, refract_dir
 from drtlab.kernels.materials.material_at import material_at_for
 from drtlab.kernels.materials.shading_frame import frame_at_for
 from drtlab.kernels.mis import balance_heuristic, heuristic_of, power_heuristic
-from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE, kinds_where
+from drtlab.kernels.scene_model.material_kinds import KIND_BY_NAME, MATERIAL_CODE
 from drtlab.kernels.static_tag import variant_tag
 from drtlab.kernels.whitted import make_whitted_parts
 
-# The kinds that read the hit's tangent frame (frame_at fills it in)
-ANISOTROPIC_KINDS = frozenset(kinds_where(lambda k: k.anisotropic))
 
 # Hard cap on path length even for max_depth = -1 with roulette (guards against a stuck loop).
 DEPTH_CAP = 512
@@ -247,5 +246,5 @@ def make_api(f: Features, pointset: PointSet, strategy: Strategy, own=()) -> Est
         light_centres=whitted.light_centres, ends_path=whitted.ends_path,
         specular_reflect=whitted.specular_reflect, splits=whitted.splits,
         interface=interface, refract_dir=refract_dir, pixel_filter=pixel_filter,
-        frame_at=frame_at_for(f.frame_maps, bool(f.kinds & ANISOTROPIC_KINDS)))
+        frame_at=frame_at_for(f.frame_maps))
     return with_vertex_steps(with_probes(api, f))

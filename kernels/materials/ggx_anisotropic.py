@@ -10,10 +10,11 @@ sampled by visible normals (Dupuy & Benyoub 2023's spherical caps on the stretch
 density G1(wo) D(m) max(0, wo.m) / cos_o of Heitz 2018), as Mitsuba samples it.
 
 A kind of the kind table on the one BSDF interface (the package docstring); mat.shape is alpha_u,
-mat.shape_v alpha_v and mat.ts the tangent the frame is built from (both filled at the hit by
-shading_frame.py's frame_at; s = ts made orthogonal to the normal the kind is given, which is a
-normal map's perturbed one where there is a map). Two-sided like drtlab's other conductors (the
-normal turned to wo's side). Without a tangent (ts = 0) the frame is any about n; without alpha_v
+mat.shape_v alpha_v and mat.tangent the tangent the frame is built from (both filled at the hit by
+material_at_hit; a map's frame_at turns the tangent); s = the tangent made orthogonal to the normal
+the kind is given, which is a normal map's perturbed one where there is a map. Two-sided like
+drtlab's other conductors (the normal turned to wo's side). Without a tangent (0) the frame is any
+about n; without alpha_v
 (shape_v = 0) the lobe is isotropic of alpha_u.
 """
 import warp as wp
@@ -27,7 +28,7 @@ from drtlab.kernels.materials.scatter import Scatter, proposal
 @wp.func
 def frame_of(mat: MaterialAt, nf: wp.vec3) -> wp.mat33:
     """Rows s, t, nf: the tangent frame alpha_u and alpha_v are measured in."""
-    s = mat.ts - nf * wp.dot(nf, mat.ts)
+    s = mat.tangent - nf * wp.dot(nf, mat.tangent)
     ls = wp.length(s)
     if ls > 1.0e-20:
         s = s / ls

@@ -8,6 +8,7 @@ import warp as wp
 
 from drtlab.kernels.device_scene import MESH, SceneData
 from drtlab.kernels.intersection.primitives import Hit
+from drtlab.kernels.intersection.tangent import hit_tangent, tangent_s
 from drtlab.kernels.materials.mesh_attribute import MESH_ATTRIBUTE, attribute_value
 from drtlab.kernels.materials.surface import surface_albedo
 from drtlab.kernels.materials.texture import SLOT, luminance, material_texture, texture_scalar, texture_value
@@ -38,9 +39,11 @@ class MaterialAt:
     mapped: int
     nm: wp.vec3
     nm_alpha2: float
-    # An anisotropic kind's alpha_v and the tangent its frame is built from (shading_frame.py)
-    shape_v: float
-    ts: wp.vec3
+    # Set only in variants with an anisotropic kind (MaterialKind.anisotropic; zero elsewhere):
+    shape_v: float                  # the roughness across the tangent (Mitsuba's alpha_v; `shape` is
+                                    # alpha_u, along it)
+    tangent: wp.vec3                # the hit's dp/du (kernels/intersection/tangent.py), not unit; a
+                                    # normal or bump map turns it with the normal (shading_frame.py)
 
 
 @wp.func
@@ -144,6 +147,25 @@ def _make_parameterised(inner, textures: bool, codes: tuple):
     return material_at_params
 
 
+def _make_anisotropic(inner, textures: bool):
+    """`inner` where an anisotropic kind is present (MaterialKind.anisotropic): alpha_v, and the
+    "alpha_u" and "alpha_v" texture slots read as Mitsuba's eval_1 at uv."""
+    @wp.func
+    def anisotropic(sd: SceneData, m: int, uv: wp.vec2, face: int) -> MaterialAt:
+        r = inner(sd, m, uv, face)
+        r.shape_v = sd.materials.shape_v[m]
+        if wp.static(textures):
+            tu = material_texture(sd, m, wp.static(SLOT["alpha_u"]))
+            if tu >= 0:
+                r.shape = texture_scalar(sd, tu, uv)
+            tv = material_texture(sd, m, wp.static(SLOT["alpha_v"]))
+            if tv >= 0:
+                r.shape_v = texture_scalar(sd, tv, uv)
+        return r
+
+    return anisotropic
+
+
 @wp.func
 def plain_at_hit(sd: SceneData, h: Hit) -> MaterialAt:
     return material_at(sd, h.material, h.uv)
@@ -154,18 +176,22 @@ def material_at_for(textures: bool, masks: bool = False, kinds: frozenset = froz
                     attributes: bool = False) -> tuple:
     """(material_at(sd, m, uv), material_at_hit(sd, h)) of a variant: the textured ones only where
     the scene has textures (mesh attributes only where it has them), reading opacity and sides only
-    where it has masks or one-sided materials, and filling MaterialAt.param only where a kind with
-    parameters is present (so that other scenes compile none of it). material_at_hit is the
-    material at a hit; material_at, which knows no face, reads a mesh attribute as black."""
+    where it has masks or one-sided materials, filling MaterialAt.param only where a kind with
+    parameters is present, and alpha_v and the hit's tangent only where an anisotropic kind is (so
+    that other scenes compile none of it). material_at_hit is the material at a hit; material_at,
+    which knows no face, reads a mesh attribute as black and leaves the tangent 0."""
     codes = tuple(MATERIAL_CODE[k.name] for k in KINDS if k.params and k.name in kinds)
-    if not (textures or masks or codes):
+    aniso = any(k.anisotropic and k.name in kinds for k in KINDS)
+    if not (textures or masks or codes or aniso):
         return material_at, plain_at_hit
     at = _make_textured(attributes) if textures else untextured
     if masks:
         at = _make_masked(at, bool(textures))
     if codes:
         at = _make_parameterised(at, bool(textures), codes)
-    ATTRIBUTES = attributes
+    if aniso:
+        at = _make_anisotropic(at, bool(textures))
+    ATTRIBUTES, ANISO = attributes, aniso
 
     @wp.func
     def composed_at(sd: SceneData, m: int, uv: wp.vec2) -> MaterialAt:
@@ -177,6 +203,11 @@ def material_at_for(textures: bool, masks: bool = False, kinds: frozenset = froz
         if wp.static(ATTRIBUTES):
             if h.kind == MESH:
                 face = h.index
-        return at(sd, h.material, h.uv, face)
+        r = at(sd, h.material, h.uv, face)
+        if wp.static(ANISO):
+            # s of the shading frame, as a normal map's frame holds it too (an identity map then
+            # changes no bit)
+            r.tangent = tangent_s(h.ns, hit_tangent(sd, h))
+        return r
 
     return composed_at, composed_at_hit

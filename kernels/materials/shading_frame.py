@@ -18,8 +18,7 @@ render/mesh.cpp, interaction.h):
   2 / (1 + sqrt(1 + a2 tan^2 theta_i)), a2 = min(tan^2 theta_nm / 8, 1), both angles from ns.
 The material at the hit keeps nm, a2 and the vector the perturbed tangent is made from (s for a
 normal map, dp_du for a bump map: the anisotropic kind, ggx_anisotropic.py, makes it orthogonal to
-nm). Compiled only into variants with a normal or bump map (Features.frame_maps; the tangent alone
-where an anisotropic kind is present): `mapped_bsdf` wraps the composed Bsdf (bsdf.py), `frame_at`
+nm). Compiled only into variants with a normal or bump map (Features.frame_maps): `mapped_bsdf` wraps the composed Bsdf (bsdf.py), `frame_at`
 fills the material at a hit (the estimator API's `frame_at`). Not reciprocal, as Mitsuba's are not
 (the flip reads wo, the shadowing term wi).
 """
@@ -27,61 +26,17 @@ import warp as wp
 
 from drtlab.kernels.device_scene import MESH, SceneData
 from drtlab.kernels.intersection.primitives import Hit
+from drtlab.kernels.intersection.tangent import Tangents, mesh_tangents, tangent_s
 from drtlab.kernels.materials.material_at import MaterialAt
 from drtlab.kernels.materials.scatter import Scatter
 from drtlab.kernels.materials.texture import (BITMAP, NEAREST, SLOT, material_texture, texel,
                                               texture_value)
+from drtlab.kernels.scene_model.texture import LUMINANCE as TEXTURE_LUMINANCE
 
 NORMAL, BUMP = SLOT["normal"], SLOT["bump"]
 # Mitsuba's luminance (the linear sRGB Y row): a bump map's height from an RGB texel (bitmap.cpp's
 # eval_1_grad reads the luminance of each of the four texels)
-LUMINANCE = wp.constant(wp.vec3(0.212671, 0.715160, 0.072169))
-
-
-@wp.struct
-class Tangents:
-    dpdu: wp.vec3
-    dpdv: wp.vec3
-
-
-@wp.func
-def coordinate_system(n: wp.vec3) -> Tangents:
-    """Mitsuba's coordinate_system (Duff et al. 2017), the tangents of a degenerate uv triangle."""
-    sign = 1.0
-    if n[2] < 0.0:
-        sign = -1.0
-    a = -1.0 / (sign + n[2])
-    b = n[0] * n[1] * a
-    r = Tangents()
-    r.dpdu = wp.vec3(n[0] * n[0] * a * sign + 1.0, b * sign, -n[0] * sign)
-    r.dpdv = wp.vec3(b, sign + n[1] * n[1] * a, -n[1])
-    return r
-
-
-@wp.func
-def triangle_tangents(p0: wp.vec3, p1: wp.vec3, p2: wp.vec3, uv0: wp.vec2, uv1: wp.vec2,
-                      uv2: wp.vec2, ng: wp.vec3) -> Tangents:
-    """dp/du and dp/dv of a triangle: [p1 - p0, p2 - p0] = [dp_du, dp_dv] [uv1 - uv0, uv2 - uv0]."""
-    dp0 = p1 - p0
-    dp1 = p2 - p0
-    duv0 = uv1 - uv0
-    duv1 = uv2 - uv0
-    det = duv0[0] * duv1[1] - duv0[1] * duv1[0]
-    if det == 0.0:
-        return coordinate_system(ng)
-    inv = 1.0 / det
-    r = Tangents()
-    r.dpdu = (duv1[1] * dp0 - duv0[1] * dp1) * inv
-    r.dpdv = (duv0[0] * dp1 - duv1[0] * dp0) * inv
-    return r
-
-
-@wp.func
-def tangent_s(ns: wp.vec3, dpdu: wp.vec3) -> wp.vec3:
-    """The shading frame's s: dp_du made orthogonal to ns (any tangent where dp_du is 0)."""
-    if dpdu[0] == 0.0 and dpdu[1] == 0.0 and dpdu[2] == 0.0:
-        return coordinate_system(ns).dpdu
-    return wp.normalize(dpdu - ns * wp.dot(ns, dpdu))
+LUMINANCE = wp.constant(wp.vec3(*TEXTURE_LUMINANCE))
 
 
 @wp.func
@@ -213,52 +168,36 @@ def texture_gradient(sd: SceneData, t: int, uv: wp.vec2) -> wp.vec2:
     return wp.vec2((ru[0] * dx + rv[0] * dy) * float(w), (ru[1] * dx + rv[1] * dy) * float(h))
 
 
-@wp.func
-def mesh_tangents(sd: SceneData, h: Hit) -> Tangents:
-    idx = sd.meshes.tri_index[h.index]
-    return triangle_tangents(sd.meshes.points[idx[0]], sd.meshes.points[idx[1]], sd.meshes.points[idx[2]],
-                             sd.meshes.vert_uv[idx[0]], sd.meshes.vert_uv[idx[1]],
-                             sd.meshes.vert_uv[idx[2]], h.n)
-
-
-def frame_at_for(maps: bool, anisotropic: bool):
+def frame_at_for(maps: bool):
     """The estimator API's frame_at(sd, mat, h, wo) -> MaterialAt of a variant: the hit's normal or
-    bump map applied (`maps`), an anisotropic kind's alpha_v and tangent filled in (`anisotropic`);
-    the identity where the scene has neither. A map reads a mesh's texture coordinates and
-    tangents: off meshes nothing is perturbed."""
-    MAPS, ANISO = maps, anisotropic
+    bump map applied, the tangent turned with the normal (an anisotropic kind reads it); the
+    identity where the scene has no map. A map reads a mesh's texture coordinates and tangents: off
+    meshes nothing is perturbed."""
+    MAPS = maps
 
     @wp.func
     def frame_at(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
         r = mat
-        if wp.static(ANISO):
-            r.shape_v = sd.materials.shape_v[h.material]
         if h.kind != MESH:
             return r
-        tn = int(-1)
-        tb = int(-1)
-        if wp.static(MAPS):
-            tn = material_texture(sd, h.material, wp.static(NORMAL))
-            tb = material_texture(sd, h.material, wp.static(BUMP))
+        tn = material_texture(sd, h.material, wp.static(NORMAL))
+        tb = material_texture(sd, h.material, wp.static(BUMP))
         if tn < 0 and tb < 0:
-            if wp.static(ANISO):
-                # s, as a normal map's frame holds it too: an identity map then changes no bit
-                r.ts = tangent_s(h.ns, mesh_tangents(sd, h).dpdu)
             return r
         tg = mesh_tangents(sd, h)
         s = tangent_s(h.ns, tg.dpdu)
         local = wp.vec3(0.0, 0.0, 1.0)
         if tn >= 0:
             local = normal_map_local(texture_value(sd, tn, h.uv), s, h.ns, wo)
-            r.ts = s                # normalmap.cpp: the perturbed s is s made orthogonal to nm
+            r.tangent = s           # normalmap.cpp: the perturbed s is s made orthogonal to nm
         else:
             grad = sd.materials.bump_scale[h.material] * texture_gradient(sd, tb, h.uv)
             local = bump_map_local(grad, tg, h.n, s, h.ns, wo)
-            r.ts = tg.dpdu          # bumpmap.cpp: dp_du made orthogonal to nm
+            r.tangent = tg.dpdu     # bumpmap.cpp: dp_du made orthogonal to nm
         return with_local_normal(r, local, s, h.ns)
 
     @wp.func(inline=True)
     def identity(sd: SceneData, mat: MaterialAt, h: Hit, wo: wp.vec3) -> MaterialAt:
         return mat
 
-    return frame_at if (MAPS or ANISO) else identity
+    return frame_at if MAPS else identity

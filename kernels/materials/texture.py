@@ -8,7 +8,8 @@ import numpy as np
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
-from drtlab.kernels.scene_model.texture import FILTERS, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS, texture_pool
+from drtlab.kernels.scene_model.texture import (FILTERS, LUMINANCE, TEXTURE_KINDS, TEXTURE_SLOTS, WRAPS,
+                                                texture_pool)
 
 BITMAP, CHECKERBOARD = (TEXTURE_KINDS.index(k) for k in ("bitmap", "checkerboard"))
 NEAREST = FILTERS.index("nearest")
@@ -85,8 +86,13 @@ def texture_scalar(sd: SceneData, t: int, uv: wp.vec2) -> float:
 
 @wp.func
 def luminance(c: wp.vec3) -> float:
-    """Mitsuba 3's luminance of an RGB value (core/spectrum.h; its bitmap's eval_1 too)."""
-    return c[0] * 0.212671 + c[1] * 0.715160 + c[2] * 0.072169
+    """Mitsuba 3's luminance of an RGB value (core/spectrum.h; its bitmap's eval_1 too). A grey
+    value (drtlab's one-channel image or float colour, held as three equal channels) is itself, as
+    Mitsuba's eval_1 of a one-channel image or a float is."""
+    if c[0] == c[1] and c[1] == c[2]:
+        return c[0]
+    return (c[0] * wp.static(LUMINANCE[0]) + c[1] * wp.static(LUMINANCE[1])
+            + c[2] * wp.static(LUMINANCE[2]))
 
 
 @wp.func

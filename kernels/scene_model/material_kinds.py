@@ -48,8 +48,8 @@ class MaterialKind:
                                 # (MaterialData.table), built on the host by the model's `table_row`
     delta_lobe: bool = False    # a delta (mirror) lobe beside its density: its `sample` may return
                                 # a delta Scatter, so a uniform proposal cannot stand in for it
-    anisotropic: bool = False   # its alpha along the shading frame's t is `roughness_v` (alpha_v;
-                                # `roughness` is alpha_u, along s): it reads the hit's tangent
+    anisotropic: bool = False   # a microfacet surface rougher along the tangent dp/du (`alpha_u`)
+                                # than across it (`alpha_v`), either a float or a texture
     strategy_sampling: bool = False  # its module's `sampling(strategy)` gives (sample, pdf) as the
                                 # strategy says (GGX normals by `microfacet`; a delta lobe chosen
                                 # with probability 1/2 under the uniform strategy)
@@ -80,8 +80,8 @@ class MaterialKind:
                 # a blend of two albedos by a texture (Mitsuba's blendbsdf of two diffuse BSDFs)
                 + (("weight_texture", "blend_albedo") if self.name == "diffuse" else ())
                 + (("exponent",) if self.phong else ()) + (("roughness",) if self.microfacet else ())
-                + (("roughness_v",) if self.anisotropic else ())
                 + (("ior",) if self.ior else ()) + (("eta", "k") if self.conductor else ())
+                + (ANISOTROPIC_KEYS if self.anisotropic else ())
                 + (() if self.emitter else ("opacity", "opacity_texture"))
                 + (() if self.emitter or self.transmits else ("one_sided",))
                 + ("emission", "emission_texture")
@@ -92,7 +92,8 @@ class MaterialKind:
         """The scene-file key that gives the lobe's one shape parameter (`shape`: MaterialData.shape,
         MaterialAt.shape): the Phong `exponent`, the microfacet `roughness` (alpha); None for kinds
         whose shape is not a key (the albedo's mean, `albedo_shape`) or that have none."""
-        return "exponent" if self.phong else "roughness" if self.microfacet else None
+        return ("exponent" if self.phong else "roughness" if self.microfacet
+                else "alpha_u" if self.anisotropic else None)
 
     def shape(self, material) -> float:
         """The lobe's shape parameter of `material` (a scene_model Material of this kind): the value
@@ -100,6 +101,14 @@ class MaterialKind:
         if self.albedo_shape:
             return float(np.mean(material.albedo))
         return float(getattr(material, self.shape_key)) if self.shape_key else 0.0
+
+    def shape_v(self, material) -> float:
+        """The second shape parameter (MaterialData.shape_v): an anisotropic kind's alpha_v, else 0."""
+        return float(material.alpha_v) if self.anisotropic else 0.0
+
+
+# An anisotropic kind's keys: its two alphas and their textures (texture.slot_key of the slots).
+ANISOTROPIC_KEYS = ("alpha_u", "alpha_v", "alpha_u_texture", "alpha_v_texture")
 
 
 # New kinds go at the end: a kind's code is its place here, and the codes of the existing ones stay
@@ -132,7 +141,9 @@ KINDS = (
     MaterialKind("ggx_plastic_nonlinear", microfacet=True, coat=True, table=True, model="rough_plastic"),
     MaterialKind("principled", table=True, model="principled", params=PRINCIPLED),
     MaterialKind("principled_thin", table=True, model="principled_thin", params=PRINCIPLED_THIN),
-    MaterialKind("ggx_anisotropic", microfacet=True, conductor=True, anisotropic=True, model="ggx_anisotropic"),
+    MaterialKind("ggx_anisotropic", anisotropic=True, conductor=True, model="ggx_anisotropic"),
+    MaterialKind("beckmann_conductor_anisotropic", anisotropic=True, conductor=True,
+                 model="beckmann_anisotropic"),
 )
 KIND_BY_NAME = {k.name: k for k in KINDS}
 MATERIAL_KINDS = tuple(KIND_BY_NAME)

@@ -5,6 +5,7 @@ A mixin of the importer (kernels/scene_model/mitsuba_import.py), which gives it 
 """
 from __future__ import annotations
 
+from drtlab.kernels.scene_model.material_kinds import ROUGHNESS_MIN
 from drtlab.kernels.scene_model.mitsuba_conductor_ior import CONDUCTOR_IOR
 from drtlab.kernels.scene_model.mitsuba_principled import PRINCIPLED_BSDFS, PrincipledMapping
 from drtlab.kernels.scene_model.mitsuba_textures import TEXTURES, TextureMapping
@@ -12,6 +13,8 @@ from drtlab.kernels.scene_model.mitsuba_xml import IOR_PRESETS, Obj, Ref
 from drtlab.kernels.scene_model.texture import slot_key
 
 FRAME_MAPS = ("normalmap", "bumpmap")
+# Mitsuba's roughconductor with alpha_u != alpha_v, by its distribution
+ANISOTROPIC_METALS = {"beckmann": "beckmann_conductor_anisotropic", "ggx": "ggx_anisotropic"}
 BSDFS = ("diffuse", "twosided", "dielectric", "roughdielectric", "conductor", "roughconductor", "plastic",
          "roughplastic", "mask", "blendbsdf", "normalmap", "bumpmap") + PRINCIPLED_BSDFS
 # Mitsuba's BSDFs that are black from behind unless wrapped in `twosided`
@@ -91,15 +94,15 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
                     {"kind": "diffuse", "albedo": self.colour(o, "reflectance", 0.5)})
         elif kind in ("conductor", "roughconductor"):
             spec = {"kind": "mirror", "albedo": self.colour(o, "specular_reflectance", 1.0)}
-            aniso = self.anisotropic(o) if kind == "roughconductor" else None
-            if aniso is not None:
-                spec.update(kind="ggx_anisotropic", roughness=aniso[0], roughness_v=aniso[1])
+            anisotropic = self.anisotropy(o) if kind == "roughconductor" else None
+            if anisotropic is not None:
+                spec.update(anisotropic)
             elif kind == "roughconductor":
                 spec.update(zip(("kind", "roughness"), self.roughness(o)))
             eta, k = self.complex_ior(o)
-            if aniso is not None:                       # the kind applies F (1 for Mitsuba's "none")
+            if anisotropic is not None:
                 spec.update(eta=eta, k=k)
-            elif (eta, k) != ([0.0] * 3, [1.0] * 3):      # else Mitsuba's "none": F = 1, the kinds above
+            elif (eta, k) != ([0.0] * 3, [1.0] * 3):    # else Mitsuba's "none": F = 1, the kinds above
                 metal = {"mirror": "conductor", "beckmann": "beckmann_conductor", "ggx_separable": "ggx_conductor"}
                 spec.update(kind=metal[spec["kind"]], eta=eta, k=k)
         elif kind in ("plastic", "roughplastic"):
@@ -228,16 +231,28 @@ class MaterialMapping(TextureMapping, PrincipledMapping):
             return kinds[distribution], alpha[1]
         return kinds[distribution], 0.1 if alpha[0] is None else alpha[0]
 
-    def anisotropic(self, o: Obj) -> tuple[float, float] | None:
-        """(alpha_u, alpha_v) of a GGX roughconductor whose two differ (drtlab's ggx_anisotropic),
-        else None (the isotropic kinds, through `roughness`)."""
-        if self.get(o, "distribution", ("string",), "beckmann") != "ggx" or "alpha" in o.props:
+    def anisotropy(self, o: Obj) -> dict | None:
+        """A roughconductor's anisotropic kind (by its distribution) and alpha_u (along dp/du) and
+        alpha_v as numbers or float textures (`alpha_u`, `alpha_u_texture`, ...), or None where it
+        is isotropic (no alpha_u / alpha_v, or
+        two equal numbers: `roughness` reads it)."""
+        if "alpha_u" not in o.props and "alpha_v" not in o.props:
             return None
-        alpha = [self.number(o, k, None, lambda x: x > 0, "> 0") for k in ("alpha_u", "alpha_v")]
-        if None in alpha or alpha[0] == alpha[1]:
+        if "alpha" in o.props or "alpha_u" not in o.props or "alpha_v" not in o.props:
+            self.r.fail(o.path, "give alpha, or both alpha_u and alpha_v (as Mitsuba 3)")
+        out = {}
+        for name in ("alpha_u", "alpha_v"):
+            texture = self.texture_of(o, name)
+            if texture is not None:
+                out[f"{name}_texture"] = self.albedo_texture(texture)
+            else:
+                out[name] = self.number(o, name, None, lambda x: ROUGHNESS_MIN <= x <= 1,
+                                        f"in [{ROUGHNESS_MIN:g}, 1] (drtlab's microfacet alpha)")
+        if out.get("alpha_u", -1) == out.get("alpha_v", -2):
             return None
+        out["kind"] = ANISOTROPIC_METALS[self.string(o, "distribution", "beckmann", tuple(ANISOTROPIC_METALS))]
         self.ignore(o, "sample_visible")            # the proposal only: the same estimate
-        return alpha[0], alpha[1]
+        return out
 
     def ior(self, o: Obj, name: str, default: str) -> float:
         p = o.props.get(name)

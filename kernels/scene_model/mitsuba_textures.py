@@ -64,7 +64,7 @@ class TextureMapping:
         """A texture reads Mitsuba's uv, which drtlab gives a rectangle facing its own +z, a sphere and
         an obj only."""
         tables = [spec[slot_key(slot)] for slot in TEXTURE_SLOTS if slot_key(slot) in spec]
-        if not tables and spec["kind"] != "ggx_anisotropic":
+        if not tables and "alpha_u" not in spec:     # an anisotropic lobe turns with dp/du
             return
         if any(t["kind"] == "mesh_attribute" for t in tables):
             if shape.type not in ATTRIBUTE_SHAPES:

@@ -58,12 +58,13 @@ class Material:
     # Parameters read from a texture at the hit's uv, by slot (texture.TEXTURE_SLOTS: "albedo", ...;
     # the scene-file key is texture.slot_key(slot))
     textures: dict[str, Texture] = field(default_factory=dict)
-    roughness_v: float | None = None            # alpha along t of an anisotropic kind (None: roughness)
     bump_scale: float = 1.0                     # the "bump" texture's height scale (Mitsuba's `scale`)
     exponent: float = 0.0                       # modified-Phong exponent (glossy, glossy_dielectric,
                                                 # plastic's coat)
     roughness: float = 0.1                      # GGX alpha (ggx, ggx_dielectric), in
                                                 # [material_kinds.ROUGHNESS_MIN, 1]
+    alpha_u: float = 0.1                        # an anisotropic kind's alpha along the tangent dp/du
+    alpha_v: float = 0.1                        # ... and across it (same range as roughness)
     ior: float = 1.5                            # dielectric, glossy_dielectric, plastic's coat
                                                 # (outside is vacuum)
     emission: np.ndarray = field(default_factory=lambda: np.zeros(3))  # emitted radiance

@@ -25,7 +25,7 @@ from drtlab.kernels.scene_model.camera_table import parse_camera
 from drtlab.kernels.scene_model.light_projection import (PROJECTOR_KEYS, SPOT_PROJECTION_KEYS, parse_projector,
                                                         parse_spot_texture)
 from drtlab.kernels.scene_model.principled_params import IOR_DEFAULT, PARAM_BY_NAME
-from drtlab.kernels.scene_model.texture import ATTRIBUTE_SLOTS, TEXTURE_SLOTS, parse_texture, slot_key
+from drtlab.kernels.scene_model.texture import ATTRIBUTE_SLOTS, LUMINANCE, TEXTURE_SLOTS, parse_texture, slot_key
 from drtlab.kernels.scene_model.transforms import parallel, parse_transform, transform_quad, transform_sphere
 from drtlab.kernels.scene_model.mesh_attributes import check_attribute_textures
 from drtlab.kernels.scene_model.mesh_file import MESH_KEYS, SPHERE_GRID_KEYS, parse_mesh_shape, parse_sphere_grid
@@ -191,9 +191,11 @@ def _parse_material(name: str, value: Any) -> Material:
                              f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha)",
                              lambda x: ROUGHNESS_MIN <= x <= 1.0)
     if spec.anisotropic:
-        m.roughness_v = number(t.get("roughness_v", m.roughness, ""), t.field("roughness_v"),
-                               f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha along t)",
-                               lambda x: ROUGHNESS_MIN <= x <= 1.0)
+        for key in ("alpha_u", "alpha_v"):
+            setattr(m, key, number(t.get(key, 0.1, ""), t.field(key),
+                                   f"in [{ROUGHNESS_MIN:g}, 1] (the microfacet alpha along the tangent "
+                                   "dp/du (alpha_u) or across it (alpha_v))",
+                                   lambda x: ROUGHNESS_MIN <= x <= 1.0))
     if spec.transmits:
         m.ior = number(t.get("ior", 1.5, ""), t.field("ior"), "> 0", lambda x: x > 0.0)
     if spec.coat:       # a coat of index 1 reflects nothing; below 1 it is no coat at all
@@ -231,6 +233,8 @@ def _parse_material(name: str, value: Any) -> Material:
         m.textures[slot] = parse_texture(t.data[key], t.field(key))
         if m.textures[slot].kind == "mesh_attribute" and slot not in ATTRIBUTE_SLOTS:
             raise InputError(t.field(key), f"a mesh_attribute texture fills {', '.join(ATTRIBUTE_SLOTS)} only")
+        if slot in ("alpha_u", "alpha_v"):
+            _check_alpha_texture(m.textures[slot], t.field(key))
     if t.has("weight_texture") != t.has("blend_albedo") or (t.has("weight_texture") and m.checker):
         raise InputError(t.field("weight_texture"), "a blend needs weight_texture and blend_albedo (the "
                                                     "albedo at weight 1), and no checker")
@@ -266,6 +270,19 @@ def _parse_frame_map(t: Table, m: Material) -> None:
         if "bump" not in m.textures:
             raise InputError(t.field("bump_scale"), "needs a bump_texture (it scales the bump map's heights)")
         m.bump_scale = number(t.data["bump_scale"], t.field("bump_scale"))
+
+
+def _check_alpha_texture(tex, field: str) -> None:
+    """A roughness texture is read as one number (Mitsuba's eval_1: a checkerboard's colour, a
+    bitmap's luminance), which must be an alpha the kind takes."""
+    px = np.asarray(tex.pixels, dtype=np.float64)
+    if tex.kind == "checkerboard" and np.any(px != px[..., :1]):
+        raise InputError(field, f"a roughness checkerboard's colours must be numbers (grey), got "
+                                f"{show(px.reshape(-1, 3).tolist())}")
+    lum = px @ np.array(LUMINANCE)
+    if not (ROUGHNESS_MIN <= lum.min() and lum.max() <= 1.0):
+        raise InputError(field, f"must read as alphas in [{ROUGHNESS_MIN:g}, 1] (the microfacet "
+                                f"alpha), got values from {lum.min():g} to {lum.max():g}")
 
 
 def _checker(v: Any, field: str) -> tuple[int, int]:

@@ -33,6 +33,8 @@ TABLE_KINDS = TEXTURE_KINDS + ("constant",)
 # The slots a mesh attribute may fill (the lookup that knows the hit's face reads these only).
 ATTRIBUTE_SLOTS = ("albedo", "weight")
 MAX_TEXELS = 1 << 24
+# Mitsuba's `luminance` of linear Rec. 709 RGB: what a float texture reads of a colour (eval_1)
+LUMINANCE = (0.212671, 0.715160, 0.072169)
 # A material's textured parameters, in the order of the device's per-material slot table
 # (MaterialData.tex): a new slot is one name here, then its lookup where the parameter is read.
 TEXTURE_SLOTS = (
@@ -44,6 +46,7 @@ TEXTURE_SLOTS = (
     "weight",       # a diffuse's blend of albedo (at 0) and blend_albedo (at 1)
     "normal",       # a normal map (raw RGB, 2 rgb - 1 in the tangent frame)
     "bump",         # a bump map (its luminance a height; Material.bump_scale)
+    "alpha_u", "alpha_v",   # an anisotropic kind's roughness along and across the tangent
 )
 
 

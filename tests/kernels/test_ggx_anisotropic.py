@@ -74,7 +74,7 @@ def material(kind, au, av):
     mat = MaterialAt()
     mat.kind = MATERIAL_CODE[kind]
     mat.albedo = wp.vec3(1.0, 1.0, 1.0)
-    mat.shape, mat.shape_v, mat.ts = float(au), float(av), wp.vec3(*(TANGENT + 0.3 * NORMAL))
+    mat.shape, mat.shape_v, mat.tangent = float(au), float(av), wp.vec3(*(TANGENT + 0.3 * NORMAL))
     mat.eta, mat.k = wp.vec3(0.0, 0.0, 0.0), wp.vec3(1.0, 1.0, 1.0)      # F = 1
     mat.table, mat.row = wp.zeros(1, dtype=float, device="cpu"), 0
     return mat

@@ -238,7 +238,7 @@ def test_direct_takes_its_sample_counts(tmp_path):
      "scene/shape[2](sphere)/bsdf(roughconductor)/string[@name=distribution]",
      "'phong' is not supported (supported: beckmann, ggx"),
     ('<shape type="sphere"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/>'
-     '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughconductor)", "anisotropic"),
+     '<float name="alpha_v" value="0.2"/></bsdf></shape>', "shape[2](sphere)", "anisotropic roughness on a sphere"),
     ('<shape type="sphere"><bsdf type="roughplastic"><float name="alpha_u" value="0.1"/>'
      '<float name="alpha_v" value="0.2"/></bsdf></shape>', "bsdf(roughplastic)", "anisotropic"),
     ('<shape type="cube"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',

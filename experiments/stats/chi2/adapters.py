@@ -198,7 +198,8 @@ class BSDFSamples:
 class BSDFAdapter:
     """`make_bsdf` of ALL_KINDS wrapped in one kernel per `lobe` (mode 0 samples, mode 1
     evaluates pdf_bsdf and eval_bsdf at given directions). A case is (kind, albedo, shape, ior,
-    n, wo) or, for a conductor kind, (..., n, wo, eta, k), or for a `params` kind (..., n, wo,
+    n, wo) or, for a conductor kind, (..., n, wo, eta, k), for an anisotropic kind (..., eta, k,
+    shape_v, tangent) (MaterialAt.shape_v, .tangent), or for a `params` kind (..., n, wo,
     {name: value}) (principled_params.py), `shape` the lobe's (MaterialAt.shape); a
     rough plastic kind's table row is built from the case (rough_plastic_table.py); u_lobe, u.x, u.y of thread i are
     `uniform(seed, i, 0|1|2)`. `microfacet`: how the lobe strategy draws GGX normals
@@ -225,7 +226,8 @@ class BSDFAdapter:
         wp = _wp()
         kind, albedo, shape, ior, nrm, wo, *metal = case
         params = metal.pop() if metal and isinstance(metal[-1], dict) else None
-        eta, k = metal or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+        eta, k = metal[:2] or ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+        shape_v, tangent = metal[2:] or (shape, (0.0, 0.0, 0.0))
         inp, n = input_points(pts, n)
         arrays = outputs(n, wp.vec3, float, wp.vec3, int, float, wp.vec3)
         from drtlab.kernels.materials.material_at import MaterialAt
@@ -233,6 +235,7 @@ class BSDFAdapter:
         mat.kind = KIND_INDEX[kind] if isinstance(kind, str) else int(kind)
         mat.albedo, mat.shape, mat.ior = as_vec3(albedo), float(shape), float(ior)
         mat.eta, mat.k = as_vec3(eta), as_vec3(k)
+        mat.shape_v, mat.tangent = float(shape_v), as_vec3(tangent)
         mat.table, mat.row = _table(mat.kind, albedo, shape, ior, params), 0
         mat.opacity, mat.one_sided = self.opacity, self.one_sided
         from drtlab.kernels.scene_model.material_kinds import KINDS
