@@ -95,6 +95,16 @@ def scene_numbers(v: Any, field: str, n: int, rule: str = "",
     return numbers(v, field, n, rule, ok, SCENE_LIMIT)
 
 
+def scene_colour(v: Any, field: str) -> np.ndarray:
+    """A radiance-like colour of a scene: 3 numbers, any non-negative value."""
+    return scene_numbers(v, field, 3, ">= 0", lambda x: x >= 0.0)
+
+
+def scene_albedo(v: Any, field: str) -> np.ndarray:
+    """A reflectance-like colour of a scene: energy conservation needs every channel in [0, 1]."""
+    return scene_numbers(v, field, 3, "in [0, 1]", lambda x: 0.0 <= x <= 1.0)
+
+
 def integer(v: Any, field: str, rule: str = "", ok: Callable[[int], bool] | None = None) -> int:
     if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or (ok is not None and not ok(v)):
         raise InputError(field, f"must be an integer{' ' + rule if rule else ''}, got {show(v)}")
