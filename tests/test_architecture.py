@@ -283,14 +283,16 @@ def test_every_file_and_function_of_the_pipeline_table_exists():
 
 def test_the_pipeline_check_sees_a_missing_file_and_a_missing_function():
     text = (ROOT / "ARCHITECTURE.md").read_text()
-    bad = text.replace("| `kernels/scene_model/scene_tables.py`, `kernels/scene_model/camera_table.py` | `build_scene`;",
-                       "| `kernels/scene_model/scene_tablez.py`, `kernels/scene_model/camera_table.py` | `build_scene`;", 1)
+    bad = text.replace("| `kernels/scene_model/scene_tables.py`, `kernels/scene_model/camera_table.py`, "
+                       "`kernels/scene_model/material_table.py` | `build_scene`;",
+                       "| `kernels/scene_model/scene_tablez.py`, `kernels/scene_model/camera_table.py`, "
+                       "`kernels/scene_model/material_table.py` | `build_scene`;", 1)
     bad = bad.replace("| `experiments/study/config.py` | `load_experiment` |",
                       "| `experiments/study/config.py` | `load_experiments` |", 1)
     assert bad.count("scene_tablez") == 1 and bad.count("load_experiments") == 1
     assert [e.split(": ", 1)[1] for e in _pipeline_errors(bad)] == [
         "`kernels/scene_model/scene_tablez.py`: no such file (kernels/scene_model/scene_tablez.py)",
-        "`build_scene`: not in kernels/scene_model/camera_table.py",
+        "`build_scene`: not in kernels/scene_model/camera_table.py, kernels/scene_model/material_table.py",
         "`load_experiments`: not in experiments/study/config.py"]
 
 
