@@ -71,10 +71,12 @@ class TextureMapping:
                 self.r.fail(shape.path, f"a mesh_attribute texture on a {shape.type} is not supported "
                                         "(drtlab reads mesh attributes from PLY files)")
             return
-        if (any(slot_key(s) in spec for s in ("normal", "bump")) or spec["kind"] == "ggx_anisotropic") \
-                and shape.type != "obj":
-            self.r.fail(shape.path, f"a normal or bump map or anisotropic roughness on a {shape.type} is "
-                                    "not supported (drtlab has the tangent frame of an obj's triangles only)")
+        if any(slot_key(s) in spec for s in ("normal", "bump")) and shape.type != "obj":
+            self.r.fail(shape.path, f"a normal or bump map on a {shape.type} is not supported (drtlab "
+                                    "has the tangent frame of an obj's triangles only)")
+        if ("alpha_u" in spec or "alpha_u_texture" in spec) and shape.type not in ("obj", "rectangle"):
+            self.r.fail(shape.path, f"anisotropic roughness on a {shape.type} is not supported (drtlab "
+                                    "has Mitsuba's dp/du on an obj and a rectangle only)")
         if shape.type not in TEXTURED_SHAPES:
             self.r.fail(shape.path, f"a texture on a {shape.type} is not supported (drtlab's uv is "
                                     "Mitsuba's on a rectangle, a sphere and an obj only)")

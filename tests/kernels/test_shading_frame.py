@@ -22,9 +22,8 @@ from drtlab.experiments.stats.chi2.adapters import uniform
 from drtlab.kernels.features import Features
 from drtlab.kernels.materials import make_bsdf
 from drtlab.kernels.materials.material_at import MaterialAt
-from drtlab.kernels.materials.shading_frame import (bump_map_local, mapped_bsdf, normal_map_local,
-                                                    shadowing, tangent_s, triangle_tangents,
-                                                    with_local_normal)
+from drtlab.kernels.intersection.tangent import tangent_s, triangle_tangents
+from drtlab.kernels.materials.shading_frame import (bump_map_local, mapped_bsdf, normal_map_local, shadowing, with_local_normal)
 from drtlab.kernels.scene_model.material_kinds import MATERIAL_CODE
 
 from stats_util import ALPHA
