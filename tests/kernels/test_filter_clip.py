@@ -26,7 +26,8 @@ from scipy import stats
 from drtlab.experiments.stats.chi2 import sidak
 from drtlab.kernels.features import features_of
 from drtlab.kernels.filter_sampling import make_pixel_filter
-from drtlab.kernels.filters import MITSUBA_GAUSSIAN, clip_table, filter_cdf, get_filter
+from drtlab.kernels.filters import (MITSUBA_GAUSSIAN, clip_table, filter_cdf, get_filter, mitsuba_bin,
+                                    mitsuba_gaussian_table)
 from drtlab.kernels.render import render
 from drtlab.kernels.scene_model.scene_file import scene_from_dict
 from drtlab.kernels.scene_upload import upload
@@ -58,21 +59,67 @@ def mitsuba_cpu_profile(x, stddev):
     return np.maximum(poly(t, REMEZ) - poly((4.0) ** 2, REMEZ), 0.0)
 
 
-@pytest.mark.parametrize("stddev", [0.5, 0.25])
-def test_mitsuba_gaussian_is_mitsubas_formula(stddev):
+def mitsuba_formula(x, stddev):
+    return np.maximum(0.0, np.exp(-np.asarray(x, dtype=np.float64) ** 2 / (2 * stddev ** 2)) - math.exp(-8.0))
+
+
+def device_profile(filt, x: np.ndarray) -> np.ndarray:
+    """The device's profile (PixelFilter.profile) at float32 x."""
+    scene = edge_scene(True, filt.radius / 4)
+    profile = make_pixel_filter(features_of(scene, "drt")).profile
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def at(x: wp.array(dtype=float), out: wp.array(dtype=float)):
+        i = wp.tid()
+        out[i] = profile(x[i])
+
+    out = wp.zeros(len(x), dtype=float, device="cpu")
+    wp.launch(at, dim=len(x), inputs=[wp.array(x.astype(np.float32), dtype=float, device="cpu"), out],
+              device="cpu")
+    return out.numpy()
+
+
+@pytest.mark.parametrize("stddev", [0.5, 0.25, 0.3])
+def test_mitsuba_gaussian_is_mitsubas_cpu_table(stddev):
     filt = get_filter(MITSUBA_GAUSSIAN, stddev)
-    assert filt.radius == 4 * stddev and filt.margin == math.ceil(4 * stddev - 0.5)
-    x = np.array([0.0, 0.25, 0.5, 1.0, 1.5, 1.99]) * (stddev / 0.5)
-    want = np.exp(-x ** 2 / (2 * stddev ** 2)) - math.exp(-8.0)
-    assert np.array_equal(filt.f1(x), want)
-    assert filt.f1(0.0) == 1.0 - math.exp(-8.0) and filt.f1(4 * stddev) == 0.0
-    assert filt.f1(4 * stddev * 1.0001) == 0.0
-    # Mitsuba's CPU build evaluates a polynomial fit instead: within 4.1e-4 of the formula (peak 1)
-    # over the whole support, a weight error that moves a pixel by well under the crosscheck's 1%.
-    dense = np.linspace(0.0, 4 * stddev, 20001)
-    assert np.max(np.abs(mitsuba_cpu_profile(dense, stddev) - filt.f1(dense))) < 4.1e-4
-    # The closed-form integral: stddev sqrt(2 pi) erf(2 sqrt 2) - 2 radius exp(-8).
+    r = filt.radius
+    assert r == 4 * stddev and filt.margin == math.ceil(4 * stddev - 0.5)
+    # init_discretization: v[i] = eval(radius i / 31) (float32 arithmetic), v[31] = 0.
+    table = mitsuba_gaussian_table(r)
+    starts = (np.float32(r) * np.arange(31, dtype=np.float32)) / np.float32(31)
+    assert table.dtype == np.float32 and table.shape == (32,) and table[31] == 0.0
+    assert np.array_equal(table[:31], mitsuba_formula(starts, stddev).astype(np.float32))
+    assert table[0] == np.float32(1.0 - math.exp(-8.0)) and np.all(np.diff(table) < 0) and table[30] > 0
+    # The lookup: bin i on [r i / 31, r (i + 1) / 31), 31 (zero) from the radius on.
+    i = np.arange(1, 31)
+    edges = r * i / 31.0
+    eps = 1e-5 * r
+    for sign in (1.0, -1.0):
+        assert np.array_equal(mitsuba_bin(sign * (edges + eps), r), i)
+        assert np.array_equal(mitsuba_bin(sign * (edges - eps), r), i - 1)
+        assert np.array_equal(filt.f1(sign * (edges + eps)), table[i].astype(np.float64))
+        assert np.array_equal(filt.f1(sign * (edges - eps)), table[i - 1].astype(np.float64))
+    assert mitsuba_bin(0.0, r) == 0 and filt.f1(0.0) == table[0]
+    assert mitsuba_bin(r, r) == 31 and mitsuba_bin(1e9, r) == 31
+    assert filt.f1(r) == 0.0 and filt.f1(r * (1 - 1e-5)) == table[30] and filt.f1(-r * 1.0001) == 0.0
+    # Host and device read the same values at the same bins (float32 x: the device's input).
+    x = np.concatenate([np.linspace(-1.2 * r, 1.2 * r, 4001), edges, -edges, edges + eps, edges - eps,
+                        [0.0, r, -r]]).astype(np.float32)
+    assert np.array_equal(device_profile(filt, x), filt.f1(x.astype(np.float64)).astype(np.float32))
+    # The step function is a slightly wider filter than the formula: above it inside each bin.
+    dense = np.linspace(0.0, r * (1 - 1e-9), 20001)
+    assert np.all(filt.f1(dense) >= mitsuba_formula(dense, stddev).astype(np.float32) - 1e-7)
+    # Mitsuba's CPU build evaluates a polynomial fit instead of exp: within 4.1e-4 of the formula
+    # (peak 1) at the bin starts, a weight error well under the crosscheck's 1%.
+    assert np.max(np.abs(mitsuba_cpu_profile(starts, stddev) - table[:31])) < 4.1e-4
+    # The integral: the bins' sum, against a fine midpoint rule of the step function (2^20 cells)
+    # and against scipy's quadrature split at the bin edges.
+    cells = 1 << 20
+    mid = (np.arange(cells) + 0.5) * (2 * r / cells) - r
+    assert filt.integral1 == pytest.approx(float(np.sum(filt.f1(mid))) * 2 * r / cells, rel=1e-5)
     assert filt.integral1 == pytest.approx(filt.truncated_integral1(-9.0, 9.0), rel=1e-12)
+    exact = stddev * math.sqrt(2 * math.pi) * math.erf(2 * math.sqrt(2)) - 2 * r * math.exp(-8.0)
+    assert filt.integral1 > exact * 1.01                         # wider than the formula
     assert get_filter("gaussian", stddev).radius == 1.5        # drtlab's own keeps its shape
 
 
@@ -159,12 +206,11 @@ def test_untruncated_sampling_is_rejected_at_the_border_pixel():
 # ---------------------------------------------------------------------------------------------------
 
 def F(a, b, stddev=0.5):
-    """Integral of Mitsuba's Gaussian profile over [a, b] (0 when b <= a), in closed form."""
+    """Integral of Mitsuba's (tabulated) Gaussian profile over [a, b] (0 when b <= a): a sum of
+    constant bins, scipy's quadrature split at their edges."""
     if b <= a:
         return 0.0
-    k = stddev * math.sqrt(2.0)
-    return (stddev * math.sqrt(math.pi / 2.0) * (math.erf(b / k) - math.erf(a / k))
-            - math.exp(-8.0) * (b - a))
+    return get_filter(MITSUBA_GAUSSIAN, stddev).truncated_integral1(a, b)
 
 
 def edge_truth(clip: bool, r: float = 2.0) -> np.ndarray:
