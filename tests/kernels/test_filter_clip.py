@@ -39,7 +39,8 @@ from stats_util import ALPHA, Estimate, compare, seed_for
 RES = (10, 6)
 EDGE = 0.25                     # pixels from the left edge: lit for x < EDGE
 DISTANCE, FOV = 5.0, 40.0
-M_TESTS = 4                     # accepted: the chi-square, the weights' mean, FIS and splatting renders
+M_TESTS = 6                     # accepted: the chi-square, the weights' mean, FIS and splatting renders
+                                # at the film's edge and at a sharp edge mid-film
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 
@@ -127,20 +128,20 @@ def test_mitsuba_gaussian_is_mitsubas_cpu_table(stddev):
 # The truncated sampler at a corner pixel
 # ---------------------------------------------------------------------------------------------------
 
-def edge_scene(clip: bool, stddev: float = 0.5):
+def edge_scene(clip: bool, stddev: float = 0.5, edge: float = EDGE, res=RES):
     half_h = math.tan(math.radians(FOV) / 2.0)
-    half_w = half_h * RES[0] / RES[1]
+    half_w = half_h * res[0] / res[1]
 
     def world(x, y):
-        return np.array([DISTANCE * (2.0 * x / RES[0] - 1.0) * half_w,
-                         DISTANCE * (1.0 - 2.0 * y / RES[1]) * half_h, 0.0])
+        return np.array([DISTANCE * (2.0 * x / res[0] - 1.0) * half_w,
+                         DISTANCE * (1.0 - 2.0 * y / res[1]) * half_h, 0.0])
     o = world(-1000.0, 1000.0)
-    eu, ev = world(EDGE, 1000.0) - o, world(-1000.0, -1000.0) - o
+    eu, ev = world(edge, 1000.0) - o, world(-1000.0, -1000.0) - o
     assert np.cross(eu, ev)[2] > 0          # emits towards the camera (+z)
     cam = camera_dict((0, 0, DISTANCE), (0, 0, 0), FOV)
     cam.update(filter=MITSUBA_GAUSSIAN, filter_stddev=stddev, filter_clip=clip)
     d = scene_dict("edge", cam, {"light": {"kind": "emitter", "emission": [1, 1, 1]}},
-                   [quad(o, eu, ev, "light")], res=RES, integrator="drt", max_depth=1)
+                   [quad(o, eu, ev, "light")], res=res, integrator="drt", max_depth=1)
     return scene_from_dict(d, name=f"edge-{clip}")
 
 
@@ -245,6 +246,40 @@ def test_cut_renders_match_the_cut_closed_form_and_not_the_uncut_one(sampler, sp
     assert not c.rejected, c.summary()
     # Negative control: the same renders against Mitsuba's sample_border = true pixels.
     assert column_comparison(imgs, edge_truth(False)).rejected
+
+
+# A sharp edge mid-film, on a pixel boundary: the columns beside it are where the table (a wider
+# filter) and the exact Gaussian differ most, 0.1662 vs 0.1584 just outside, 0.8338 vs 0.8416 just
+# inside (Mitsuba's projector test scene: 0.143 in its reference against 0.134 with the exact one).
+MID_RES, MID_EDGE, MID_COLUMNS = (12, 64), 6.0, slice(4, 8)
+
+
+def exact_gaussian_integral(a: float, b: float, stddev: float = 0.5) -> float:
+    """Integral of the untabulated formula max(0, exp(-x^2 / 2 s^2) - exp(-8)) over [a, b]."""
+    k = stddev * math.sqrt(2.0)
+    return (stddev * math.sqrt(math.pi / 2.0) * (math.erf(b / k) - math.erf(a / k))
+            - math.exp(-8.0) * (b - a))
+
+
+def mid_edge_truth(integral) -> np.ndarray:
+    r = 2.0
+    return np.array([integral(-r, min(r, max(-r, MID_EDGE - (px + 0.5)))) / integral(-r, r)
+                     for px in range(MID_RES[0])])
+
+
+@pytest.mark.parametrize("sampler,spp", [("stratified", 64), ("stratified+splat", 64)])
+def test_sharp_edge_renders_are_the_tables_pixels_not_the_exact_gaussians(sampler, spp):
+    scene = edge_scene(False, edge=MID_EDGE, res=MID_RES)
+    imgs = np.array([render(scene, spp=spp, sampler=sampler, seed=seed_for("mid-edge", sampler, k),
+                            threads=2, progress=False)[..., 0] for k in range(8)])
+    table = mid_edge_truth(F)
+    exact = mid_edge_truth(exact_gaussian_integral)
+    assert table[6] == pytest.approx(0.1662, abs=1e-4) and exact[6] == pytest.approx(0.1584, abs=1e-4)
+    c = column_comparison(imgs, table, MID_COLUMNS)
+    assert not c.rejected, c.summary()
+    # Negative control: the exact Gaussian's pixels, rejected at the same level.
+    bad = column_comparison(imgs, exact, MID_COLUMNS)
+    assert bad.rejected, bad.summary()
 
 
 # ---------------------------------------------------------------------------------------------------
