@@ -1,13 +1,16 @@
 """Mitsuba's Gaussian filter and filters truncated to the film (kernels/filters.py, camera keys
 `filter_stddev` and `filter_clip`).
 
-The profile is checked value by value against Mitsuba 3's formula (src/rfilters/gaussian.cpp) and its
-CPU build's Remez polynomial. The truncated sampler is checked directly (a kernel calling
-PixelFilter.sample at a corner pixel): a chi-square of its offsets against the table restricted to
-the film (the untruncated sampler must be rejected there), and its weights' mean, 1 when the density
-is normalised over the cut support. Renders: a half-plane lit for x < EDGE pixels (a vertical edge
-a quarter pixel into the film) has, per column, the closed form
-    V(c) = F(lo, min(hi, EDGE - c)) / F(lo, hi),   F(a, b) = integral_a^b f1,
+The profile is checked value by value against the table Mitsuba 3's CPU variants weigh samples by
+(ReconstructionFilter::eval_discretized: its formula, src/rfilters/gaussian.cpp, at 31 bin starts),
+its bins at their edges on the host and the device, and its CPU build's Remez polynomial (a tolerance).
+A sharp edge mid-film must render the table's pixels, and the exact Gaussian's be rejected.
+The truncated sampler is checked directly (a kernel calling PixelFilter.sample at a corner pixel): a
+chi-square of its offsets against the table restricted to the film (the untruncated sampler must be
+rejected there), and its weights' mean, 1 when the density is normalised over the cut support.
+Renders: a half-plane lit for x < EDGE pixels (a vertical edge a quarter pixel into the film) has,
+per column, the closed form
+    V(c) = F(lo, min(hi, EDGE - c)) / F(lo, hi),   F(a, b) = integral_a^b f1 (the table's bins),
 with [lo, hi] = [-r, r] cut to the film, [-c, W - c], or not (Mitsuba's sample_border true); the
 rows cancel (separable filter, an edge along y). Columns are pooled over rows; each column's variance
 is the spread of its K run means. ALPHA (tests/support/stats_util.py) Sidak-corrected over the
