@@ -4,7 +4,8 @@
 The profile is checked value by value against the table Mitsuba 3's CPU variants weigh samples by
 (ReconstructionFilter::eval_discretized: its formula, src/rfilters/gaussian.cpp, at 31 bin starts),
 its bins at their edges on the host and the device, and its CPU build's Remez polynomial (a tolerance).
-A sharp edge mid-film must render the table's pixels, and the exact Gaussian's be rejected.
+A sharp edge mid-film must render the table's pixels, and the exact Gaussian's be rejected; the edge
+of Mitsuba's own reference image (its constant projector scene) must fit the table, not the formula.
 The truncated sampler is checked directly (a kernel calling PixelFilter.sample at a corner pixel): a
 chi-square of its offsets against the table restricted to the film (the untruncated sampler must be
 rejected there), and its weights' mean, 1 when the density is normalised over the cut support.
@@ -42,8 +43,8 @@ from stats_util import ALPHA, Estimate, compare, seed_for
 RES = (10, 6)
 EDGE = 0.25                     # pixels from the left edge: lit for x < EDGE
 DISTANCE, FOV = 5.0, 40.0
-M_TESTS = 6                     # accepted: the chi-square, the weights' mean, FIS and splatting renders
-                                # at the film's edge and at a sharp edge mid-film
+M_TESTS = 7                     # accepted: the chi-square, the weights' mean, FIS and splatting renders
+                                # at the film's edge and at a sharp edge mid-film, Mitsuba's reference's edge
 ALPHA_TEST = sidak(ALPHA, M_TESTS)
 
 
@@ -283,6 +284,44 @@ def test_sharp_edge_renders_are_the_tables_pixels_not_the_exact_gaussians(sample
     # Negative control: the exact Gaussian's pixels, rejected at the same level.
     bad = column_comparison(imgs, exact, MID_COLUMNS)
     assert bad.rejected, bad.summary()
+
+
+def reference_edge_residuals(integral) -> np.ndarray:
+    """(rows, 2): Mitsuba 3.9.1's reference of its constant projector test scene (48 x 48, a uniformly
+    lit square whose right edge runs down column ~40): per row along the edge, the plateau p (columns
+    30-36), the edge's position fitted to pixel 40's value / p under the filter of `integral`, then
+    pixels 39 and 38 / p minus what that filter predicts there."""
+    from scipy.optimize import brentq
+    from drtlab.experiments.bench.mitsuba.suite import scenes, suite_dir
+    from drtlab.kernels.imageio import read_linear
+    jobs = [j for j in scenes(suite_dir()) if j["name"] == "test_projector_constant_direct"]
+    if not jobs or not jobs[0]["ref"].is_file():
+        pytest.skip(f"Mitsuba's test scenes are not at {suite_dir()} (set DRTLAB_MITSUBA_TESTS)")
+    img = read_linear(jobs[0]["ref"])[0][..., 0].astype(np.float64)
+    assert img.shape == (48, 48)
+    r = 2.0
+
+    def v(d):
+        return integral(-r, min(r, max(-r, d))) / integral(-r, r)
+    out = []
+    for row in range(10, 38):
+        p = img[row, 30:37].mean()
+        e = brentq(lambda e: v(e - 40.5) - img[row, 40] / p, 39.0, 41.0)
+        out.append([img[row, 39] / p - v(e - 39.5), img[row, 38] / p - v(e - 38.5)])
+    return np.array(out)
+
+
+def test_mitsubas_reference_edge_is_the_tables_not_the_exact_gaussians():
+    """One t-test per column over the rows (independent pixels), Sidak over the 2 columns: the
+    table's residuals are noise (t -1.6 and -0.15 when written), the exact Gaussian's are not
+    (t -105 and -31: pixel 39 reads 0.807 where it predicts 0.823)."""
+    alpha = sidak(ALPHA_TEST, 2)
+
+    def p_values(res):
+        t = res.mean(axis=0) / (res.std(axis=0, ddof=1) / math.sqrt(len(res)))
+        return 2.0 * stats.t.sf(np.abs(t), len(res) - 1)
+    assert np.all(p_values(reference_edge_residuals(F)) > alpha)
+    assert np.any(p_values(reference_edge_residuals(exact_gaussian_integral)) < alpha)   # negative control
 
 
 # ---------------------------------------------------------------------------------------------------
