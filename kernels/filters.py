@@ -204,15 +204,22 @@ def get_filter(name: str, stddev: float = 0.0) -> Filter:
 def filter_cdf(filt: Filter | str, bins: int = TABLE_BINS) -> np.ndarray:
     """(bins + 1,) float32 CDF of the piecewise-constant density proportional to |f1| on `bins`
     equal bins of [-radius, radius]: each bin's mass is its integral of |f1| (Gauss-Legendre, 16
-    nodes per bin, float64); cdf[0] = 0 and cdf[bins] = 1 exactly."""
+    nodes per bin or per piece between the kinks within it, float64); cdf[0] = 0 and cdf[bins] = 1
+    exactly."""
     filt = FILTERS[filt] if isinstance(filt, str) else filt
     name = filt.name
     nodes, weights = np.polynomial.legendre.leggauss(16)
+
+    def masses(lo, hi):
+        half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
+        x = mid[:, None] + half[:, None] * nodes[None, :]
+        return np.sum(np.abs(filt.f1(x)) * weights[None, :], axis=1) * half
     edges = np.linspace(-filt.radius, filt.radius, bins + 1)
-    half = 0.5 * (edges[1:] - edges[:-1])
-    mid = 0.5 * (edges[1:] + edges[:-1])
-    x = mid[:, None] + half[:, None] * nodes[None, :]
-    mass = np.sum(np.abs(filt.f1(x)) * weights[None, :], axis=1) * half
+    mass = masses(edges[:-1], edges[1:])
+    # A bin with a kink (a step of Mitsuba's table) inside it: summed over the pieces between them.
+    for i in np.unique(np.searchsorted(edges, filt.kinks, side="right") - 1):
+        cuts = np.array(sorted({edges[i], edges[i + 1]} | {k for k in filt.kinks if edges[i] < k < edges[i + 1]}))
+        mass[i] = masses(cuts[:-1], cuts[1:]).sum()
     cdf = np.concatenate(([0.0], np.cumsum(mass) / mass.sum())).astype(np.float32)
     cdf[-1] = 1.0
     if np.any(np.diff(cdf) <= 0):
