@@ -20,12 +20,14 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
 import warp as wp
 
 from drtlab.kernels.device_scene import SceneData
 from drtlab.kernels.features import FILTER_NO_SIGN, FILTER_RADIUS_HIGH_10PCT, Features
 from drtlab.kernels.filters import (BH_COEFFS, BOX, GAUSSIAN_SIGMA, MITCHELL_B, MITCHELL_C,
-                                    MITSUBA_GAUSSIAN, MITSUBA_RADIUS_STDDEVS, filter_cdf)
+                                    MITSUBA_FILTER_RESOLUTION, MITSUBA_GAUSSIAN, filter_cdf,
+                                    mitsuba_gaussian_table)
 
 
 class PixelFilter(NamedTuple):
@@ -47,13 +49,17 @@ def _profile(name: str, radius: float) -> wp.Function:
             return wp.max(0.0, (wp.exp(-inv_two_var * x * x) - at_radius) * norm)
         return gaussian
     if name == MITSUBA_GAUSSIAN:
-        stddev = radius / MITSUBA_RADIUS_STDDEVS
-        inv_two_var_m = wp.constant(float(0.5 / stddev ** 2))
-        at_radius_m = wp.constant(float(math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2)))
+        # Mitsuba's CPU variants' table (kernels/filters.py): the same float32 values and bin index.
+        table = mitsuba_gaussian_table(radius)
+        n = MITSUBA_FILTER_RESOLUTION
+        values = wp.constant(wp.types.vector(length=len(table), dtype=wp.float32)(*[float(v) for v in table]))
+        scale = wp.constant(float(np.float32(n) / np.float32(radius)))
+        last, last_f = wp.constant(n), wp.constant(float(n))
 
         @wp.func
         def mitsuba_gaussian(x: float) -> float:
-            return wp.max(0.0, wp.exp(-inv_two_var_m * x * x) - at_radius_m)
+            # Clamped before the int conversion (Mitsuba clamps after it: the same bin, no overflow).
+            return values[wp.min(int(wp.min(wp.abs(x) * scale, last_f)), last)]
         return mitsuba_gaussian
     if name == "mitchell":
         b, c = float(MITCHELL_B), float(MITCHELL_C)

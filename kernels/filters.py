@@ -12,8 +12,16 @@ f(x, y) = f1(x) f1(y), with the radius and parameters of pbrt-v4's (`src/pbrt/fi
                       f1(x) = a0 - a1 cos(2 pi t) + a2 cos(4 pi t) - a3 cos(6 pi t), t = (x + r) / 2r;
                       non-negative (6e-5 at the ends), so it has no negative lobes
     mitsuba_gaussian  Mitsuba 3's default (src/rfilters/gaussian.cpp): stddev s (camera `filter_stddev`,
-                      default 0.5), radius 4 s, f1(x) = max(0, exp(-x^2 / 2s^2) - exp(-8)) (its CPU
-                      build evaluates a degree-9 Remez fit of that exponential, within 4.1e-4 of it)
+                      default 0.5), radius r = 4 s, g(x) = max(0, exp(-x^2 / 2s^2) - exp(-8)), as
+                      Mitsuba's CPU (scalar) variants weigh a sample: not g itself but the table
+                      ReconstructionFilter::eval_discretized reads (include/mitsuba/core/rfilter.h,
+                      src/core/rfilter.cpp; ImageBlock::put in src/render/imageblock.cpp), 32 float32
+                      values, v[i] = g(r i / 31) for i < 31 and v[31] = 0, f1(x) = v[min(floor(|x| 31 / r),
+                      31)]: piecewise constant, each bin holding g at its inner end, a slightly wider
+                      filter than g (its reference images were rendered so; Mitsuba's CPU build's g is a
+                      degree-9 Remez fit of the exponential, within 4.1e-4 of it, the table here the
+                      exact formula at the bin starts). Its mitchell is tabulated the same way; drtlab's
+                      mitchell stays pbrt-v4's continuous one
 
 Truncated to the film (camera `filter_clip`, Mitsuba's films without sample_border): a pixel within
 the margin of the border sees only the image plane inside the film, so its filter is f restricted to
@@ -76,9 +84,18 @@ class Filter:
         the profile's kinks so that it is exact to rounding)."""
         from scipy.integrate import quad
         lo, hi = max(lo, -self.radius), min(hi, self.radius)
-        kinks = [k for k in (-self.radius / 2, 0.0, self.radius / 2) if lo < k < hi]
+        kinks = [k for k in self.kinks if lo < k < hi]
         return quad(lambda x: float(self.f1(x)), lo, hi, points=kinks or None, epsabs=0.0, epsrel=1e-13,
-                    limit=200)[0]
+                    limit=200 + 2 * len(kinks))[0]
+
+    @property
+    def kinks(self) -> tuple:
+        """Points of [-radius, radius] where f1 or its derivatives jump (Mitsuba's table: its bin edges)."""
+        r = self.radius
+        if self.name == MITSUBA_GAUSSIAN:
+            n = MITSUBA_FILTER_RESOLUTION
+            return tuple(r * i / n for i in range(-n + 1, n))
+        return (-r / 2, 0.0, r / 2)
 
     def value(self, x, y):
         """f(x, y) in float64."""
@@ -121,15 +138,40 @@ def _blackman_harris(x, r):
     return a0 - a1 * np.cos(t) + a2 * np.cos(2 * t) - a3 * np.cos(3 * t)
 
 
-def _mitsuba_gaussian(x, r):
+# Mitsuba's MI_FILTER_RESOLUTION (include/mitsuba/core/rfilter.h): bins of its filter table over [0, radius].
+MITSUBA_FILTER_RESOLUTION = 31
+
+
+@lru_cache(maxsize=None)
+def mitsuba_gaussian_table(r: float) -> np.ndarray:
+    """(MITSUBA_FILTER_RESOLUTION + 1,) float32: Mitsuba's discretized Gaussian of radius r, the
+    formula at the bin starts r i / 31 (computed in float32 as init_discretization does), then 0."""
+    n = MITSUBA_FILTER_RESOLUTION
+    x = (np.float32(r) * np.arange(n, dtype=np.float32)) / np.float32(n)
     s = r / MITSUBA_RADIUS_STDDEVS
-    return np.maximum(0.0, np.exp(-0.5 * (np.asarray(x) / s) ** 2) - math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2))
+    g = np.exp(-0.5 * (x.astype(np.float64) / s) ** 2) - math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2)
+    table = np.zeros(n + 1, dtype=np.float32)
+    table[:n] = np.maximum(0.0, g)
+    table.flags.writeable = False
+    return table
+
+
+def mitsuba_bin(x, r: float) -> np.ndarray:
+    """The table index eval_discretized reads at x: min(uint(|x| * (31 / r)), 31), in float32."""
+    scale = np.float32(MITSUBA_FILTER_RESOLUTION) / np.float32(r)
+    t = np.abs(np.asarray(x, dtype=np.float64)).astype(np.float32) * scale
+    return np.minimum(np.floor(np.minimum(t, np.float32(MITSUBA_FILTER_RESOLUTION))),
+                      MITSUBA_FILTER_RESOLUTION).astype(np.int64)
+
+
+def _mitsuba_gaussian(x, r):
+    return mitsuba_gaussian_table(r)[mitsuba_bin(x, r)].astype(np.float64)
 
 
 def _mitsuba_gaussian_integral(r):
-    s = r / MITSUBA_RADIUS_STDDEVS
-    return (s * math.sqrt(2.0 * math.pi) * math.erf(MITSUBA_RADIUS_STDDEVS / math.sqrt(2.0))
-            - 2.0 * r * math.exp(-0.5 * MITSUBA_RADIUS_STDDEVS ** 2))
+    # Bins of width r / 31 on each side (the last, [30 r / 31, r), holds v[30] > 0; v[31] is beyond).
+    table = mitsuba_gaussian_table(r).astype(np.float64)
+    return 2.0 * (r / MITSUBA_FILTER_RESOLUTION) * float(np.sum(table[:MITSUBA_FILTER_RESOLUTION]))
 
 
 _PROFILES = {"gaussian": _gaussian, MITSUBA_GAUSSIAN: _mitsuba_gaussian, "mitchell": _mitchell, "blackman_harris": _blackman_harris,
@@ -143,7 +185,8 @@ FILTERS = {f.name: f for f in (
     Filter("mitchell", 2.0, "Mitchell-Netravali B = C = 1/3, negative lobes (pbrt-v4)"),
     Filter("blackman_harris", 2.0, "4-term Blackman-Harris window, non-negative"),
     Filter(MITSUBA_GAUSSIAN, MITSUBA_RADIUS_STDDEVS * MITSUBA_STDDEV,
-           "Mitsuba 3's Gaussian, stddev `filter_stddev` (0.5), radius 4 stddev, minus its value there"),
+           "Mitsuba 3's Gaussian, stddev `filter_stddev` (0.5), radius 4 stddev, minus its value there, "
+           "tabulated in 31 bins as its CPU variants weigh samples"),
 )}
 FILTER_NAMES = tuple(FILTERS)
 # The filters with a `filter_stddev` (the others' shapes are fixed).
@@ -161,15 +204,22 @@ def get_filter(name: str, stddev: float = 0.0) -> Filter:
 def filter_cdf(filt: Filter | str, bins: int = TABLE_BINS) -> np.ndarray:
     """(bins + 1,) float32 CDF of the piecewise-constant density proportional to |f1| on `bins`
     equal bins of [-radius, radius]: each bin's mass is its integral of |f1| (Gauss-Legendre, 16
-    nodes per bin, float64); cdf[0] = 0 and cdf[bins] = 1 exactly."""
+    nodes per bin or per piece between the kinks within it, float64); cdf[0] = 0 and cdf[bins] = 1
+    exactly."""
     filt = FILTERS[filt] if isinstance(filt, str) else filt
     name = filt.name
     nodes, weights = np.polynomial.legendre.leggauss(16)
+
+    def masses(lo, hi):
+        half, mid = 0.5 * (hi - lo), 0.5 * (hi + lo)
+        x = mid[:, None] + half[:, None] * nodes[None, :]
+        return np.sum(np.abs(filt.f1(x)) * weights[None, :], axis=1) * half
     edges = np.linspace(-filt.radius, filt.radius, bins + 1)
-    half = 0.5 * (edges[1:] - edges[:-1])
-    mid = 0.5 * (edges[1:] + edges[:-1])
-    x = mid[:, None] + half[:, None] * nodes[None, :]
-    mass = np.sum(np.abs(filt.f1(x)) * weights[None, :], axis=1) * half
+    mass = masses(edges[:-1], edges[1:])
+    # A bin with a kink (a step of Mitsuba's table) inside it: summed over the pieces between them.
+    for i in np.unique(np.searchsorted(edges, filt.kinks, side="right") - 1):
+        cuts = np.array(sorted({edges[i], edges[i + 1]} | {k for k in filt.kinks if edges[i] < k < edges[i + 1]}))
+        mass[i] = masses(cuts[:-1], cuts[1:]).sum()
     cdf = np.concatenate(([0.0], np.cumsum(mass) / mass.sum())).astype(np.float32)
     cdf[-1] = 1.0
     if np.any(np.diff(cdf) <= 0):

@@ -79,7 +79,7 @@ def test_rawconstant_and_a_nested_rough_conductor(folder):
 
 
 @pytest.mark.parametrize("bsdf,shape,words", [
-    (NORMALMAP.format(more=""), "rectangle", "anisotropic roughness on a rectangle is not supported"),
+    (NORMALMAP.format(more=""), "rectangle", "a normal or bump map on a rectangle is not supported"),
     (NORMALMAP.format(more='<boolean name="flip_invalid_normals" value="false"/>'), "obj",
      "flip_invalid_normals"),
     (BUMPMAP.format(more='<boolean name="use_shadowing_function" value="false"/>'), "obj",
