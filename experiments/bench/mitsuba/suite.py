@@ -21,9 +21,11 @@ resolution (independent samples, as its sampler) and judged by two rules:
   32000 equal XYZ samples, up to 1e-3 off the exact value, an offset Mitsuba's own renders carry
   into their measured L1 as drtlab's do.
 
-A scene whose film filter is not the box is rendered as Mitsuba renders it: every sample splatted
-into each pixel its filter reaches (drtlab's `+splat` pixel estimator), in SPLAT_BATCHES independent
-batches whose spread gives the channel means' standard errors. Filter importance sampling, drtlab's
+Every scene is rendered RUNS times with independent seeds, each at the given spp: the L1 rule holds
+their mean block L1 to Mitsuba's mean over its seeds; the channel means pool them. A scene whose
+film filter is not the box is rendered as Mitsuba renders it: every sample splatted into each pixel
+its filter reaches (drtlab's `+splat` pixel estimator); the spread of its runs' channel means gives
+their standard errors. Filter importance sampling, drtlab's
 default, has the same expectation but 2-3x the block L1 of Mitsuba's splatting (measured on
 texture_interp, whose sharp texture the Gaussian filter spreads), and the rule compares noise.
 
@@ -53,7 +55,10 @@ BASELINE = Path(__file__).with_name("suite_baseline.json")      # written by sui
 BLOCK = 4
 REL_TOL, Z_TOL, L1_RATIO_TOL = 0.01, 3.0, 1.5
 SAMPLER = "independent+importance"
-SPLAT_BATCHES = 8
+# Independent renders per scene: a render's block L1 varies (0.0027-0.0068 over 12 seeds of one scene
+# at 256 spp, where few blocks hold its noise), so the rule compares the mean over RUNS renders
+# with the mean of Mitsuba's own over its SEEDS (suite_baseline.py).
+RUNS = 4
 COMMAND = "make crosscheck-suite"
 DOCS_HEAD = """# Mitsuba 3's test scenes in drtlab
 
@@ -61,8 +66,8 @@ Mitsuba 3's render regression scenes (its `tests/scenes`: `../shared/mitsuba-tes
 checkout, or `$DRTLAB_MITSUBA_TESTS`), loaded by drtlab, rendered at their own resolution with
 independent samples and compared with Mitsuba's reference images (`refs/NAME_ref_rgb.exr`). Mitsuba
 3.9.1's own renders of each scene at the same spp (4 seeds; `python -m
-drtlab.experiments.bench.mitsuba.suite_baseline` measures them) give the L1 a render of drtlab's is
-held to. Regenerate this page with
+drtlab.experiments.bench.mitsuba.suite_baseline` measures them) give the mean L1 that 4 renders of
+drtlab's are held to. Regenerate this page with
 
 ```sh
 {command} SUITE_ARGS='--spp {spp} --docs docs/mitsuba-suite.md'
@@ -129,8 +134,12 @@ def channel_se(variance: np.ndarray, spp: int) -> list[float]:
 
 def judge(image: np.ndarray, se: list[float], spp: int, ref: np.ndarray, ref_var: np.ndarray,
           measured: float | None = None) -> dict:
-    """The two rules on one render (`se`: its channel means' standard errors) against the reference;
-    `measured`: the L1 Mitsuba's own spp-sample renders have (the baseline), else it is predicted."""
+    """The two rules on independent renders of spp samples each (`image`: one (H, W, 3) or several
+    (R, H, W, 3); `se`: the standard errors of their channel means) against the reference: their
+    channel means, and their mean block L1 against `measured`, the mean L1 of Mitsuba's own
+    spp-sample renders (the baseline), else the predicted one."""
+    runs = image[None] if image.ndim == 3 else image
+    image = runs.mean(axis=0)
     channels = []
     for c in range(3):
         d, m = float(image[..., c].mean()), float(ref[..., c].mean())
@@ -139,7 +148,8 @@ def judge(image: np.ndarray, se: list[float], spp: int, ref: np.ndarray, ref_var
         channels.append({"channel": "RGB"[c], "drtlab": d, "reference": m, "se": se_c,
                          "relative_difference": rel, "ok": bool(rel <= REL_TOL or abs(d - m) <= Z_TOL * se_c)})
     mean = float(ref.mean())
-    l1 = float(np.mean(np.abs(block_means(image, BLOCK) - block_means(ref, BLOCK)))) / mean
+    ref_blocks = block_means(ref, BLOCK)
+    l1 = float(np.mean([np.mean(np.abs(block_means(r, BLOCK) - ref_blocks)) for r in runs])) / mean
     predicted = predicted_l1(ref_var, spp, mean)
     expected = measured if measured is not None else predicted
     ratio = l1 / expected if expected > 0 else (1.0 if l1 == 0 else math.inf)
@@ -162,31 +172,34 @@ def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None) ->
         return row
     ref = read_linear(job["ref"])[0][..., :3].astype(np.float64)
     var = read_linear(job["var"])[0][..., :3].astype(np.float64)
-    image, se, seconds, estimator = render(scene, spp, seed, threads)
-    if image.shape != ref.shape:
-        row.update(agrees=False, why_not=f"image {image.shape[:2]} against the reference's {ref.shape[:2]}")
+    images, se, seconds, estimator = render(scene, spp, seed, threads)
+    if images.shape[1:] != ref.shape:
+        row.update(agrees=False, why_not=f"image {images.shape[1:3]} against the reference's {ref.shape[:2]}")
         return row
     measured = read_baseline().get(spp, {}).get(job["name"])
-    row.update(judge(image, se, spp, ref, var, measured), spp=spp, pixel_estimator=estimator,
+    row.update(judge(images, se, spp, ref, var, measured), spp=spp, runs=RUNS, pixel_estimator=estimator,
                resolution=[scene.width, scene.height], render_seconds=round(seconds, 2))
     return row
 
 
 def render(scene, spp: int, seed: int, threads: int | None):
-    """(image, its channel means' standard errors, seconds, the pixel estimator): one render with
-    its sample variance; with a filter other than the box, SPLAT_BATCHES splatted batches."""
+    """(RUNS independent spp-sample images (R, H, W, 3), the standard errors of their pooled channel
+    means, seconds, the pixel estimator): from their sample variance; with a filter other than the
+    box, splatted (Mitsuba's estimator), from the spread of the runs' channel means."""
     from drtlab.kernels.filters import BOX
-    from drtlab.kernels.render import render_batch_with_stats, render_with_stats
-    if scene.camera.filter == BOX or spp < SPLAT_BATCHES:
-        stats = render_with_stats(scene, spp=spp, sampler=SAMPLER, seed=seed, threads=threads,
-                                  progress=False, variance=True)
-        return stats.image, channel_se(stats.variance, spp), stats.render_seconds, "fis"
-    seeds = [seed * SPLAT_BATCHES + k for k in range(SPLAT_BATCHES)]
-    b = render_batch_with_stats(scene, seeds, spp=spp // SPLAT_BATCHES, sampler=SAMPLER + "+splat",
-                                threads=threads, progress=False)
-    means = b.images.mean(axis=(1, 2))                      # (batches, 3)
-    se = list(means.std(axis=0, ddof=1) / math.sqrt(SPLAT_BATCHES))
-    return b.images.mean(axis=0), se, b.render_seconds, "splat"
+    from drtlab.kernels.render import render_batch_with_stats
+    seeds = [seed * RUNS + k for k in range(RUNS)]
+    npix = scene.width * scene.height
+    if scene.camera.filter == BOX:
+        b = render_batch_with_stats(scene, seeds, spp=spp, sampler=SAMPLER, threads=threads,
+                                    progress=False, variance=True)
+        se = [float(math.sqrt(np.mean([v[..., c].sum() for v in b.variances]) / spp) / npix / math.sqrt(RUNS))
+              for c in range(3)]
+        return b.images, se, b.render_seconds, "fis"
+    b = render_batch_with_stats(scene, seeds, spp=spp, sampler=SAMPLER + "+splat", threads=threads,
+                                progress=False)
+    se = list(b.images.mean(axis=(1, 2)).std(axis=0, ddof=1) / math.sqrt(RUNS))
+    return b.images, se, b.render_seconds, "splat"
 
 
 def short(refusal: str) -> str:
@@ -201,9 +214,9 @@ def markdown(rows: list[dict], spp: int) -> str:
     agree = [r for r in loaded if r.get("agrees")]
     lines = [f"{len(loaded)} of {len(rows)} scenes load; {len(agree)} of them agree with Mitsuba's",
              f"reference at {spp} spp (channel means within {REL_TOL:.0%} or {Z_TOL:g} standard errors;",
-             f"block L1 of {BLOCK}x{BLOCK} blocks at most {L1_RATIO_TOL}x the L1 of Mitsuba's own "
-             f"{spp}-spp renders", "against the reference: measured, or predicted from the reference's "
-             "variance image where marked *).", "",
+             f"the mean block L1 of {RUNS} renders ({BLOCK}x{BLOCK} blocks) at most {L1_RATIO_TOL}x "
+             f"the mean L1 of Mitsuba's own {spp}-spp renders", "against the reference: measured, or "
+             "predicted from the reference's variance image where marked *).", "",
              "| scene | loaded | agrees | block L1 (Mitsuba's) | ratio | why not |",
              "|---|---|---|---|---|---|"]
     for r in rows:
