@@ -30,13 +30,20 @@ PROJECTOR_KEYS = ("kind", "position", "direction", "look_at", "up", "irradiance"
 SPOT_PROJECTION_KEYS = ("up", "texture")
 
 
+def resolved_axis(axis: str, aspect: float) -> str:
+    """parse_fov's fov_axis "smaller" or "larger" as the image axis it names (width / height =
+    aspect); "x", "y" and "diagonal" as they are."""
+    if axis == "smaller":
+        return "y" if aspect > 1 else "x"
+    if axis == "larger":
+        return "x" if aspect > 1 else "y"
+    return axis
+
+
 def fov_x(fov: float, axis: str, aspect: float) -> float:
     """parse_fov (src/render/sensor.cpp): the horizontal field of view in degrees of `fov` degrees
     along `axis` of an image of width / height = aspect."""
-    if axis == "smaller":
-        axis = "y" if aspect > 1 else "x"
-    elif axis == "larger":
-        axis = "x" if aspect > 1 else "y"
+    axis = resolved_axis(axis, aspect)
     if axis == "x":
         return fov
     if axis == "y":

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drtlab.kernels.scene_model.light_projection import FOV_AXES, focal_length_fov, fov_x
+from drtlab.kernels.scene_model.light_projection import FOV_AXES, focal_length_fov, fov_x, resolved_axis
 from drtlab.kernels.scene_model.mitsuba_materials import MaterialMapping
 from drtlab.kernels.scene_model.mitsuba_shapes import ShapeMapping
 from drtlab.kernels.filters import MITSUBA_GAUSSIAN, MITSUBA_STDDEV, STDDEV_MAX, STDDEV_MIN
@@ -277,11 +277,7 @@ class _Importer(ShapeMapping, MaterialMapping):
     def vertical_fov(self, o: Obj, aspect: float) -> float:
         """parse_fov of src/render/sensor.cpp, turned into drtlab's full vertical fov."""
         fov, axis = self.fov_along(o)
-        if axis == "smaller":
-            axis = "y" if aspect > 1 else "x"
-        elif axis == "larger":
-            axis = "x" if aspect > 1 else "y"
-        if axis == "y":
+        if resolved_axis(axis, aspect) == "y":
             return fov
         return math.degrees(2.0 * math.atan(math.tan(0.5 * math.radians(fov_x(fov, axis, aspect))) / aspect))
 
