@@ -133,11 +133,13 @@ def channel_se(variance: np.ndarray, spp: int) -> list[float]:
 
 
 def judge(image: np.ndarray, se: list[float], spp: int, ref: np.ndarray, ref_var: np.ndarray,
-          measured: float | None = None) -> dict:
+          measured: float | None = None, z_tol: float = Z_TOL, rel_tol: float = REL_TOL) -> dict:
     """The two rules on independent renders of spp samples each (`image`: one (H, W, 3) or several
     (R, H, W, 3); `se`: the standard errors of their channel means) against the reference: their
     channel means, and their mean block L1 against `measured`, the mean L1 of Mitsuba's own
-    spp-sample renders (the baseline), else the predicted one."""
+    spp-sample renders (the baseline), else the predicted one; `z_tol` the channel means' standard
+    errors allowed beyond `rel_tol` (a caller judging many scenes at once corrects it for their
+    number; one at fewer spp than the rule's 256 widens rel_tol as the noise, by sqrt(256 / spp))."""
     runs = image[None] if image.ndim == 3 else image
     image = runs.mean(axis=0)
     channels = []
@@ -146,7 +148,7 @@ def judge(image: np.ndarray, se: list[float], spp: int, ref: np.ndarray, ref_var
         se_c = se[c]
         rel = abs(d - m) / abs(m) if m else (0.0 if d == m else math.inf)
         channels.append({"channel": "RGB"[c], "drtlab": d, "reference": m, "se": se_c,
-                         "relative_difference": rel, "ok": bool(rel <= REL_TOL or abs(d - m) <= Z_TOL * se_c)})
+                         "relative_difference": rel, "ok": bool(rel <= rel_tol or abs(d - m) <= z_tol * se_c)})
     mean = float(ref.mean())
     ref_blocks = block_means(ref, BLOCK)
     l1 = float(np.mean([np.mean(np.abs(block_means(r, BLOCK) - ref_blocks)) for r in runs])) / mean
@@ -163,7 +165,8 @@ def judge(image: np.ndarray, se: list[float], spp: int, ref: np.ndarray, ref_var
             "agrees": all(c["ok"] for c in channels) and ok_l1, "why_not": "; ".join(why)}
 
 
-def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None) -> dict:
+def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None, z_tol: float = Z_TOL,
+              rel_tol: float = REL_TOL) -> dict:
     """One scene: loaded or refused; rendered at its own resolution and judged when loaded."""
     from drtlab.kernels.imageio import read_linear
     scene, refusal = load(job)
@@ -177,7 +180,7 @@ def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None) ->
         row.update(agrees=False, why_not=f"image {images.shape[1:3]} against the reference's {ref.shape[:2]}")
         return row
     measured = read_baseline().get(spp, {}).get(job["name"])
-    row.update(judge(images, se, spp, ref, var, measured), spp=spp, runs=RUNS, pixel_estimator=estimator,
+    row.update(judge(images, se, spp, ref, var, measured, z_tol, rel_tol), spp=spp, runs=RUNS, pixel_estimator=estimator,
                resolution=[scene.width, scene.height], render_seconds=round(seconds, 2))
     return row
 

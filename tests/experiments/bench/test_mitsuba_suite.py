@@ -1,6 +1,7 @@
 """Mitsuba 3's own render-test scenes (`make crosscheck-suite`): every scene drtlab loads agrees with
 Mitsuba's reference image at 32 spp (the tolerance scales with spp: the L1 Mitsuba's own 32-spp
-renders have, suite_baseline.json); a scene drtlab refuses is one line naming the element, listed, not a failure. The pass
+renders have, suite_baseline.json; the channel means' z Sidak-corrected over every scene's three
+at ALPHA); a scene drtlab refuses is one line naming the element, listed, not a failure. The pass
 rule itself is checked on synthetic images with known noise: an unbiased image passes, a 3% bias
 and a biased block are rejected (the negative controls). Skipped where the suite's folder is absent.
 """
@@ -10,8 +11,11 @@ import math
 
 import numpy as np
 import pytest
+from scipy.stats import norm
 
 from drtlab.experiments.bench.mitsuba import suite, suite_baseline
+from drtlab.experiments.stats.hypothesis_tests import sidak
+from stats_util import ALPHA
 
 SPP = 32
 ROOT = suite.suite_dir()
@@ -80,7 +84,11 @@ def test_unbiased_render_agrees_and_biased_ones_do_not():
                                            "(set DRTLAB_MITSUBA_TESTS)")
 @pytest.mark.parametrize("job", JOBS, ids=[j["name"] for j in JOBS])
 def test_suite_scene(job):
-    row = suite.run_scene(job, SPP)
+    # 3 channel means of every scene: a Sidak-corrected z at the suite's family alpha; the rule's 1%
+    # is for 256 spp, and a 32-spp render's noise is sqrt(8) times as large (heavy tails make the
+    # sample variance low in some renders: roughplastic_nonlinear's B at seed 0, 1.01% and z -5.9)
+    row = suite.run_scene(job, SPP, z_tol=float(norm.ppf(1 - sidak(ALPHA, 3 * len(JOBS)) / 2)),
+                          rel_tol=suite.REL_TOL * math.sqrt(256 / SPP))
     if job["name"] in LOADS:
         assert row["loaded"], row["refusal"]
     if not row["loaded"]:

@@ -14,6 +14,7 @@ from drtlab.experiments.stats import chi2 as C
 from drtlab.experiments.tools import lobes as L
 
 from drtlab.cli import main
+from drtlab.experiments.study.output_dir import RECORD      # drtlab's record of the files it wrote there
 
 ANGLES = (0.0, 45.0, 80.0)
 SAMPLES = 200_000
@@ -38,7 +39,7 @@ def assert_histogram_agrees(row):
 
 
 def test_command_writes_the_files(glossy):
-    assert sorted(p.name for p in glossy.iterdir()) == sorted(L.FILES), "no temporary file is left"
+    assert sorted(p.name for p in glossy.iterdir()) == sorted(L.FILES + (RECORD,)), "no temporary file is left"
     assert (glossy / "lobe.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     man = json.loads((glossy / "manifest.json").read_text())
     assert man["files"] == list(L.FILES) and man["material"]["kind"] == "glossy"
