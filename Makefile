@@ -41,7 +41,7 @@ TEST_WORKERS ?= auto
 
 test: venv
 	@$(BYTECODE)
-	$(PY) -m pytest -q -n $(TEST_WORKERS)
+	$(PY) -m pytest -q -n $(TEST_WORKERS) --dist worksteal
 
 test-full: venv
 	@$(BYTECODE)

@@ -166,7 +166,7 @@ def judge(image: np.ndarray, se: list[float], spp: int, ref: np.ndarray, ref_var
 
 
 def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None, z_tol: float = Z_TOL,
-              rel_tol: float = REL_TOL) -> dict:
+              rel_tol: float = REL_TOL, runs: int = RUNS) -> dict:
     """One scene: loaded or refused; rendered at its own resolution and judged when loaded."""
     from drtlab.kernels.imageio import read_linear
     scene, refusal = load(job)
@@ -175,33 +175,33 @@ def run_scene(job: dict, spp: int, seed: int = 0, threads: int | None = None, z_
         return row
     ref = read_linear(job["ref"])[0][..., :3].astype(np.float64)
     var = read_linear(job["var"])[0][..., :3].astype(np.float64)
-    images, se, seconds, estimator = render(scene, spp, seed, threads)
+    images, se, seconds, estimator = render(scene, spp, seed, threads, runs)
     if images.shape[1:] != ref.shape:
         row.update(agrees=False, why_not=f"image {images.shape[1:3]} against the reference's {ref.shape[:2]}")
         return row
     measured = read_baseline().get(spp, {}).get(job["name"])
-    row.update(judge(images, se, spp, ref, var, measured, z_tol, rel_tol), spp=spp, runs=RUNS, pixel_estimator=estimator,
+    row.update(judge(images, se, spp, ref, var, measured, z_tol, rel_tol), spp=spp, runs=runs, pixel_estimator=estimator,
                resolution=[scene.width, scene.height], render_seconds=round(seconds, 2))
     return row
 
 
-def render(scene, spp: int, seed: int, threads: int | None):
-    """(RUNS independent spp-sample images (R, H, W, 3), the standard errors of their pooled channel
+def render(scene, spp: int, seed: int, threads: int | None, runs: int = RUNS):
+    """(`runs` independent spp-sample images (R, H, W, 3), the standard errors of their pooled channel
     means, seconds, the pixel estimator): from their sample variance; with a filter other than the
     box, splatted (Mitsuba's estimator), from the spread of the runs' channel means."""
     from drtlab.kernels.filters import BOX
     from drtlab.kernels.render import render_batch_with_stats
-    seeds = [seed * RUNS + k for k in range(RUNS)]
+    seeds = [seed * runs + k for k in range(runs)]
     npix = scene.width * scene.height
     if scene.camera.filter == BOX:
         b = render_batch_with_stats(scene, seeds, spp=spp, sampler=SAMPLER, threads=threads,
                                     progress=False, variance=True)
-        se = [float(math.sqrt(np.mean([v[..., c].sum() for v in b.variances]) / spp) / npix / math.sqrt(RUNS))
+        se = [float(math.sqrt(np.mean([v[..., c].sum() for v in b.variances]) / spp) / npix / math.sqrt(runs))
               for c in range(3)]
         return b.images, se, b.render_seconds, "fis"
     b = render_batch_with_stats(scene, seeds, spp=spp, sampler=SAMPLER + "+splat", threads=threads,
                                 progress=False)
-    se = list(b.images.mean(axis=(1, 2)).std(axis=0, ddof=1) / math.sqrt(RUNS))
+    se = list(b.images.mean(axis=(1, 2)).std(axis=0, ddof=1) / math.sqrt(runs))
     return b.images, se, b.render_seconds, "splat"
 
 
