@@ -192,12 +192,10 @@ def render(scene, spp: int, seed: int, threads: int | None, runs: int = RUNS):
     from drtlab.kernels.filters import BOX
     from drtlab.kernels.render import render_batch_with_stats
     seeds = [seed * runs + k for k in range(runs)]
-    npix = scene.width * scene.height
     if scene.camera.filter == BOX:
         b = render_batch_with_stats(scene, seeds, spp=spp, sampler=SAMPLER, threads=threads,
                                     progress=False, variance=True)
-        se = [float(math.sqrt(np.mean([v[..., c].sum() for v in b.variances]) / spp) / npix / math.sqrt(runs))
-              for c in range(3)]
+        se = [x / math.sqrt(runs) for x in channel_se(np.mean(b.variances, axis=0), spp)]
         return b.images, se, b.render_seconds, "fis"
     b = render_batch_with_stats(scene, seeds, spp=spp, sampler=SAMPLER + "+splat", threads=threads,
                                 progress=False)
